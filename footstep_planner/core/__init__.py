@@ -1,0 +1,1 @@
+"""The pure core: numpy/scipy only. Nothing under this package may import bpy."""

@@ -1,0 +1,165 @@
+"""Build the extension zip for this platform, then install and enable it in Blender.
+
+The build runs tools/build_extension.py in a subprocess (restricted to the current
+platform, so only one scipy wheel is needed). Installation runs in another subprocess
+with its own BLENDER_USER_RESOURCES, so neither the user's preferences nor this pytest
+process (which loads the add-on from a dev repository) are touched.
+"""
+
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import tomllib
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+BUILD_SCRIPT = ROOT / "tools" / "build_extension.py"
+MANIFEST = tomllib.loads((ROOT / "blender_manifest.toml").read_text(encoding="utf-8"))
+EXIT_DOWNLOAD_FAILED = 3  # tools/build_extension.py's code for "wheel could not be downloaded"
+
+
+def _load_build_tool():
+    spec = importlib.util.spec_from_file_location("_fp_build_extension", BUILD_SCRIPT)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+_BUILD = _load_build_tool()
+_BLENDER_EXT = _BUILD.load_blender_ext()
+PLATFORM = _BLENDER_EXT.platform_from_this_system()  # e.g. "linux-x64", Blender's spelling
+
+
+def _wheel_for_this_platform():
+    by_platform = _BUILD.wheels_by_platform(MANIFEST, _BLENDER_EXT)
+    wheels = by_platform.get(PLATFORM, [])
+    assert len(wheels) == 1, f"expected one scipy wheel for {PLATFORM}, manifest gives {wheels}"
+    return Path(wheels[0]).name
+
+
+@pytest.fixture(scope="module")
+def built_zip(tmp_path_factory):
+    if PLATFORM not in MANIFEST.get("platforms", []):
+        pytest.skip(f"this platform ({PLATFORM}) is not one the extension is built for")
+    out = tmp_path_factory.mktemp("dist")
+    proc = subprocess.run(
+        [sys.executable, str(BUILD_SCRIPT), "--platforms", PLATFORM, "--output-dir", str(out)],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=600,
+    )
+    if proc.returncode == EXIT_DOWNLOAD_FAILED:
+        pytest.skip(f"the scipy wheel for {PLATFORM} could not be downloaded (no network?):\n"
+                    + proc.stdout[-2000:])
+    assert proc.returncode == 0, proc.stdout
+    zips = sorted(out.glob("*.zip"))
+    expected = out / f"{MANIFEST['id']}-{MANIFEST['version']}-{PLATFORM.replace('-', '_')}.zip"
+    assert zips == [expected], (zips, proc.stdout)
+    return expected
+
+
+def test_zip_validates(built_zip):
+    proc = subprocess.run(
+        [sys.executable, str(_BUILD.blender_ext_path()), "validate",
+         "--valid-tags", str(_BUILD.valid_tags_path()), str(built_zip)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120,
+    )
+    assert proc.returncode == 0, proc.stdout
+
+
+def test_zip_contents(built_zip):
+    with zipfile.ZipFile(built_zip) as zf:
+        names = set(zf.namelist())
+        manifest = tomllib.loads(zf.read("blender_manifest.toml").decode("utf-8"))
+    assert "blender_manifest.toml" in names
+    assert "__init__.py" in names
+    assert "core/__init__.py" in names
+    wheel = _wheel_for_this_platform()
+    assert f"wheels/{wheel}" in names
+    # Only this platform's wheel goes into a split-platform zip.
+    assert [n for n in names if n.endswith(".whl")] == [f"wheels/{wheel}"]
+    assert not [n for n in names if "__pycache__" in n or n.endswith(".pyc")]
+    assert not [n for n in names if n.startswith("tests/")]
+    assert manifest["id"] == "footstep_planner"
+    assert manifest["platforms"] == [PLATFORM]
+    assert manifest["wheels"] == [f"./wheels/{wheel}"]
+
+
+# Runs in a fresh Python with bpy. The scipy installed in the venv is hidden so that the
+# import must be served by the wheel Blender unpacked from the zip.
+_INSTALL_SCRIPT = textwrap.dedent(
+    r"""
+    import importlib.machinery, json, os, sys, sysconfig
+
+    VENV_SITE = {os.path.realpath(sysconfig.get_paths()["purelib"]),
+                 os.path.realpath(sysconfig.get_paths()["platlib"])}
+
+    class OnlyBundledScipy:
+        # Find top-level "scipy" anywhere on sys.path except the venv's site-packages.
+        def find_spec(self, name, path=None, target=None):
+            if name != "scipy":
+                return None
+            paths = [p for p in sys.path if os.path.realpath(p) not in VENV_SITE]
+            spec = importlib.machinery.PathFinder.find_spec(name, paths)
+            if spec is None:
+                raise ModuleNotFoundError("scipy is not installed outside the venv", name=name)
+            return spec
+
+    sys.meta_path.insert(0, OnlyBundledScipy())
+
+    import bpy, addon_utils
+
+    zip_path = sys.argv[1]
+    result = bpy.ops.extensions.package_install_files(
+        filepath=zip_path, repo="user_default", enable_on_install=True)
+    mod_name = "bl_ext.user_default.footstep_planner"
+    loaded_default, loaded_state = addon_utils.check(mod_name)
+    mod = sys.modules.get(mod_name)
+
+    import scipy
+    from scipy.spatial import cKDTree
+    import numpy as np
+    d, i = cKDTree(np.eye(3)).query([1.0, 0.1, 0.0])
+
+    print("RESULT " + json.dumps({
+        "op": sorted(result),
+        "in_prefs": mod_name in bpy.context.preferences.addons,
+        "loaded_default": loaded_default,
+        "loaded_state": loaded_state,
+        "module_file": getattr(mod, "__file__", None),
+        "extensions_dir": bpy.utils.user_resource("EXTENSIONS"),
+        "scipy_version": scipy.__version__,
+        "scipy_file": scipy.__file__,
+        "kdtree_index": int(i),
+    }))
+    """
+)
+
+
+def test_install_and_enable_in_blender(built_zip, tmp_path):
+    user_resources = tmp_path / "blender_user"
+    user_resources.mkdir()
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user_resources))
+    proc = subprocess.run(
+        [sys.executable, "-c", _INSTALL_SCRIPT, str(built_zip)],
+        cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        timeout=300,
+    )
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
+    assert proc.returncode == 0 and lines, proc.stdout
+    res = json.loads(lines[-1][len("RESULT "):])
+
+    assert res["op"] == ["FINISHED"], proc.stdout
+    assert res["in_prefs"] and res["loaded_default"] and res["loaded_state"], proc.stdout
+    # The enabled add-on is the installed copy, under the isolated user resources.
+    ext_dir = Path(res["extensions_dir"]).resolve()
+    assert ext_dir.is_relative_to(user_resources.resolve())
+    assert Path(res["module_file"]).resolve() == ext_dir / "user_default" / "footstep_planner" / "__init__.py"
+    # scipy comes from the bundled wheel, which Blender unpacked into the extensions' site-packages.
+    assert Path(res["scipy_file"]).resolve().is_relative_to(ext_dir), res["scipy_file"]
+    assert res["scipy_version"] == "1.17.1"
+    assert res["kdtree_index"] == 0
