@@ -1,0 +1,801 @@
+"""Automatic mapping of an armature's bones to locomotion roles.
+
+Pure Python/numpy: this module never imports bpy. The Blender layer reads the armature
+(bone names, parent indices, rest heads/tails in armature space) and calls
+:func:`map_roles`; everything below works on plain sequences and arrays.
+
+Roles
+-----
+``hips``
+    The bone from which the spine and both legs branch (the pelvis). In Rigify and the
+    Blender human metarig this is the first spine bone (``DEF-spine`` / ``spine``).
+``thigh_l, shin_l, foot_l, toe_l`` / ``thigh_r, shin_r, foot_r, toe_r``
+    The leg chain of each side. Left means the *character's* left. ``toe_*`` is
+    optional: a foot without a toe bone is allowed.
+``spine``
+    Optional: the first spine bone above the hips (``Spine``, ``spine_01``,
+    ``DEF-spine.001``, CMU's ``LowerBack``, DAZ ``abdomenLower``...).
+``root``
+    Optional: a bone above the hips that is an ancestor (normally the parent) of the
+    hips and sits at the ground (Rigify/Unreal ``root``).
+
+Conventions
+-----------
+* ``names[i]`` is the name of bone ``i``; ``parents[i]`` is the index of its parent or
+  ``-1``. ``heads``/``tails`` are optional ``(B, 3)`` rest positions in armature space,
+  Blender convention: Z up. The character usually faces -Y, so its left is +X; facing is
+  only used when the names do not tell the sides.
+* Mapping happens in three layers, each recorded in :attr:`RoleMapping.how`:
+
+  1. ``"manual"``: ``overrides`` (role -> bone name) always win.
+  2. ``"name"``: name matching, case-insensitive, tolerant of namespaces
+     (``mixamorig:``, ``mixamorig1:``, ``Armature|``), Rigify prefixes (``DEF-`` bones
+     preferred, then plain names, then ``ORG-``; ``MCH-``/``VIS-``/``WGT-`` and
+     control bones with ``ik``/``fk``/``pole``/``parent``/``tweak``/``target``/
+     ``twist``/``roll``/``end``/``nub`` tokens are never mapped), 3ds Max biped
+     ``Bip01 ``/``Bip001 `` prefixes, separators ``_ . - space :`` and camelCase, and
+     sides written ``Left/Right``, ``L/R``, ``l/r`` as prefix or suffix.
+  3. ``"hierarchy"``: when names are missing or inconsistent, the hips are found as the
+     bone from which two downward leg chains (thigh, shin, foot[, toe]) branch,
+     possibly through one short intermediate bone (CMU ``LHipJoint``). The leg whose
+     thigh head has the larger X is the left one unless the chain's names say
+     otherwise.
+
+* Every mapping is consistent with the hierarchy: thighs descend from the hips, the shin
+  from the thigh, the foot from the shin, the toe from the foot, the spine from the hips
+  and the hips from the root. For Rigify, ``DEF-x``/``ORG-x``/``x`` count as the same
+  logical bone when checking ancestry (generated rigs parent ``DEF-thigh.L`` to
+  ``ORG-spine``, not to ``DEF-spine``).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from itertools import combinations, product
+from typing import Mapping, Sequence
+
+import numpy as np
+from .errors import FootstepError
+
+__all__ = [
+    "REQUIRED_ROLES",
+    "OPTIONAL_ROLES",
+    "ALL_ROLES",
+    "RoleMapping",
+    "RoleError",
+    "map_roles",
+]
+
+REQUIRED_ROLES: tuple[str, ...] = (
+    "hips",
+    "thigh_l",
+    "shin_l",
+    "foot_l",
+    "thigh_r",
+    "shin_r",
+    "foot_r",
+)
+"""Roles a usable mapping must fill: the hips and thigh/shin/foot of both legs."""
+
+OPTIONAL_ROLES: tuple[str, ...] = ("toe_l", "toe_r", "spine", "root")
+"""Roles that are filled when the armature has such bones."""
+
+ALL_ROLES: tuple[str, ...] = (
+    "hips",
+    "thigh_l",
+    "shin_l",
+    "foot_l",
+    "toe_l",
+    "thigh_r",
+    "shin_r",
+    "foot_r",
+    "toe_r",
+    "spine",
+    "root",
+)
+"""Every role, in a stable order (hips, left leg, right leg, spine, root)."""
+
+_SIDES = ("l", "r")
+_LEG_PARTS = ("thigh", "shin", "foot", "toe")
+
+
+class RoleError(FootstepError):
+    """A role cannot be resolved (unmapped role, bad override, malformed armature)."""
+
+
+@dataclass(frozen=True)
+class RoleMapping:
+    """Result of :func:`map_roles`.
+
+    ``roles`` maps role -> bone name for every role that could be filled, ``missing``
+    lists the *required* roles that could not be filled (in :data:`REQUIRED_ROLES`
+    order), ``how`` maps each filled role to ``"name"``, ``"hierarchy"`` or
+    ``"manual"``. ``bones`` holds the armature's bone names (for messages).
+    """
+
+    roles: dict[str, str]
+    missing: tuple[str, ...]
+    how: dict[str, str]
+    bones: tuple[str, ...] = field(default=(), repr=False)
+
+    @property
+    def ok(self) -> bool:
+        """True when no required role is missing."""
+        return not self.missing
+
+    def bone(self, role: str) -> str:
+        """Name of the bone mapped to ``role``; :class:`RoleError` naming it otherwise."""
+        if role not in ALL_ROLES:
+            raise RoleError(f"unknown role {role!r}; roles are {', '.join(ALL_ROLES)}")
+        try:
+            return self.roles[role]
+        except KeyError:
+            raise RoleError(
+                f"role {role!r} is not mapped to any bone; set it by hand "
+                f"(bones: {_preview(self.bones)})"
+            ) from None
+
+    def describe(self) -> str:
+        """One-line human summary of the mapping (or of what is missing)."""
+        mapped = ", ".join(f"{r}={self.roles[r]}" for r in ALL_ROLES if r in self.roles)
+        if not self.ok:
+            text = (
+                f"could not map roles: {', '.join(self.missing)} "
+                f"of armature bones {_preview(self.bones)}"
+            )
+            if mapped:
+                text += f"; mapped: {mapped}"
+            return text
+        notes = []
+        for kind in ("hierarchy", "manual"):
+            rs = [r for r in ALL_ROLES if self.how.get(r) == kind]
+            if rs:
+                notes.append(f"{kind}: {', '.join(rs)}")
+        return f"mapped {len(self.roles)} roles: {mapped}" + (
+            f" ({'; '.join(notes)})" if notes else ""
+        )
+
+
+def _preview(bones: Sequence[str], limit: int = 16) -> str:
+    if not bones:
+        return "(none)"
+    shown = ", ".join(bones[:limit])
+    if len(bones) > limit:
+        shown += f", ... (+{len(bones) - limit} more)"
+    return shown
+
+
+# --------------------------------------------------------------------------- names
+
+_NAMESPACE_RE = re.compile(r"^.*[:|]")
+# Rigify-style prefixes: DEF (deform, preferred), ORG (original, last resort) and
+# mechanism/visual/widget/control prefixes that must never be mapped.
+_PREFIX_RE = re.compile(r"^(DEF|ORG|MCH|VIS|WGT|CTRL|CTL|TGT|HLP)[-_.]", re.IGNORECASE)
+_BIPED_RE = re.compile(r"^bip\d+(?:[ _]+|$)", re.IGNORECASE)
+_SPLIT_RE = re.compile(r"[\s_.\-:|]+")
+_CAMEL_RE = re.compile(r"[A-Z]+(?=[A-Z][a-z])|[A-Z]?[a-z]+|[A-Z]+|\d+")
+
+# A bone with any of these tokens is a helper/control/mechanism bone: never mapped.
+_EXCLUDE = frozenset(
+    """mch ik fk ikfk pole parent tweak target tgt ctrl ctl control controller twist roll
+    end nub site tip null helper hlp socket vis wgt widget pivot spin corrective offset
+    aux jiggle stretch track aim lock driver drv proxy mech""".split()
+)
+# Tokens that carry no meaning for matching.
+_NOISE = frozenset("jnt jt bn bone bind skin deform def bend".split())
+# Centre markers (AdvancedSkeleton ``Root_M``, ``C_Hips``) dropped at either end.
+_CENTER = frozenset("m c mid middle center centre".split())
+_SIDE_TOKENS = {"l": "l", "left": "l", "r": "r", "right": "r"}
+
+# base word -> priority (lower is better)
+_THIGH = {"thigh": 0, "upleg": 0, "upperleg": 0, "legupper": 0, "femur": 1, "hip": 2}
+_SHIN = {
+    "shin": 0,
+    "calf": 0,
+    "lowerleg": 0,
+    "leglower": 0,
+    "lowleg": 0,
+    "tibia": 1,
+    "knee": 1,
+    "leg": 1,
+}
+_FOOT = {"foot": 0, "ankle": 1}
+_TOE = {"toe": 0, "toes": 0, "toebase": 0, "ball": 0}
+_LEG_TABLES = (("thigh", _THIGH), ("shin", _SHIN), ("foot", _FOOT), ("toe", _TOE))
+_LEG_WORDS = frozenset(w for _, t in _LEG_TABLES for w in t)
+_HIPS = {"hips": 0, "hip": 0, "pelvis": 0}
+_SPINE = frozenset(
+    "spine lowerback abdomen abdomenlower waist torso back lowerspine spinelower".split()
+)
+_ROOT = frozenset({"root"})
+
+
+@dataclass(frozen=True)
+class _Parsed:
+    tier: int | None  # 0 DEF-, 1 plain, 2 ORG-; None: never map this bone
+    side: str | None  # "l", "r", None (no side) or "?" (contradictory sides)
+    base: str  # remaining words, lowercase, joined ("upleg", "toebase", ...)
+    index: int | None  # trailing number: thigh.L.001 -> 1, Spine1 -> 1, Toe0 -> 0
+    key: str  # logical identity: name without DEF-/ORG- prefix, lowercase
+
+
+def _parse_name(name: str) -> _Parsed:
+    """Split a bone name into (tier, side, base word, index, logical key)."""
+    s = name.strip()
+    ns_match = _NAMESPACE_RE.match(s)
+    namespace = ns_match.group(0) if ns_match else ""
+    s = s[len(namespace) :]
+    tier: int | None = 1
+    m = _PREFIX_RE.match(s)
+    if m:
+        prefix = m.group(1).upper()
+        tier = 0 if prefix == "DEF" else 2 if prefix == "ORG" else None
+        s = s[m.end() :]
+    key = (namespace + s).lower()
+    s = _BIPED_RE.sub("", s)
+    tokens = [t.lower() for part in _SPLIT_RE.split(s) for t in _CAMEL_RE.findall(part)]
+    if any(t in _EXCLUDE for t in tokens):
+        tier = None
+    nums = [t for t in tokens if t.isdigit()]
+    index = int(nums[-1]) if nums else None
+    words = [t for t in tokens if not t.isdigit() and t not in _NOISE]
+    if len(words) > 1 and words[-1] in _CENTER:
+        words.pop()
+    if len(words) > 1 and words[0] in _CENTER:
+        words.pop(0)
+    sides = {_SIDE_TOKENS[t] for t in words if t in _SIDE_TOKENS}
+    words = [t for t in words if t not in _SIDE_TOKENS]
+    base = "".join(words)
+    side: str | None = None
+    if len(sides) > 1:
+        side = "?"
+    elif sides:
+        side = sides.pop()
+    else:  # sides glued to the word: LEFTUPLEG, upperlegleft, lfemur, rThigh (lowercase)
+        for word, sd in (("left", "l"), ("right", "r")):
+            if base.startswith(word) and len(base) > len(word):
+                base, side = base[len(word) :], sd
+                break
+            if base.endswith(word) and len(base) > len(word):
+                base, side = base[: -len(word)], sd
+                break
+        else:
+            if len(base) > 1 and base[0] in "lr" and base[1:] in _LEG_WORDS:
+                base, side = base[1:], base[0]
+    return _Parsed(tier, side, base, index, key)
+
+
+# ------------------------------------------------------------------------- context
+
+
+class _Ctx:
+    """Pre-computed hierarchy/geometry of one armature."""
+
+    def __init__(self, names, parents, heads, tails):
+        self.names = list(names)
+        n = len(self.names)
+        self.n = n
+        if len(parents) != n:
+            raise RoleError(f"got {n} bone names but {len(parents)} parent indices")
+        self.parents = [int(p) for p in parents]
+        for i, p in enumerate(self.parents):
+            if p < -1 or p >= n or p == i:
+                raise RoleError(f"bone {self.names[i]!r} has invalid parent index {p}")
+        seen: dict[str, int] = {}
+        for i, nm in enumerate(self.names):
+            if nm in seen:
+                raise RoleError(f"duplicate bone name {nm!r}")
+            seen[nm] = i
+        self.index = seen
+        self.heads = _as_points(heads, n, "heads")
+        self.tails = _as_points(tails, n, "tails")
+        self.children: list[list[int]] = [[] for _ in range(n)]
+        for i, p in enumerate(self.parents):
+            if p >= 0:
+                self.children[p].append(i)
+        for kids in self.children:
+            kids.sort(key=lambda k: self.names[k])
+        self.ancestors: list[list[int]] = []
+        for i in range(n):
+            chain, p = [], self.parents[i]
+            while p >= 0:
+                if len(chain) > n:
+                    raise RoleError(f"parent cycle through bone {self.names[i]!r}")
+                chain.append(p)
+                p = self.parents[p]
+            self.ancestors.append(chain)
+        self.parsed = [_parse_name(nm) for nm in self.names]
+        # subtree height (over mappable bones) and size, children before parents
+        self._height = [1] * n
+        self._size = [1] * n
+        for i in sorted(range(n), key=lambda k: -len(self.ancestors[k])):
+            p = self.parents[i]
+            if p >= 0:
+                self._size[p] += self._size[i]
+                if self.parsed[i].tier is not None:
+                    self._height[p] = max(self._height[p], self._height[i] + 1)
+        self.eps, self.zmin, self.zmax = 1e-9, 0.0, 0.0
+        if self.heads is not None and n:
+            z = self.heads[:, 2]
+            extent = float(np.ptp(self.heads, axis=0).max()) if n else 0.0
+            self.eps = max(extent, 1e-9) * 1e-4
+            self.zmin, self.zmax = float(z.min()), float(z.max())
+
+    def desc(self, a: int, b: int) -> int | None:
+        """Steps from ``a`` up to ancestor ``b`` (or a logical twin of it), else None."""
+        kb = self.parsed[b].key
+        for step, x in enumerate(self.ancestors[a], 1):
+            if x == b or self.parsed[x].key == kb:
+                return step
+        return None
+
+    def height(self, i: int) -> int:
+        """Bones in the longest mappable chain starting at ``i`` (itself included)."""
+        return self._height[i]
+
+    def size(self, i: int) -> int:
+        """Number of bones in the subtree of ``i`` (itself included)."""
+        return self._size[i]
+
+    def z(self, i: int) -> float:
+        return float(self.heads[i, 2])
+
+    def dist(self, a: int, b: int) -> float:
+        return float(np.linalg.norm(self.heads[a] - self.heads[b]))
+
+
+def _as_points(arr, n, what):
+    if arr is None:
+        return None
+    pts = np.asarray(arr, dtype=float)
+    if pts.shape != (n, 3):
+        raise RoleError(f"{what} must have shape ({n}, 3), got {pts.shape}")
+    return pts
+
+
+# --------------------------------------------------------------------- consistency
+
+
+def _leg_chain(side: str) -> tuple[str, ...]:
+    return ("hips",) + tuple(f"{p}_{side}" for p in _LEG_PARTS)
+
+
+def _compatible(ctx: _Ctx, role: str, idx: int, roles: dict[str, int]) -> bool:
+    """Whether ``role -> idx`` respects the hierarchy rules w.r.t. ``roles``."""
+    if role == "root":
+        return "hips" not in roles or ctx.desc(roles["hips"], idx) is not None
+    if role == "spine":
+        return "hips" not in roles or ctx.desc(idx, roles["hips"]) is not None
+    if role == "hips":
+        if "root" in roles and ctx.desc(idx, roles["root"]) is None:
+            return False
+        if "spine" in roles and ctx.desc(roles["spine"], idx) is None:
+            return False
+    chains = [_leg_chain(s) for s in _SIDES] if role == "hips" else [_leg_chain(role[-1])]
+    for chain in chains:
+        pos = chain.index(role)
+        above = next((roles[r] for r in reversed(chain[:pos]) if r in roles), None)
+        below = next((roles[r] for r in chain[pos + 1 :] if r in roles), None)
+        if above is not None and ctx.desc(idx, above) is None:
+            return False
+        if below is not None and ctx.desc(below, idx) is None:
+            return False
+    return True
+
+
+def _assemble(ctx, fixed, proposal):
+    """Overrides first, then ``proposal`` (role -> (idx, how)) where consistent."""
+    roles = dict(fixed)
+    how = {r: "manual" for r in fixed}
+    for role in ALL_ROLES:
+        if role in roles or role not in proposal:
+            continue
+        idx, kind = proposal[role]
+        if idx in roles.values() or not _compatible(ctx, role, idx, roles):
+            continue
+        roles[role] = idx
+        how[role] = kind
+    return roles, how
+
+
+# ---------------------------------------------------------------------- name stage
+
+
+def _name_candidates(ctx: _Ctx):
+    cands: dict[str, list] = {f"{p}_{s}": [] for p in _LEG_PARTS for s in _SIDES}
+    hips: list = []
+    for i, p in enumerate(ctx.parsed):
+        if p.tier is None:
+            continue
+        name = ctx.names[i]
+        if p.side in _SIDES:
+            for part, table in _LEG_TABLES:
+                if p.base in table:
+                    cands[f"{part}_{p.side}"].append(
+                        ((p.tier, table[p.base], p.index or 0, name), i)
+                    )
+        elif p.side is None:
+            if p.base in _HIPS:
+                hips.append(((p.tier, 0, p.index or 0, name), i))
+            elif p.base == "spine" and not p.index:  # Rigify/metarig: spine == hips
+                hips.append(((p.tier, 1, 0, name), i))
+            elif p.base in _ROOT and _root_may_be_hips(ctx, i):  # ASF 'root' is the hips
+                hips.append(((p.tier + 10, 2, p.index or 0, name), i))  # last resort
+    for lst in cands.values():
+        lst.sort()
+    hips.sort()
+    return cands, hips
+
+
+def _root_may_be_hips(ctx: _Ctx, i: int) -> bool:
+    """A bone named root can be the hips only if it is not at the ground."""
+    if ctx.heads is None:
+        return True
+    return ctx.z(i) > ctx.zmin + 0.25 * (ctx.zmax - ctx.zmin)
+
+
+_FIXED_SCORE = (-1, 0, 0, "")
+_NO_SCORE = (9, 9, 9, "")
+
+
+def _best_leg(ctx, side, hips, cands, fixed):
+    """Best consistent (thigh, shin, foot, toe) of one side by names, under ``hips``."""
+    opts = []
+    for part in ("thigh", "shin", "foot"):
+        role = f"{part}_{side}"
+        if role in fixed:
+            opts.append([(_FIXED_SCORE, fixed[role])])
+        else:
+            opts.append(cands[role] + [(_NO_SCORE, None)])
+    best_key, best = None, None
+    for combo in product(*opts):
+        chain = [("hips", hips)] + [
+            (f"{part}_{side}", c[1]) for part, c in zip(("thigh", "shin", "foot"), combo)
+        ]
+        chain = [(r, i) for r, i in chain if i is not None]
+        total_dist, ok = 0, True
+        for (ra, a), (rb, b) in zip(chain, chain[1:]):
+            if ra in fixed and rb in fixed:
+                continue
+            d = ctx.desc(b, a)
+            if d is None:
+                ok = False
+                break
+            total_dist += d
+        if not ok:
+            continue
+        scores = [c[0] for c in combo if c[1] is not None]
+        key = (
+            -len(scores),
+            sum(s[0] for s in scores),
+            sum(s[1] for s in scores),
+            sum(s[2] for s in scores),
+            total_dist,
+            tuple(s[3] for s in scores),
+        )
+        if best_key is None or key < best_key:
+            best_key, best = key, {r: i for r, i in chain if r != "hips"}
+    if best is None:  # only possible when an override contradicts every candidate
+        return (0, 0, 0, 0, 0, ()), {}
+    # toe: best candidate under the deepest filled role of this side
+    toe_role = f"toe_{side}"
+    anchor = next(
+        (best[f"{p}_{side}"] for p in ("foot", "shin", "thigh") if f"{p}_{side}" in best),
+        hips,
+    )
+    if toe_role in fixed:
+        best[toe_role] = fixed[toe_role]
+    elif anchor is not None and f"foot_{side}" in best:
+        toes = []
+        for score, i in cands[toe_role]:
+            d = ctx.desc(i, anchor)
+            if d is not None and i not in best.values():
+                toes.append(((score[0], score[1], score[2], d, score[3]), i))
+        if toes:
+            best[toe_role] = min(toes)[1]
+    return best_key, best
+
+
+def _name_stage(ctx: _Ctx, fixed: dict[str, int]) -> dict[str, int]:
+    cands, hips_cands = _name_candidates(ctx)
+    if "hips" in fixed:
+        hips_opts = [(_FIXED_SCORE, fixed["hips"])]
+    else:
+        hips_opts = hips_cands + [(_NO_SCORE, None)]
+    best_key, best = None, {}
+    for hscore, h in hips_opts:
+        kl, legs_l = _best_leg(ctx, "l", h, cands, fixed)
+        kr, legs_r = _best_leg(ctx, "r", h, cands, fixed)
+        filled = (h is not None) + (-kl[0]) + (-kr[0])
+        # equal names (DAZ 'hip' above 'pelvis'): the higher bone is the hips
+        depth = len(ctx.ancestors[h]) if h is not None else 0
+        key = (-filled, hscore[:3], depth, hscore[3], kl[1:], kr[1:])
+        if best_key is None or key < best_key:
+            best_key = key
+            best = {**legs_l, **legs_r}
+            if h is not None:
+                best["hips"] = h
+    return best
+
+
+def _name_spine(ctx: _Ctx, hips: int, used) -> int | None:
+    opts = []
+    for i, p in enumerate(ctx.parsed):
+        if p.tier is None or p.side is not None or p.base not in _SPINE or i in used:
+            continue
+        d = ctx.desc(i, hips)
+        if d is not None:
+            opts.append(((d, p.tier, p.index or 0, ctx.names[i]), i))
+    return min(opts)[1] if opts else None
+
+
+def _name_root(ctx: _Ctx, hips: int, used) -> int | None:
+    opts = []
+    for a_step, a in enumerate(ctx.ancestors[hips], 1):
+        p = ctx.parsed[a]
+        if p.tier is not None and p.side is None and p.base in _ROOT and a not in used:
+            opts.append(((a_step, p.tier, ctx.names[a]), a))
+    return min(opts)[1] if opts else None
+
+
+# ----------------------------------------------------------------- hierarchy stage
+
+
+def _main_child(ctx: _Ctx, i: int) -> int | None:
+    """The child continuing a limb: deepest subtree, then nearest to the parent's tail."""
+    kids = [k for k in ctx.children[i] if ctx.parsed[k].tier is not None]
+    if not kids:
+        return None
+
+    def key(k):
+        near_tail = 0.0
+        far_head = 0.0
+        if ctx.tails is not None and ctx.heads is not None:
+            near_tail = float(np.linalg.norm(ctx.heads[k] - ctx.tails[i]))
+        elif ctx.heads is not None:
+            far_head = -ctx.dist(k, i)
+        return (-ctx.height(k), near_tail, far_head, ctx.names[k])
+
+    return min(kids, key=key)
+
+
+def _seg_len(ctx: _Ctx, chain: list[int], j: int) -> float:
+    if j + 1 < len(chain):
+        return ctx.dist(chain[j + 1], chain[j])
+    if ctx.tails is not None:
+        return float(np.linalg.norm(ctx.tails[chain[j]] - ctx.heads[chain[j]]))
+    return 0.0
+
+
+def _leg_from(ctx: _Ctx, start: int):
+    """Interpret the limb starting at ``start`` as a leg: (bones, intermediate) or None.
+
+    ``bones`` is [thigh, shin, foot] or [thigh, shin, foot, toe].
+    """
+    chain, x = [start], _main_child(ctx, start)
+    while x is not None and len(chain) < 8:
+        chain.append(x)
+        x = _main_child(ctx, x)
+    offsets = [0]
+    if ctx.heads is not None and len(chain) >= 4:
+        # one short intermediate bone (CMU LHipJoint) before the thigh
+        if _seg_len(ctx, chain, 0) < 0.5 * _seg_len(ctx, chain, 1):
+            offsets = [1, 0]
+    for k in offsets:
+        bones = chain[k : k + 4]
+        if len(bones) < 3:
+            continue
+        if ctx.heads is not None:
+            z = [ctx.z(b) for b in bones]
+            if not (z[0] - ctx.eps > z[1] and z[1] - ctx.eps > z[2]):
+                continue
+            if len(bones) == 4 and z[3] > z[2] + ctx.eps:
+                bones = bones[:3]
+        return bones, (chain[0] if k == 1 else None)
+    return None
+
+
+def _chain_side(ctx: _Ctx, bones) -> str | None:
+    votes = [ctx.parsed[b].side for b in bones if ctx.parsed[b].side in _SIDES]
+    if not votes:
+        return None
+    nl = votes.count("l")
+    nr = len(votes) - nl
+    return "l" if nl > nr else "r" if nr > nl else None
+
+
+def _hierarchy_stage(ctx: _Ctx, fixed: dict[str, int]) -> dict[str, int]:
+    """Find hips + two legs from the bone tree (and rest heads when available)."""
+    hips_opts = [fixed["hips"]] if "hips" in fixed else range(ctx.n)
+    best_key, best = None, {}
+    for h in hips_opts:
+        if ctx.parsed[h].tier is None:
+            continue
+        legs = []
+        for c in ctx.children[h]:
+            if ctx.parsed[c].tier is None:
+                continue
+            leg = _leg_from(ctx, c)
+            if leg is not None:
+                legs.append(leg)
+        if len(legs) < 2:
+            continue
+        if ctx.heads is not None:  # the two chains reaching lowest are the legs
+            legs.sort(key=lambda lg: (ctx.z(lg[0][2]), ctx.names[lg[0][0]]))
+            legs = legs[:2]
+        else:  # no geometry: legs are the most symmetric pair of chains
+            legs = list(min(combinations(legs, 2), key=lambda pair: _pair_key(ctx, pair)))
+        feet_z = max(ctx.z(lg[0][2]) for lg in legs) if ctx.heads is not None else 0.0
+        key = (feet_z, len(ctx.ancestors[h]), ctx.names[h])
+        if best_key is not None and key >= best_key:
+            continue
+        # sides: names in the chain first, then X of the thigh heads, then bone order
+        sides = [_chain_side(ctx, lg[0] + ([lg[1]] if lg[1] is not None else [])) for lg in legs]
+        if not (sides[0] and sides[1] and sides[0] != sides[1]):
+            if ctx.heads is not None and ctx.heads[legs[0][0][0], 0] != ctx.heads[legs[1][0][0], 0]:
+                left_first = ctx.heads[legs[0][0][0], 0] > ctx.heads[legs[1][0][0], 0]
+            else:
+                left_first = ctx.names[legs[0][0][0]] <= ctx.names[legs[1][0][0]]
+            sides = ["l", "r"] if left_first else ["r", "l"]
+        result = {"hips": h}
+        for (bones, _inter), side in zip(legs, sides):
+            for part, b in zip(_LEG_PARTS, bones):
+                result[f"{part}_{side}"] = b
+        best_key, best = key, result
+    return best
+
+
+def _pair_key(ctx: _Ctx, pair):
+    (ba, ia), (bb, ib) = pair
+    sa = ia if ia is not None else ba[0]
+    sb = ib if ib is not None else bb[0]
+    ha, hb = ctx.height(sa), ctx.height(sb)
+    return (abs(ha - hb), abs(ctx.size(sa) - ctx.size(sb)), max(ha, hb), ctx.names[sa], ctx.names[sb])
+
+
+def _hier_spine(ctx: _Ctx, hips: int, used) -> int | None:
+    """The child of the hips that goes upward (not part of a leg)."""
+    used_set = set(used)
+    opts = []
+    for c in ctx.children[hips]:
+        if ctx.parsed[c].tier is None or c in used_set:
+            continue
+        if any(ctx.desc(u, c) is not None for u in used_set):  # leads to a leg bone
+            continue
+        if ctx.heads is not None:
+            if ctx.tails is not None:
+                up = float(ctx.tails[c, 2] - ctx.heads[c, 2])
+            else:
+                sub = [c] + [i for i in range(ctx.n) if c in ctx.ancestors[i]]
+                up = max(ctx.z(i) for i in sub) - ctx.z(hips)
+            if up <= ctx.eps:
+                continue
+            opts.append(((-up, ctx.names[c]), c))
+        else:
+            opts.append(((-ctx.height(c), ctx.names[c]), c))
+    return min(opts)[1] if opts else None
+
+
+def _hier_root(ctx: _Ctx, hips: int, roles: dict[str, int], used) -> int | None:
+    """The parent of the hips when it sits at the ground (needs rest heads)."""
+    p = ctx.parents[hips]
+    if p < 0 or ctx.heads is None or ctx.parsed[p].tier is None or p in used:
+        return None
+    low = [roles[r] for r in roles if r.startswith(("foot_", "toe_"))]
+    zs = [ctx.z(i) for i in low]
+    if ctx.tails is not None:
+        zs += [float(ctx.tails[i, 2]) for i in low]
+    if not zs:
+        return None
+    ground = min(zs)
+    if ctx.z(p) <= ground + 0.1 * max(ctx.z(hips) - ground, 0.0):
+        return p
+    return None
+
+
+def _lca(ctx: _Ctx, a: int, b: int) -> int | None:
+    anc_b = set(ctx.ancestors[b])
+    return next((x for x in ctx.ancestors[a] if x in anc_b), None)
+
+
+# ------------------------------------------------------------------------- public
+
+
+def map_roles(
+    names: Sequence[str],
+    parents: Sequence[int],
+    heads: np.ndarray | None = None,
+    tails: np.ndarray | None = None,
+    overrides: Mapping[str, str] | None = None,
+) -> RoleMapping:
+    """Map an armature's bones to locomotion roles.
+
+    ``names[i]`` is bone ``i``'s name and ``parents[i]`` its parent's index (``-1`` for
+    none); ``heads``/``tails`` are optional ``(B, 3)`` rest positions in armature space
+    (Z up; the character usually faces -Y, so its left is +X). ``overrides`` maps role ->
+    bone name chosen by hand; they always win (``how == "manual"``), empty values are
+    ignored, and an unknown role or a bone that does not exist raises :class:`RoleError`.
+
+    Names are tried first (``how == "name"``); roles that names cannot fill consistently
+    are taken from the bone hierarchy (``how == "hierarchy"``). Required roles that stay
+    unfilled are listed in :attr:`RoleMapping.missing` (no exception is raised for them).
+    """
+    ctx = _Ctx(names, parents, heads, tails)
+
+    fixed: dict[str, int] = {}
+    for role, bone in (overrides or {}).items():
+        if role not in ALL_ROLES:
+            raise RoleError(f"unknown role {role!r} in overrides; roles are {', '.join(ALL_ROLES)}")
+        if not bone:
+            continue
+        if bone not in ctx.index:
+            raise RoleError(
+                f"override for role {role!r} names bone {bone!r}, "
+                f"which does not exist in the armature"
+            )
+        fixed[role] = ctx.index[bone]
+
+    by_name = _name_stage(ctx, fixed)
+    alternatives = [{r: (i, "name") for r, i in by_name.items() if r not in fixed}]
+    base_roles, _ = _assemble(ctx, fixed, alternatives[0])
+    if any(r not in base_roles for r in REQUIRED_ROLES):
+        by_tree = _hierarchy_stage(ctx, fixed)
+        tree = {r: (i, "hierarchy") for r, i in by_tree.items() if r not in fixed}
+        mixed = dict(alternatives[0])
+        if "hips" not in base_roles:
+            if "hips" in tree:
+                mixed["hips"] = tree["hips"]
+            elif "thigh_l" in base_roles and "thigh_r" in base_roles:
+                lca = _lca(ctx, base_roles["thigh_l"], base_roles["thigh_r"])
+                if lca is not None:
+                    mixed["hips"] = (lca, "hierarchy")
+        for side in _SIDES:
+            leg = [f"{p}_{side}" for p in _LEG_PARTS]
+            if all(r in base_roles for r in leg[:3]):
+                continue
+            if any(r in tree for r in leg):
+                for r in leg:
+                    mixed.pop(r, None)
+                    if r in tree:
+                        mixed[r] = tree[r]
+        alternatives += [mixed, tree]
+
+    best_key, roles, how = None, {}, {}
+    for rank, proposal in enumerate(alternatives):
+        cand_roles, cand_how = _assemble(ctx, fixed, proposal)
+        key = (
+            -sum(r in cand_roles for r in REQUIRED_ROLES),
+            -sum(v == "name" for v in cand_how.values()),
+            -len(cand_roles),
+            rank,
+        )
+        if best_key is None or key < best_key:
+            best_key, roles, how = key, cand_roles, cand_how
+
+    # optional spine / root relative to the final hips: names first, then hierarchy
+    if "hips" in roles:
+        h = roles["hips"]
+        for role, finders in (
+            ("spine", ((_name_spine, "name"), (_hier_spine, "hierarchy"))),
+            ("root", ((_name_root, "name"), (None, "hierarchy"))),
+        ):
+            if role in roles:
+                continue
+            for finder, kind in finders:
+                used = set(roles.values())
+                if finder is None:
+                    idx = _hier_root(ctx, h, roles, used)
+                else:
+                    idx = finder(ctx, h, used)
+                if idx is not None and _compatible(ctx, role, idx, roles):
+                    roles[role] = idx
+                    how[role] = kind
+                    break
+
+    return RoleMapping(
+        roles={r: ctx.names[roles[r]] for r in ALL_ROLES if r in roles},
+        missing=tuple(r for r in REQUIRED_ROLES if r not in roles),
+        how={r: how[r] for r in ALL_ROLES if r in roles},
+        bones=tuple(ctx.names),
+    )
