@@ -1,0 +1,325 @@
+"""The command line: ``python -m footstep_planner VERB ...`` and, inside Blender,
+``blender -b [FILE.blend] -c footstep VERB ...``. One function, ``cli_main``, serves both.
+
+Expected problems (a bad file, a rig without legs, a clip with no footsteps) print one
+line ``footstep: error: ...`` naming what is at fault and return a non-zero status; they
+never show a traceback and never save anything.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+import bpy
+
+from ..core.errors import FootstepError
+from ..core.settings import Settings
+
+EXPECTED = (FootstepError, OSError)
+FOOT = ("L", "R")
+
+
+class CliError(FootstepError):
+    """An expected problem: its message is printed without a traceback."""
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="footstep",
+        description="Footstep Planner: clip import and analysis (and, as they arrive, "
+                    "planning and baking) from the command line.")
+    sub = p.add_subparsers(dest="verb", metavar="VERB")
+    sub.required = True
+
+    imp = sub.add_parser(
+        "import-clips", help="import BVH files as Actions of one armature and save a .blend",
+        description="Import several BVH files of one skeleton as one armature carrying one "
+                    "Action per file, in metres, Z up, keyed at the scene's frame rate whatever "
+                    "the files' rate. With --blend/--into, the clips are added to an existing "
+                    "armature; nothing of the file's is replaced.")
+    imp.add_argument("clips", nargs="+", metavar="CLIP.bvh")
+    imp.add_argument("--out", required=True, metavar="LIB.blend", help="file to save")
+    imp.add_argument("--blend", metavar="IN.blend", help="start from this file (default: the "
+                     "file Blender has open, or an empty scene)")
+    imp.add_argument("--into", metavar="ARMATURE", help="add the clips to this armature")
+    imp.add_argument("--name", help="name of a new armature (default: the first file's name)")
+    imp.add_argument("--fps", type=float, help="scene frame rate to key at (default: the "
+                     "scene's; an empty scene takes the first file's rate)")
+    imp.add_argument("--scale", type=float, help="metres per BVH unit (default: guessed)")
+
+    an = sub.add_parser(
+        "analyze", help="analyse clips: contacts, footprints, speed, stride, cycle, tau, gait",
+        description="Analyse BVH files, or the clips of the characters in a .blend, after "
+                    "Johansen's method. Prints a table, or with --json one object per clip.")
+    an.add_argument("inputs", nargs="*", metavar="CLIP.bvh|LIB.blend",
+                    help="BVH files, or one .blend (default: the file Blender has open)")
+    an.add_argument("--character", metavar="ARMATURE", help="only this armature's clips")
+    an.add_argument("--clip", action="append", metavar="NAME", help="only these clips (repeatable)")
+    an.add_argument("--fps", type=float, help="sample the clips at this rate (default: the "
+                    "scene's; for BVH input, the first file's rate)")
+    an.add_argument("--json", action="store_true", help="print JSON")
+    an.add_argument("--plot", metavar="DIR", help="also draw each clip's foot curves and "
+                    "contacts as PNG into DIR (needs matplotlib)")
+    an.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="change a setting, e.g. --set contact_height=0.06 (repeatable)")
+
+    demo = sub.add_parser("demo", help="the main job on built-in content (clip analysis for now)")
+    demo.add_argument("--scene", default="jumps", help="sample scene name (used once planning exists)")
+    demo.add_argument("--mocap", default=None, metavar="DIR",
+                      help="BVH folder to analyse (default: ../shared/mocap/cmu beside the project)")
+    demo.add_argument("--out", default=None, metavar="DIR", help="output folder")
+    return p
+
+
+def cli_main(argv=None) -> int:
+    """Entry point shared by ``python -m footstep_planner`` and ``blender -c footstep``."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = _parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as ex:  # --help or a usage error: argparse already printed
+        return int(ex.code or 0)
+    try:
+        return {"import-clips": _import_clips, "analyze": _analyze, "demo": _demo}[args.verb](args)
+    except EXPECTED as ex:
+        print(f"footstep: error: {ex}", file=sys.stderr)
+        return 2
+
+
+# ----------------------------------------------------------------------------------
+
+def settings_from_args(pairs) -> Settings:
+    s = Settings()
+    changes = {}
+    for pair in pairs:
+        if "=" not in pair:
+            raise CliError(f"--set wants NAME=VALUE, got {pair!r}")
+        k, v = pair.split("=", 1)
+        default = getattr(s, k.strip(), None)
+        if default is None:
+            raise CliError(f"unknown setting {k.strip()!r}")
+        try:
+            changes[k.strip()] = type(default)(v)
+        except ValueError:
+            raise CliError(f"setting {k.strip()!r} wants a {type(default).__name__}, got {v!r}") from None
+    return s.replace(**changes)
+
+
+def open_blend(path: str) -> None:
+    if not os.path.isfile(path):
+        raise CliError(f"{path}: no such file")
+    try:
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False)
+    except RuntimeError as ex:
+        raise CliError(f"{path}: cannot open: {str(ex).strip()}") from None
+
+
+def empty_scene(fps: float | None) -> None:
+    bpy.ops.wm.read_homefile(use_empty=True)
+    if fps:
+        set_scene_fps(bpy.context.scene, fps)
+
+
+def set_scene_fps(scene, fps: float) -> None:
+    scene.render.fps = max(1, int(round(fps)))
+    scene.render.fps_base = scene.render.fps / fps
+
+
+def _bvh_fps(path: str) -> float:
+    from ..core.bvh import read_skeleton
+
+    return read_skeleton(path).fps
+
+
+def find_armature(name: str):
+    ob = bpy.data.objects.get(name)
+    if ob is None:
+        raise CliError(f"no object named {name!r} in {bpy.data.filepath or 'the scene'}")
+    if ob.type != "ARMATURE":
+        raise CliError(f"object {name!r} is a {ob.type.lower()}, not an armature")
+    return ob
+
+
+def _import_clips(args) -> int:
+    from .clips import import_bvh_clips
+
+    if args.blend:
+        open_blend(args.blend)
+    elif bpy.data.filepath == "" and not args.into:
+        empty_scene(args.fps or _bvh_fps(args.clips[0]))
+    if args.fps and args.blend:
+        set_scene_fps(bpy.context.scene, args.fps)
+    target = find_armature(args.into) if args.into else None
+    ob, actions = import_bvh_clips(args.clips, target=target, name=args.name, scale=args.scale)
+    if not ob.animation_data:
+        ob.animation_data_create()
+    if ob.animation_data.action is None and actions:
+        ob.animation_data.action = actions[0]
+    out = os.path.abspath(args.out)
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    bpy.ops.wm.save_as_mainfile(filepath=out, compress=True)
+    print(f"imported {len(actions)} clip(s) into armature {ob.name!r}: "
+          + ", ".join(a.name for a in actions))
+    print(f"saved {out}")
+    return 0
+
+
+def _analyze(args) -> int:
+    from .character import analyze_character, library_for
+    from .clips import import_bvh_clips
+
+    settings = settings_from_args(args.set)
+    bvhs = [p for p in args.inputs if p.lower().endswith(".bvh")]
+    blends = [p for p in args.inputs if p.lower().endswith(".blend")]
+    other = [p for p in args.inputs if p not in bvhs and p not in blends]
+    if other:
+        raise CliError(f"{other[0]}: neither a .bvh nor a .blend file")
+    if bvhs and blends or len(blends) > 1:
+        raise CliError("give BVH files, or one .blend, not both")
+    characters = []
+    if bvhs:
+        empty_scene(args.fps or _bvh_fps(bvhs[0]))
+        for path in bvhs:  # one armature per file: files of different skeletons are fine
+            ob, _ = import_bvh_clips([path])
+            characters.append(ob)
+    else:
+        if blends:
+            open_blend(blends[0])
+        if args.fps:
+            set_scene_fps(bpy.context.scene, args.fps)
+        if args.character:
+            characters = [find_armature(args.character)]
+        else:
+            from .scene import armature_actions
+
+            characters = [o for o in bpy.data.objects if o.type == "ARMATURE" and armature_actions(o)]
+        if not characters:
+            raise CliError(f"{bpy.data.filepath or 'the scene'} has no armature with clips")
+
+    out, failed = [], []
+    for ob in characters:
+        result = analyze_character(ob, settings)
+        analyses = result.analyses
+        if args.clip:
+            analyses = [a for a in analyses if a.name in args.clip]
+        for name, msg in result.errors.items():
+            if not args.clip or name in args.clip:
+                failed.append(msg)
+        lib = library_for(ob, result) if analyses else None
+        out.append((ob, analyses, lib))
+        if args.plot:
+            from ..core.plots import plot_clip
+
+            os.makedirs(args.plot, exist_ok=True)
+            for a in analyses:
+                plot_clip(a, os.path.join(args.plot, f"{a.name}.png"))
+
+    if args.json:
+        doc = {"characters": [
+            {"armature": ob.name, "clips": [a.to_dict() for a in analyses],
+             "library": lib.to_dict() if lib else None} for ob, analyses, lib in out],
+            "errors": failed}
+        if bvhs:  # BVH input: one object per clip, flat
+            doc = {"clips": [d for c in doc["characters"] for d in c["clips"]], "errors": failed}
+        print(json.dumps(doc, indent=1))
+    elif bvhs:
+        print(format_table("BVH clips", [a for _, analyses, _ in out for a in analyses]))
+    else:
+        for ob, analyses, lib in out:
+            print(format_table(ob.name, analyses))
+            if lib is not None:
+                print(format_library(lib))
+    for msg in failed:
+        print(f"footstep: error: {msg}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def format_table(title: str, analyses) -> str:
+    head = (f"{'clip':38s} {'fps':>5s} {'frames':>6s} {'kind':6s} {'gait':5s} {'entry>exit':12s} "
+            f"{'speed':>6s} {'stride':>6s} {'cycle':>6s} {'cad.':>5s} {'tau':>7s} {'flights (s)':14s}")
+    lines = [f"{title}:", head, "-" * len(head)]
+    f = lambda v, fmt: "-" if v is None else format(v, fmt)  # noqa: E731
+    for a in analyses:
+        fl = ",".join(f"{b - x:.2f}" for x, b in a.jump_flights) or (
+            f"{len(a.flights)}x{sum(b - x for x, b in a.flights) / max(len(a.flights), 1):.2f}" if a.flights else "-")
+        lines.append(
+            f"{a.name:38s} {a.fps:5.0f} {a.frames:6d} {a.kind:6s} {a.gait:5s} "
+            f"{a.entry_gait + '>' + a.exit_gait:12s} {a.speed:6.2f} {f(a.stride, '6.2f'):>6s} "
+            f"{f(a.cycle, '6.2f'):>6s} {f(a.cadence, '5.0f'):>5s} {a.tau:+7.3f} {fl:14s}")
+    lines.append("units: speed m/s, stride m, cycle s, cadence steps/min, tau 1/m (+ turns left); "
+                 "flights: jump flights, else count x mean")
+    return "\n".join(lines)
+
+
+def format_library(lib) -> str:
+    lines = ["blend groups" + (" (edited)" if lib.edited else " (proposed)") + ":"]
+    for gait, g in lib.turn_groups.items():
+        lines.append(f"  {g.name}: " + ", ".join(f"{c.clip} ({c.tau:+.2f})" for c in g.clips))
+    if lib.speed_group:
+        lines.append("  speed: walk_turn (s=0) <-> run_turn (s=1)")
+    for sp in lib.specials:
+        lines.append(f"  {sp.kind}: {sp.clip} ({sp.entry_gait} -> {sp.exit_gait})")
+    return "\n".join(lines)
+
+
+def _demo(args) -> int:
+    from .clips import import_bvh_clips
+
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    mocap = args.mocap or os.path.join(os.path.dirname(root), "shared", "mocap", "cmu")
+    out_dir = os.path.abspath(args.out or os.path.join(root, "sample_scenes", "out"))
+    import glob
+
+    files = sorted(glob.glob(os.path.join(mocap, "cmu_16_*.bvh")))
+    if not files:
+        raise CliError(
+            f"no clips to show: {mocap} holds no cmu_16_*.bvh. Until the built-in sample "
+            "character exists, the demo analyses the CMU subject-16 clips; pass --mocap DIR")
+    print(f"demo: importing {len(files)} subject-16 clips from {mocap}")
+    empty_scene(_bvh_fps(files[0]))
+    ob, actions = import_bvh_clips(files, name="cmu_16")
+    os.makedirs(out_dir, exist_ok=True)
+    from .character import analyze_character, library_for, write_library
+
+    result = analyze_character(ob)
+    lib = library_for(ob, result)
+    write_library(ob, lib, result.analyses)
+    print(format_table(ob.name, result.analyses))
+    print(format_library(lib))
+    for name, msg in result.errors.items():
+        print(f"footstep: error: {msg}", file=sys.stderr)
+    try:
+        from ..core.plots import plot_clip
+
+        for a in result.analyses:
+            plot_clip(a, os.path.join(out_dir, f"analysis_{a.name}.png"))
+        print(f"contact plots: {out_dir}/analysis_*.png")
+    except ImportError:
+        print("(matplotlib not available: no plots)")
+    path = os.path.join(out_dir, "cmu_16_library.blend")
+    ob.animation_data_create()
+    ob.animation_data.action = actions[0]
+    ob.animation_data.action_slot = actions[0].slots[0]
+    bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
+    print(f"library saved: {path}")
+    print(f"note: scene {args.scene!r} will be planned and baked once planning exists")
+    return 1 if result.errors else 0
+
+
+_HANDLE = None
+
+
+def register():
+    global _HANDLE
+    if bpy.app.version >= (4, 2, 0):
+        _HANDLE = bpy.utils.register_cli_command("footstep", lambda argv: cli_main(argv))
+
+
+def unregister():
+    global _HANDLE
+    if _HANDLE is not None:
+        bpy.utils.unregister_cli_command(_HANDLE)
+        _HANDLE = None

@@ -1,0 +1,100 @@
+"""The sidebar tab "Footstep" in the 3D View. Drawing only: all state is in props."""
+
+from __future__ import annotations
+
+import bpy
+
+from ..core.roles import ALL_ROLES, REQUIRED_ROLES
+from .operators import character
+
+
+class FOOTSTEP_UL_clips(bpy.types.UIList):
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        row = layout.row(align=True)
+        row.label(text=item.name, icon="ACTION")
+        row.prop(item, "usage", text="")
+        if item.usage == "TURN":
+            row.prop(item, "gait", text="")
+            row.prop(item, "tau", text="tau")
+        elif item.usage != "EXCLUDED":
+            row.prop(item, "entry_gait", text="")
+            row.prop(item, "exit_gait", text="")
+
+
+class FOOTSTEP_PT_main(bpy.types.Panel):
+    bl_label = "Footstep Planner"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Footstep"
+
+    def draw(self, context):
+        layout = self.layout
+        fs = context.scene.footstep
+        layout.prop(fs, "character")
+        ob = character(context)
+        if ob is None:
+            layout.label(text="Pick an armature, or import BVH clips", icon="INFO")
+            layout.operator("footstep.import_clips", icon="IMPORT").target = "NEW"
+            return
+        _draw_roles(layout, ob)
+        _draw_clips(layout, ob)
+        box = layout.box()
+        box.prop(fs, "show_settings", icon="TRIA_DOWN" if fs.show_settings else "TRIA_RIGHT",
+                 emboss=False)
+        if fs.show_settings:
+            col = box.column(align=True)
+            for name in fs.settings.bl_rna.properties.keys():
+                if name not in {"rna_type", "name"}:
+                    col.prop(fs.settings, name)
+
+
+def _draw_roles(layout, ob):
+    from .scene import rig_from_armature
+
+    box = layout.box()
+    box.label(text="Bone roles", icon="ARMATURE_DATA")
+    try:
+        roles = rig_from_armature(ob).roles
+    except Exception as ex:  # a rig we can't read: say so in the panel, never raise in draw
+        box.label(text=str(ex), icon="ERROR")
+        return
+    if not roles.ok:
+        box.label(text="Could not map: " + ", ".join(roles.missing), icon="ERROR")
+    col = box.column(align=True)
+    props = ob.data.footstep
+    for role in ALL_ROLES:
+        row = col.row(align=True)
+        bone = roles.roles.get(role, "")
+        split = row.split(factor=0.3, align=True)
+        split.label(text=role + ("" if role in REQUIRED_ROLES else " (opt.)"),
+                    icon="CHECKMARK" if bone else ("ERROR" if role in REQUIRED_ROLES else "BLANK1"))
+        # the automatic choice shows as the placeholder; picking a bone overrides it
+        split.prop_search(props, f"role_{role}", ob.data, "bones",
+                          text="", placeholder=f"{bone or '-'} ({roles.how.get(role, 'unmapped')})")
+
+
+def _draw_clips(layout, ob):
+    box = layout.box()
+    props = ob.data.footstep
+    row = box.row()
+    row.label(text="Clip library" + (" (edited)" if props.library_edited else ""), icon="NLA")
+    row.operator("footstep.import_clips", text="", icon="IMPORT").target = "CHARACTER"
+    row.operator("footstep.analyze_clips", text="", icon="FILE_REFRESH")
+    box.template_list("FOOTSTEP_UL_clips", "", props, "clips", props, "clip_index", rows=4)
+    if 0 <= props.clip_index < len(props.clips):
+        box.label(text=props.clips[props.clip_index].summary or "not analysed")
+    if props.library_edited:
+        box.operator("footstep.analyze_clips", text="Reset to Proposal").reset = True
+
+
+CLASSES = (FOOTSTEP_UL_clips, FOOTSTEP_PT_main)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

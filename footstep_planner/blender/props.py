@@ -1,0 +1,135 @@
+"""Properties stored in the .blend: the planner's settings (scene), role overrides and
+the editable clip library (armature data)."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+from dataclasses import fields
+
+import bpy
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
+                       IntProperty, PointerProperty, StringProperty)
+
+from ..core.roles import ALL_ROLES
+from ..core.settings import Settings
+
+USAGES = [
+    ("TURN", "Turning group", "Blended with the clips of its gait by path curvature tau"),
+    ("JUMP", "Jump", "A special clip: a jump, played whole"),
+    ("START", "Start", "A special clip: starts from standing"),
+    ("STOP", "Stop", "A special clip: stops to standing"),
+    ("IDLE", "Idle", "A special clip: standing"),
+    ("EXCLUDED", "Excluded", "Not used by the planner"),
+]
+GAIT_ITEMS = [("stand", "Stand", ""), ("walk", "Walk", ""), ("run", "Run", "")]
+
+
+def _docs() -> dict[str, str]:
+    """Each Settings field's docstring (the string literal that follows it)."""
+    src = inspect.getsource(Settings)
+    body = ast.parse(src).body[0].body
+    docs = {}
+    for a, b in zip(body, body[1:]):
+        if isinstance(a, ast.AnnAssign) and isinstance(b, ast.Expr) and isinstance(b.value, ast.Constant):
+            docs[a.target.id] = " ".join(str(b.value.value).split())
+    return docs
+
+
+def _settings_class():
+    docs = _docs()
+    ann = {}
+    for f in fields(Settings):
+        label = f.name.replace("_", " ").capitalize()
+        desc = docs.get(f.name, "")[:400]
+        if f.type in ("int", int):
+            ann[f.name] = IntProperty(name=label, description=desc, default=f.default, min=0)
+        else:
+            ann[f.name] = FloatProperty(name=label, description=desc, default=f.default, min=0.0)
+    return type("FOOTSTEP_PG_settings", (bpy.types.PropertyGroup,), {"__annotations__": ann})
+
+
+FOOTSTEP_PG_settings = _settings_class()
+
+
+def settings_from_props(pg) -> Settings:
+    return Settings(**{f.name: getattr(pg, f.name) for f in fields(Settings)})
+
+
+def _is_armature(self, ob):
+    return ob.type == "ARMATURE"
+
+
+class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
+    character: PointerProperty(name="Character", type=bpy.types.Object, poll=_is_armature,
+                               description="The armature the planner animates")
+    settings: PointerProperty(type=FOOTSTEP_PG_settings)
+    show_settings: BoolProperty(name="Settings", default=False)
+    last_report: StringProperty(name="Last report", description="Summary of the last run")
+
+
+def _edited(self, context):
+    arm = self.id_data
+    if not arm.footstep.syncing:
+        arm.footstep.library_edited = True
+
+
+class FOOTSTEP_PG_clip(bpy.types.PropertyGroup):
+    # ``name`` (built in) is the action's name
+    usage: EnumProperty(name="Use", items=USAGES, update=_edited)
+    gait: EnumProperty(name="Gait", items=GAIT_ITEMS[1:], update=_edited)
+    tau: FloatProperty(name="Tau", description="Path curvature 1/r (1/m), positive turning left",
+                       update=_edited)
+    speed: FloatProperty(name="Speed", unit="VELOCITY", update=_edited)
+    entry_gait: EnumProperty(name="Entry", items=GAIT_ITEMS, update=_edited)
+    exit_gait: EnumProperty(name="Exit", items=GAIT_ITEMS, update=_edited)
+    summary: StringProperty(name="Analysis", description="What the analysis found")
+
+
+def _armature_class():
+    ann = {
+        "clips": CollectionProperty(type=FOOTSTEP_PG_clip),
+        "clip_index": IntProperty(),
+        "library_edited": BoolProperty(
+            name="Edited", description="The clip library was edited by hand; Analyze keeps it"),
+        "syncing": BoolProperty(options={"HIDDEN", "SKIP_SAVE"}),
+    }
+    for role in ALL_ROLES:  # one bone picker per role; empty means automatic
+        ann[f"role_{role}"] = StringProperty(
+            name=role, description=f"Bone that plays the role {role!r}, set by hand "
+                                   "(empty: found automatically)")
+
+    def override(self, role: str) -> str:
+        return getattr(self, f"role_{role}")
+
+    def set_override(self, role: str, bone: str) -> None:
+        if role not in ALL_ROLES:
+            raise ValueError(f"unknown role {role!r}")
+        setattr(self, f"role_{role}", bone)
+
+    def overrides(self) -> dict[str, str]:
+        return {r: getattr(self, f"role_{r}") for r in ALL_ROLES if getattr(self, f"role_{r}")}
+
+    return type("FOOTSTEP_PG_armature", (bpy.types.PropertyGroup,), {
+        "__annotations__": ann, "override": override, "set_override": set_override,
+        "overrides": overrides})
+
+
+FOOTSTEP_PG_armature = _armature_class()
+
+
+CLASSES = (FOOTSTEP_PG_settings, FOOTSTEP_PG_scene, FOOTSTEP_PG_clip, FOOTSTEP_PG_armature)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.footstep = PointerProperty(type=FOOTSTEP_PG_scene)
+    bpy.types.Armature.footstep = PointerProperty(type=FOOTSTEP_PG_armature)
+
+
+def unregister():
+    del bpy.types.Armature.footstep
+    del bpy.types.Scene.footstep
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,146 @@
+"""A sampled clip: root motion separated from the pose, and the heel and toe points.
+
+Conventions: armature space of the clip's rig (Z up, metres); the clip's ground is the
+plane z = 0. Heading (yaw) is a rotation about +Z in radians, 0 when the character faces
+its rest-pose forward (for most rigs -Y), positive when turned to the character's left
+(counter-clockwise seen from above). Foot index 0 is the left foot, 1 the right.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.spatial.transform import Rotation
+
+from .rig import Rig, forward_kinematics
+
+SIDES = ("l", "r")
+FOOT_NAMES = ("L", "R")
+
+
+@dataclass(frozen=True)
+class ClipMotion:
+    """One clip sampled at ``fps``: everything the analysis and the planner read of it."""
+
+    name: str
+    fps: float
+    frame0: float  # scene frame of sample 0
+    times: np.ndarray  # (N,) seconds since sample 0
+    root_pos: np.ndarray  # (N, 3) ground-projected hips position (z = 0)
+    root_heading: np.ndarray  # (N,) unwrapped yaw of the character, radians
+    hips_in_root: np.ndarray  # (N, 4, 4) the hips' matrix in the root frame
+    local_rot: np.ndarray  # (N, B, 4) bone basis rotations, scipy (x, y, z, w) order
+    heel: np.ndarray  # (2, N, 3) heel point of each foot, armature space
+    toe: np.ndarray  # (2, N, 3) toe (ball) point of each foot
+    heel_local: np.ndarray  # (2, 4) heel point in the foot bone's frame (homogeneous)
+    toe_local: np.ndarray  # (2, 4)
+    rest_forward: np.ndarray  # (2,) the rig's rest-pose forward direction (x, y): heading 0
+    hips_index: int  # index of the hips bone in local_rot
+    source_fps: float | None = None
+    frame_rate: float | None = None  # scene frames per second (default: fps)
+
+    @property
+    def n(self) -> int:
+        return len(self.times)
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1] - self.times[0]) if self.n else 0.0
+
+    def frame_of(self, t):
+        """Scene frame at clip time ``t`` (seconds)."""
+        return self.frame0 + np.asarray(t) * (self.frame_rate or self.fps)
+
+    def root_matrices(self) -> np.ndarray:
+        """(N, 4, 4) root frames: translation root_pos, rotation root_heading about Z."""
+        return root_frames(self.root_pos, self.root_heading)
+
+    def resample(self, fps: float) -> "ClipMotion":
+        """The same clip at another rate: cubic splines for positions and headings, and the
+        nearest sample for bone rotations (only used for pose comparisons)."""
+        t_new = np.arange(0.0, self.duration + 0.5 / fps, 1.0 / fps)
+        t_new = t_new[t_new <= self.duration + 1e-9]
+        spline = lambda a, axis=0: CubicSpline(self.times, a, axis=axis)(t_new)  # noqa: E731
+        nearest = np.clip(np.rint(t_new * self.fps).astype(int), 0, self.n - 1)
+        return replace(
+            self,
+            fps=float(fps),
+            times=t_new,
+            root_pos=spline(self.root_pos),
+            root_heading=spline(self.root_heading),
+            hips_in_root=self.hips_in_root[nearest],
+            local_rot=self.local_rot[nearest],
+            heel=spline(self.heel, axis=1),
+            toe=spline(self.toe, axis=1),
+        )
+
+
+def root_frames(pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
+    c, s = np.cos(heading), np.sin(heading)
+    m = np.zeros((len(heading), 4, 4))
+    m[:, 0, 0], m[:, 0, 1], m[:, 1, 0], m[:, 1, 1] = c, -s, s, c
+    m[:, 2, 2] = m[:, 3, 3] = 1.0
+    m[:, :3, 3] = pos
+    return m
+
+
+def yaw_of(vec_xy: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """Yaw (radians) that turns the horizontal ``forward`` onto each vector (..., >=2)."""
+    return np.arctan2(vec_xy[..., 1], vec_xy[..., 0]) - np.arctan2(forward[1], forward[0])
+
+
+def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: float = 1.0,
+                source_fps: float | None = None, frame_rate: float | None = None) -> ClipMotion:
+    """Derive a ClipMotion from pose bases (N, B, 4, 4) sampled at ``fps``.
+
+    Root motion: the hips' head dropped to the ground, and the yaw of the character's
+    forward direction carried by the hips. Heel and toe points follow Johansen: the ankle
+    and the ball of each foot projected onto the ground at the foot's stance pose (the
+    frame where both are lowest), then carried rigidly with the foot bone.
+    """
+    rig.require_legs()
+    basis = np.asarray(basis, dtype=np.float64)
+    n = len(basis)
+    pose = forward_kinematics(rig, basis)
+    hips = rig.role_index("hips")
+    fwd = rig.forward_axis()
+    fwd_in_hips = np.linalg.inv(rig.rest[hips, :3, :3]) @ fwd
+    fwd_now = pose[:, hips, :3, :3] @ fwd_in_hips
+    heading = np.unwrap(yaw_of(fwd_now, fwd))
+    root_pos = pose[:, hips, :3, 3].copy()
+    root_pos[:, 2] = 0.0
+    roots = root_frames(root_pos, heading)
+    hips_in_root = np.linalg.inv(roots) @ pose[:, hips]
+
+    heel = np.empty((2, n, 3))
+    toe = np.empty((2, n, 3))
+    heel_local = np.empty((2, 4))
+    toe_local = np.empty((2, 4))
+    for k, side in enumerate(SIDES):
+        foot, _ = rig.foot_chain(side)
+        fm = pose[:, foot]
+        ankle = fm[:, :3, 3]
+        ball = (fm @ rig.ball_local(side))[:, :3]
+        low = np.maximum(ankle[:, 2] - ankle[:, 2].min(), ball[:, 2] - ball[:, 2].min())
+        s = int(np.argmin(low))
+        inv = np.linalg.inv(fm[s])
+        heel_local[k] = inv @ np.array([ankle[s, 0], ankle[s, 1], 0.0, 1.0])
+        toe_local[k] = inv @ np.array([ball[s, 0], ball[s, 1], 0.0, 1.0])
+        heel[k] = (fm @ heel_local[k])[:, :3]
+        toe[k] = (fm @ toe_local[k])[:, :3]
+
+    rot = Rotation.from_matrix(_unit_rot(basis[..., :3, :3]).reshape(-1, 3, 3)).as_quat()
+    return ClipMotion(
+        name=name, fps=float(fps), frame0=float(frame0), times=np.arange(n) / float(fps),
+        root_pos=root_pos, root_heading=heading, hips_in_root=hips_in_root,
+        local_rot=rot.reshape(n, -1, 4), heel=heel, toe=toe, heel_local=heel_local,
+        toe_local=toe_local, rest_forward=fwd[:2].copy(), hips_index=hips,
+        source_fps=source_fps, frame_rate=frame_rate,
+    )
+
+
+def _unit_rot(m: np.ndarray) -> np.ndarray:
+    """Strip scale from rotation-scale blocks (..., 3, 3)."""
+    return m / np.linalg.norm(m, axis=-2, keepdims=True)
