@@ -255,10 +255,14 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
         # searches start from its edges, so a heel wobbling while the foot pivots on
         # its ball (sharp turns) does not end the stance
         firm = []
-        for (a, b), i0 in zip(runs, ts):
+        for j, ((a, b), i0) in enumerate(zip(runs, ts)):
             ok = (low[a:b] <= low[i0] + s.firm_height) & (sc[a:b] < s.firm_speed)
             idx = np.flatnonzero(ok) + a
-            firm.append((int(idx[0]), int(idx[-1])) if len(idx) else (i0, i0))
+            if len(idx):
+                firm.append((int(idx[0]), int(idx[-1])))
+                ts[j] = int(idx[np.argmin(low[idx])])  # the stance lies in the firm part
+            else:
+                firm.append((i0, i0))
         dh = [gaussian_filter1d(y, sig, order=1, mode="nearest") for y in (hh, ht)]
         d2h = [gaussian_filter1d(y, sig, order=2, mode="nearest") for y in (hh, ht)]
         rev = [(y[::-1], -d[::-1], dd[::-1]) for y, d, dd in zip((hh, ht), dh, d2h)]
