@@ -67,7 +67,7 @@ def import_bvh_clips(paths, target=None, name: str | None = None, scale: float |
 
     ctx = bpy.context
     view_layer = ctx.view_layer
-    selected = [o for o in ctx.selected_objects]
+    selected = list(ctx.selected_objects)
     active = view_layer.objects.active
     created_objects, created_actions = [], []
     try:
@@ -102,8 +102,11 @@ def import_bvh_clips(paths, target=None, name: str | None = None, scale: float |
             _remove_object(ob)
         raise
     finally:
-        for o in ctx.view_layer.objects:
-            o.select_set(o in selected)
+        # put the user's selection back (the importer selects what it makes)
+        names = {o.name for o in selected}
+        for o in bpy.data.objects:
+            if o.name in view_layer.objects:
+                o.select_set(o.name in names)
         if active is not None and active.name in view_layer.objects:
             view_layer.objects.active = active
 
@@ -180,7 +183,9 @@ def _retarget(src_ob, src_act, target, sk):
     hips = roles.bone("hips")
     ratio = _hip_height(target, tgt_names, tgt_rest, hips) / _hip_height(src_ob, src_names, src_rest, hips)
 
-    act = bpy.data.actions.new(src_act.name)
+    name = src_act.name
+    src_act.name = "footstep_scratch"  # the importer's copy is scratch: free its name
+    act = bpy.data.actions.new(name)
     _tag_source(act, sk, target)
     slot = act.slots.new(id_type="OBJECT", name=target.name)
     cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)

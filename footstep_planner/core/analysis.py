@@ -245,7 +245,9 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
         v_toe = gaussian_filter1d(toe[:, :2], sig, axis=0, order=1, mode="nearest") / dt
         vc = v_heel + b[:, None] * (v_toe - v_heel)
         sc = np.linalg.norm(vc, axis=1)
-        down = (hc < np.percentile(hc, 2) + s.contact_height) & (sc < s.contact_speed)
+        # near the clip's ground (or the foot's lowest level, for feet that sink below it)
+        ground = min(float(np.percentile(hc, 2)), 0.0)
+        down = (hc < ground + s.contact_height) & (sc < s.contact_speed)
         runs = _clean_runs(down, max_gap, min_len)
         if not runs:
             continue

@@ -98,7 +98,8 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
     Root motion: the hips' head dropped to the ground, and the yaw of the character's
     forward direction carried by the hips. Heel and toe points follow Johansen: the ankle
     and the ball of each foot projected onto the ground at the foot's stance pose (the
-    frame where both are lowest), then carried rigidly with the foot bone.
+    frame where both are lowest), then carried rigidly with the foot bone. The drop is at
+    most ``MAX_SOLE_DROP`` of the leg's length.
     """
     rig.require_legs()
     basis = np.asarray(basis, dtype=np.float64)
@@ -114,6 +115,10 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
     roots = root_frames(root_pos, heading)
     hips_in_root = np.linalg.inv(roots) @ pose[:, hips]
 
+    # The ankle and ball are dropped onto the ground at most this far: a foot's sole lies
+    # a few centimetres below them, never a large part of the leg (a floating clip must
+    # not be grounded by the projection).
+    max_drop = MAX_SOLE_DROP * _leg_length(rig)
     heel = np.empty((2, n, 3))
     toe = np.empty((2, n, 3))
     heel_local = np.empty((2, 4))
@@ -126,8 +131,10 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
         low = np.maximum(ankle[:, 2] - ankle[:, 2].min(), ball[:, 2] - ball[:, 2].min())
         s = int(np.argmin(low))
         inv = np.linalg.inv(fm[s])
-        heel_local[k] = inv @ np.array([ankle[s, 0], ankle[s, 1], 0.0, 1.0])
-        toe_local[k] = inv @ np.array([ball[s, 0], ball[s, 1], 0.0, 1.0])
+        heel_z = ankle[s, 2] - min(max(ankle[s, 2], 0.0), max_drop)
+        toe_z = ball[s, 2] - min(max(ball[s, 2], 0.0), max_drop)
+        heel_local[k] = inv @ np.array([ankle[s, 0], ankle[s, 1], heel_z, 1.0])
+        toe_local[k] = inv @ np.array([ball[s, 0], ball[s, 1], toe_z, 1.0])
         heel[k] = (fm @ heel_local[k])[:, :3]
         toe[k] = (fm @ toe_local[k])[:, :3]
 
@@ -139,6 +146,20 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
         toe_local=toe_local, rest_forward=fwd[:2].copy(), hips_index=hips,
         source_fps=source_fps, frame_rate=frame_rate,
     )
+
+
+#: The largest drop from ankle or ball to the sole, as a fraction of the leg's length.
+MAX_SOLE_DROP = 0.2
+
+
+def _leg_length(rig: Rig) -> float:
+    """Rest distance from thigh head to foot head, the longer leg."""
+    out = 0.0
+    for side in SIDES:
+        a = rig.rest[rig.role_index(f"thigh_{side}"), :3, 3]
+        b = rig.rest[rig.role_index(f"foot_{side}"), :3, 3]
+        out = max(out, float(np.linalg.norm(a - b)))
+    return out
 
 
 def _unit_rot(m: np.ndarray) -> np.ndarray:
