@@ -1,0 +1,158 @@
+"""The command line: verbs, --help, JSON, and bad input (one clear line, no traceback)."""
+
+import json
+import os
+import subprocess
+import sys
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from bvh_files import broken_variants, edit_frames, legless
+from conftest import ROOT, cmu, needs_cmu
+
+
+@pytest.fixture
+def cli(fp, empty_scene):
+    return import_module(fp.__name__ + ".blender.cli").cli_main
+
+
+@pytest.mark.parametrize("verb", [[], ["import-clips"], ["analyze"], ["demo"]])
+def test_help_on_every_verb(cli, capsys, verb):
+    assert cli(verb + ["--help"]) == 0
+    out = capsys.readouterr().out
+    assert "usage: footstep" in out and "--help" in out
+
+
+def test_unknown_verb_is_a_usage_error(cli, capsys):
+    assert cli(["fly"]) == 2
+    assert "invalid choice" in capsys.readouterr().err
+
+
+@needs_cmu
+def test_import_then_analyze_a_library_blend(cli, capsys, tmp_path):
+    lib = str(tmp_path / "lib.blend")
+    assert cli(["import-clips", "--out", lib, "--name", "Subject16", cmu("16_16"), cmu("16_35")]) == 0
+    assert os.path.isfile(lib)
+    capsys.readouterr()
+    assert cli(["analyze", lib, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    (char,) = doc["characters"]
+    assert char["armature"] == "Subject16"
+    clips = {c["name"]: c for c in char["clips"]}
+    assert set(clips) == {"cmu_16_16_walk", "cmu_16_35_run_jog"}
+    walk = clips["cmu_16_16_walk"]
+    for key in ("fps", "frames", "gait", "speed", "stride", "cycle", "tau", "feet", "footprints"):
+        assert key in walk
+    # the file's scene took the first file's rate: contact intervals are in its frames
+    assert walk["fps"] == 120 and walk["frames"] == 510
+    contacts = walk["feet"]["L"]["contacts"]
+    assert all(1 <= a < b <= 510 for a, b in contacts) and len(contacts) >= 3
+    fp0 = walk["footprints"][1]
+    assert {"foot", "position", "heading", "time", "frame", "heel", "toe", "strike"} <= set(fp0)
+    assert char["library"]["turn_groups"]["walk"]["clips"][0]["clip"] == "cmu_16_16_walk"
+
+
+@needs_cmu
+def test_analyze_at_another_rate_and_with_a_setting(cli, capsys):
+    assert cli(["analyze", cmu("16_16"), "--fps", "30", "--set", "contact_height=0.07", "--json"]) == 0
+    (walk,) = json.loads(capsys.readouterr().out)["clips"]
+    assert walk["fps"] == 30 and walk["frames"] == 128
+    assert walk["gait"] == "walk" and walk["speed"] == pytest.approx(1.02, rel=0.05)
+
+
+@needs_cmu
+def test_the_table(cli, capsys):
+    assert cli(["analyze", cmu("16_16"), cmu("49_05")]) == 0
+    out = capsys.readouterr().out
+    assert "cmu_16_16_walk" in out and "cmu_49_05_run_leap_run" in out and "jump" in out
+
+
+@needs_cmu
+def test_plots(cli, tmp_path):
+    pytest.importorskip("matplotlib")
+    assert cli(["analyze", cmu("16_35"), "--plot", str(tmp_path)]) == 0
+    assert os.path.getsize(tmp_path / "cmu_16_35_run_jog.png") > 10_000
+
+
+def _one_error_line(capsys):
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("footstep: error: "), err
+    assert "Traceback" not in err[0]
+    return err[0]
+
+
+@needs_cmu
+@pytest.mark.parametrize("kind", ["not_bvh", "bad_channels", "truncated_motion", "not_a_number",
+                                  "short_line", "unclosed", "empty"])
+def test_malformed_bvh(cli, capsys, tmp_path, kind):
+    path = broken_variants(cmu("16_35"), str(tmp_path))[kind]
+    assert cli(["analyze", path]) == 2
+    assert os.path.basename(path) in _one_error_line(capsys)
+
+
+def test_missing_file(cli, capsys, tmp_path):
+    assert cli(["analyze", str(tmp_path / "nope.bvh")]) == 2
+    line = _one_error_line(capsys)
+    assert "nope.bvh" in line and "no such file" in line
+    assert cli(["analyze", str(tmp_path / "nope.blend")]) == 2
+    assert "nope.blend" in _one_error_line(capsys)
+
+
+def test_skeleton_without_legs(cli, capsys, tmp_path):
+    path = legless(str(tmp_path / "armsonly.bvh"))
+    assert cli(["analyze", path]) == 2
+    line = _one_error_line(capsys)
+    assert "armsonly.bvh" in line and "thigh_l" in line and "foot_r" in line
+
+
+@needs_cmu
+def test_clip_with_no_foot_on_the_ground(cli, capsys, tmp_path):
+    path = edit_frames(cmu("16_16"), str(tmp_path / "floating.bvh"),
+                       lambda d: d + np.r_[0, 60.0, 0, np.zeros(d.shape[1] - 3)])
+    assert cli(["analyze", path]) == 1
+    line = _one_error_line(capsys)
+    assert "'floating'" in line and "no foot ever touches the ground" in line
+
+
+@needs_cmu
+def test_clip_too_short_for_a_cycle(cli, capsys, tmp_path):
+    path = edit_frames(cmu("16_16"), str(tmp_path / "snippet.bvh"), lambda d: d[150:230])
+    assert cli(["analyze", path]) == 1
+    line = _one_error_line(capsys)
+    assert "'snippet'" in line and "too short" in line
+
+
+@needs_cmu
+def test_failed_import_into_a_file_saves_nothing_and_changes_nothing(cli, capsys, tmp_path):
+    import bpy
+
+    lib = str(tmp_path / "lib.blend")
+    assert cli(["import-clips", "--out", lib, "--name", "Hero", cmu("16_16")]) == 0
+    size = os.path.getsize(lib)
+    out = str(tmp_path / "out.blend")
+    capsys.readouterr()
+    assert cli(["import-clips", "--blend", lib, "--into", "Hero", "--out", out, cmu("16_35"),
+                legless(str(tmp_path / "armsonly.bvh"))]) == 2
+    assert "armsonly.bvh" in _one_error_line(capsys)
+    assert not os.path.exists(out) and os.path.getsize(lib) == size
+    assert sorted(a.name for a in bpy.data.actions) == ["cmu_16_16_walk"]
+    assert cli(["import-clips", "--blend", lib, "--into", "Nobody", "--out", out, cmu("16_35")]) == 2
+    assert "'Nobody'" in _one_error_line(capsys)
+
+
+@needs_cmu
+def test_python_dash_m_runs_the_same_verbs(tmp_path):
+    """The real entry point, in its own process: clean JSON on stdout, exit codes."""
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    env.pop("BLENDER_USER_RESOURCES", None)
+    env["BLENDER_USER_RESOURCES"] = str(tmp_path / "res")
+    run = lambda *a: subprocess.run([sys.executable, "-m", "footstep_planner", *a], cwd=ROOT,  # noqa: E731
+                                    env=env, capture_output=True, text=True, timeout=120)
+    ok = run("analyze", cmu("16_35"), "--json")
+    assert ok.returncode == 0, ok.stderr
+    (clip,) = json.loads(ok.stdout)["clips"]
+    assert clip["gait"] == "run"
+    bad = run("analyze", str(tmp_path / "missing.bvh"))
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr and "missing.bvh" in bad.stderr
