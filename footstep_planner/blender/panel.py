@@ -65,12 +65,13 @@ def _draw_roles(layout, ob):
     for role in ALL_ROLES:
         row = col.row(align=True)
         bone = roles.roles.get(role, "")
-        split = row.split(factor=0.3, align=True)
+        split = row.split(factor=0.28, align=True)
         split.label(text=role + ("" if role in REQUIRED_ROLES else " (opt.)"),
                     icon="CHECKMARK" if bone else ("ERROR" if role in REQUIRED_ROLES else "BLANK1"))
-        # the automatic choice shows as the placeholder; picking a bone overrides it
-        split.prop_search(props, f"role_{role}", ob.data, "bones",
-                          text="", placeholder=f"{bone or '-'} ({roles.how.get(role, 'unmapped')})")
+        split = split.split(factor=0.5, align=True)
+        split.label(text=f"{bone or '-'} ({roles.how.get(role, 'unmapped')})")
+        # picking a bone here overrides the automatic choice; clearing it restores it
+        split.prop_search(props, f"role_{role}", ob.data, "bones", text="")
 
 
 def _draw_clips(layout, ob):

@@ -53,7 +53,13 @@ FOOTSTEP_PG_settings = _settings_class()
 
 
 def settings_from_props(pg) -> Settings:
-    return Settings(**{f.name: getattr(pg, f.name) for f in fields(Settings)})
+    """The Settings a panel holds. Blender keeps floats in single precision: 7 significant
+    digits are read back, so the thesis's 0.3 stays 0.3."""
+    values = {}
+    for f in fields(Settings):
+        v = getattr(pg, f.name)
+        values[f.name] = v if isinstance(v, int) else float(f"{v:.7g}")
+    return Settings(**values)
 
 
 def _is_armature(self, ob):

@@ -1,0 +1,120 @@
+"""The sidebar panel (drawn into a recording stub) and the operators behind it."""
+
+from importlib import import_module
+
+import pytest
+
+from conftest import cmu, needs_cmu
+
+
+class Recorder:
+    """Stands in for a UILayout: checks each call against the real UILayout's RNA
+    signature (so a keyword Blender 5.0 lacks fails here, not in the user's viewport),
+    records it, and returns a recorder for sub-layouts."""
+
+    def __init__(self, log=None):
+        self.log = [] if log is None else log
+
+    def __getattr__(self, name):
+        import bpy
+
+        fn = bpy.types.UILayout.bl_rna.functions.get(name)
+        assert fn is not None, f"UILayout has no {name}()"
+        params = [p.identifier for p in fn.parameters if not p.is_output]
+
+        def call(*args, **kwargs):
+            unknown = set(kwargs) - set(params)
+            assert not unknown, f"UILayout.{name}() has no parameter {unknown}"
+            assert len(args) <= len(params), f"UILayout.{name}(): too many arguments"
+            self.log.append((name, args, kwargs))
+            return Recorder(self.log)
+        return call
+
+    def __setattr__(self, name, value):
+        if name == "log":
+            object.__setattr__(self, name, value)
+
+
+def _draw(fp, context):
+    import bpy
+
+    panel = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_PT_main
+    stub = Recorder()
+    panel.draw(type("P", (), {"layout": stub})(), context)
+    return stub.log
+
+
+def test_panel_without_a_character_offers_import(fp, empty_scene):
+    import bpy
+
+    log = _draw(fp, bpy.context)
+    ops = [a[0] for name, a, _ in log if name == "operator"]
+    assert "footstep.import_clips" in ops
+
+
+@needs_cmu
+def test_import_analyze_edit_and_reset_the_library(fp, empty_scene):
+    import bpy
+
+    empty_scene.render.fps = 30
+    d = cmu("16_16").rsplit("/", 1)[0]
+    files = [{"name": n} for n in ("cmu_16_16_walk.bvh", "cmu_16_35_run_jog.bvh", "cmu_49_05_run_leap_run.bvh")]
+    assert bpy.ops.footstep.import_clips(directory=d, files=files, target="NEW") == {"FINISHED"}
+    ob = empty_scene.footstep.character
+    assert ob is not None and ob.type == "ARMATURE"
+    props = ob.data.footstep
+    usage = {c.name: c.usage for c in props.clips}
+    assert usage == {"cmu_16_16_walk": "TURN", "cmu_16_35_run_jog": "TURN", "cmu_49_05_run_leap_run": "JUMP"}
+    assert not props.library_edited
+    assert "walk" in props.clips["cmu_16_16_walk"].summary
+
+    # the panel shows roles (with bone pickers) and the clip list
+    log = _draw(fp, bpy.context)
+    searched = [a[1] for name, a, _ in log if name == "prop_search"]
+    assert "role_thigh_l" in searched and "role_foot_r" in searched
+    assert any(name == "template_list" for name, _, _ in log)
+    ul = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_UL_clips
+    for item in props.clips:
+        rows = Recorder()
+        ul.draw_item(None, bpy.context, rows, props, item, 0, props, "clip_index", 0)
+        assert any(name == "prop" for name, _, _ in rows.log)
+
+    # the user edits: the leap is excluded; analysing again keeps the edit
+    props.clips["cmu_49_05_run_leap_run"].usage = "EXCLUDED"
+    assert props.library_edited
+    assert bpy.ops.footstep.analyze_clips() == {"FINISHED"}
+    assert props.clips["cmu_49_05_run_leap_run"].usage == "EXCLUDED"
+    character = import_module(fp.__name__ + ".blender.character")
+    lib = character.read_library(ob)
+    assert lib.excluded == ["cmu_49_05_run_leap_run"] and lib.edited
+    # ... until reset to the proposal
+    assert bpy.ops.footstep.analyze_clips(reset=True) == {"FINISHED"}
+    assert props.clips["cmu_49_05_run_leap_run"].usage == "JUMP" and not props.library_edited
+
+
+@needs_cmu
+def test_roles_set_by_hand_override_the_mapping(fp, empty_scene):
+    scene_mod = import_module(fp.__name__ + ".blender.scene")
+    clips = import_module(fp.__name__ + ".blender.clips")
+    ob, _ = clips.import_bvh_clips([cmu("16_16")])
+    assert scene_mod.rig_from_armature(ob).roles.roles["toe_l"] == "LeftToeBase"
+    ob.data.footstep.set_override("toe_l", "LeftFoot")
+    ob.data.footstep.set_override("toe_l", "")
+    ob.data.footstep.role_thigh_l = "LHipJoint"
+    rig = scene_mod.rig_from_armature(ob)
+    assert rig.roles.roles["thigh_l"] == "LHipJoint" and rig.roles.how["thigh_l"] == "manual"
+    ob.data.footstep.role_thigh_l = "NoSuchBone"
+    with pytest.raises(Exception, match="NoSuchBone"):
+        scene_mod.rig_from_armature(ob)
+
+
+def test_settings_props_mirror_the_dataclass(fp, empty_scene):
+    props = import_module(fp.__name__ + ".blender.props")
+    Settings = import_module(fp.__name__ + ".core.settings").Settings
+    pg = empty_scene.footstep.settings
+    s = props.settings_from_props(pg)
+    assert s == Settings()
+    pg.smoothing_iterations = 6
+    pg.speed_sigma = 3.0
+    assert props.settings_from_props(pg) == Settings(smoothing_iterations=6, speed_sigma=3.0)
+    assert "Footsteps taken" in pg.bl_rna.properties["speed_sigma"].description
