@@ -206,7 +206,7 @@ def synthetic_gait(speed=1.2, stride=1.4, curvature=0.0, duty=0.62, fps=120.0, c
     motion = ClipMotion(
         name=name, fps=fps, frame0=1.0, times=t, root_pos=root_pos,
         root_heading=root_heading, hips_in_root=np.tile(np.eye(4), (n, 1, 1)),
-        local_rot=np.tile(np.array([0.0, 0.0, 0.0, 1.0]), (n, 1, 1)),
+        local_rot=np.tile(np.eye(3), (n, 1, 1, 1)),
         heel=heel, toe=toe,
         heel_local=np.array([[0.0, 0.0, 0.0, 1.0]] * 2),
         toe_local=np.array([[0.0, 0.1, 0.0, 1.0]] * 2),

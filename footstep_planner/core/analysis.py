@@ -487,8 +487,8 @@ def _pose_error(m: ClipMotion, a: float, b: float) -> float:
     """Mean rotation angle between the bone poses at times a and b (root motion removed)."""
     ia = int(np.clip(round(a * m.fps), 0, m.n - 1))
     ib = int(np.clip(round(b * m.fps), 0, m.n - 1))
-    dot = np.abs(np.einsum("bi,bi->b", m.local_rot[ia], m.local_rot[ib])).clip(0, 1)
-    ang = 2 * np.arccos(dot)
+    trace = np.einsum("bij,bij->b", m.local_rot[ia], m.local_rot[ib])  # trace(Ra^T Rb)
+    ang = np.arccos(np.clip((trace - 1) / 2, -1, 1))
     # the hips' rotation relative to the root replaces its own (heading-carrying) rotation
     ha, hb = m.hips_in_root[ia, :3, :3], m.hips_in_root[ib, :3, :3]
     ang[m.hips_index] = np.arccos(np.clip((np.trace(ha.T @ hb) - 1) / 2, -1, 1))

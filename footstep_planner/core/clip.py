@@ -12,7 +12,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.interpolate import CubicSpline
-from scipy.spatial.transform import Rotation
 
 from .rig import Rig, forward_kinematics
 
@@ -31,7 +30,7 @@ class ClipMotion:
     root_pos: np.ndarray  # (N, 3) ground-projected hips position (z = 0)
     root_heading: np.ndarray  # (N,) unwrapped yaw of the character, radians
     hips_in_root: np.ndarray  # (N, 4, 4) the hips' matrix in the root frame
-    local_rot: np.ndarray  # (N, B, 4) bone basis rotations, scipy (x, y, z, w) order
+    local_rot: np.ndarray  # (N, B, 3, 3) bone basis rotations (scale removed)
     heel: np.ndarray  # (2, N, 3) heel point of each foot, armature space
     toe: np.ndarray  # (2, N, 3) toe (ball) point of each foot
     heel_local: np.ndarray  # (2, 4) heel point in the foot bone's frame (homogeneous)
@@ -138,11 +137,10 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
         heel[k] = (fm @ heel_local[k])[:, :3]
         toe[k] = (fm @ toe_local[k])[:, :3]
 
-    rot = Rotation.from_matrix(_unit_rot(basis[..., :3, :3]).reshape(-1, 3, 3)).as_quat()
     return ClipMotion(
         name=name, fps=float(fps), frame0=float(frame0), times=np.arange(n) / float(fps),
         root_pos=root_pos, root_heading=heading, hips_in_root=hips_in_root,
-        local_rot=rot.reshape(n, -1, 4), heel=heel, toe=toe, heel_local=heel_local,
+        local_rot=_unit_rot(basis[..., :3, :3]), heel=heel, toe=toe, heel_local=heel_local,
         toe_local=toe_local, rest_forward=fwd[:2].copy(), hips_index=hips,
         source_fps=source_fps, frame_rate=frame_rate,
     )
