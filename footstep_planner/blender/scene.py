@@ -6,8 +6,6 @@ Nothing here changes the user's data: sampling an action poses the armature thro
 
 from __future__ import annotations
 
-import json
-
 import bpy
 import numpy as np
 
@@ -140,8 +138,3 @@ def _bone_of(path: str) -> str | None:
     if path.startswith('pose.bones["'):
         return path[len('pose.bones["'):].split('"]', 1)[0].replace('\\"', '"')
     return None
-
-
-def stored_json(idblock, key: str):
-    raw = idblock.get(key)
-    return json.loads(raw) if raw else None

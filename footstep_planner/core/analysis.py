@@ -220,7 +220,6 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
     t = dense.times
     n = len(t)
     dt = 1.0 / rate
-    max_gap, min_len = int(round(0.06 / dt)), max(2, int(round(0.04 / dt)))
 
     root_v = np.gradient(dense.root_pos[:, :2], dt, axis=0)
     body_speed = np.linalg.norm(root_v, axis=1)
@@ -231,99 +230,12 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
     stances: list[Stance] = []
     lowest = []
     for k in range(2):
-        heel, toe = dense.heel[k], dense.toe[k]
-        hh, ht = heel[:, 2], toe[:, 2]
-        # Johansen's balance: the toe's weight grows as the heel rises above the toe
-        b = np.clip(0.5 + (hh - ht) / 0.04, 0.0, 1.0)
-        balance[k] = b
-        hc = np.minimum(hh, ht)
-        lowest.append(float(hc.min()))
-        # velocity of the part that is down: the heel's and toe's velocities blended by
-        # the balance (differentiating the blended point would add the roll-off itself)
-        sig = s.derivative_smoothing / dt
-        v_heel = gaussian_filter1d(heel[:, :2], sig, axis=0, order=1, mode="nearest") / dt
-        v_toe = gaussian_filter1d(toe[:, :2], sig, axis=0, order=1, mode="nearest") / dt
-        vc = v_heel + b[:, None] * (v_toe - v_heel)
-        sc = np.linalg.norm(vc, axis=1)
-        # near the clip's ground (or the foot's lowest level, for feet that sink below it)
-        ground = min(float(np.percentile(hc, 2)), 0.0)
-        down = (hc < ground + s.contact_height) & (sc < s.contact_speed)
-        runs = _clean_runs(down, max_gap, min_len)
-        if not runs:
-            continue
-        low = np.maximum(hh, ht)
-        ts = [a + int(np.argmin(low[a:b])) for a, b in runs]
-        # the firm part of each stance: heel and toe both near their lowest; Johansen's
-        # searches start from its edges, so a heel wobbling while the foot pivots on
-        # its ball (sharp turns) does not end the stance
-        firm = []
-        for j, ((a, b), i0) in enumerate(zip(runs, ts)):
-            ok = (low[a:b] <= low[i0] + s.firm_height) & (sc[a:b] < s.firm_speed)
-            idx = np.flatnonzero(ok) + a
-            if len(idx):
-                firm.append((int(idx[0]), int(idx[-1])))
-                ts[j] = int(idx[np.argmin(low[idx])])  # the stance lies in the firm part
-            else:
-                firm.append((i0, i0))
-        dh = [gaussian_filter1d(y, sig, order=1, mode="nearest") for y in (hh, ht)]
-        d2h = [gaussian_filter1d(y, sig, order=2, mode="nearest") for y in (hh, ht)]
-        rev = [(y[::-1], -d[::-1], dd[::-1]) for y, d, dd in zip((hh, ht), dh, d2h)]
-        foot_stances = []
-        for j, i0 in enumerate(ts):
-            fa, fb = firm[j]
-            nxt = firm[j + 1][0] if j + 1 < len(ts) else n
-            prv = firm[j - 1][1] if j > 0 else -1
-            rises = [_rise_index(y, d, dd, fb, nxt, s) for y, d, dd in zip((hh, ht), dh, d2h)]
-            touches = [_flip(_rise_index(y, d, dd, n - 1 - fa, n - 1 - prv, s), n)
-                       for y, d, dd in rev]
-            thr = max(s.slip_tolerance * body_speed_s[i0], s.slip_min_speed)
-            ref = np.median(vc[fa:fb + 1], axis=0)
-            devm = np.linalg.norm(vc - ref, axis=1)
-            fwd = np.flatnonzero(devm[fb:nxt] > thr)
-            bwd = np.flatnonzero(devm[prv + 1:fa + 1] > thr)
-            slip_f = _crossing(devm, fb + fwd[0], -1, thr) if len(fwd) else None
-            slip_b = _crossing(devm, prv + 1 + bwd[-1], +1, thr) if len(bwd) else None
-            r = [x for x in rises if x is not None]
-            lift, liftoff = (min(r), max(r)) if r else (None, None)
-            if slip_f is not None and (liftoff is None or slip_f < liftoff):
-                liftoff = slip_f
-                lift = slip_f if lift is None else min(lift, slip_f)
-            tt = [x for x in touches if x is not None]
-            strike, land = (min(tt), max(tt)) if tt else (None, None)
-            if slip_b is not None and (strike is None or slip_b > strike):
-                strike = slip_b
-                land = slip_b if land is None else max(land, slip_b)
-            open_start, open_end = strike is None, liftoff is None
-            strike = 0.0 if strike is None else strike
-            land = 0.0 if land is None else land
-            liftoff = float(n - 1) if liftoff is None else liftoff
-            lift = float(n - 1) if lift is None else lift
-            # the very first stance starts at the clip start if the foot is down there
-            if j == 0 and runs[0][0] == 0 and (touches[0] is None and touches[1] is None):
-                open_start = True
-            foot_stances.append([k, i0, strike, land, lift, liftoff, open_start, open_end])
-        # a foot that never left the ground between two stances stood all along: merge
-        merged = []
-        for st in foot_stances:
-            if merged and (merged[-1][7] or st[2] <= merged[-1][5]):
-                prev = merged[-1]
-                prev[4], prev[5], prev[7] = st[4], st[5], st[7]
-                continue
-            merged.append(st)
-        for k_, i0, strike, land, lift, liftoff, o_s, o_e in merged:
-            contact[k] |= (np.arange(n) >= strike) & (np.arange(n) <= liftoff)
-            lo, hi = int(np.ceil(min(land, i0))), int(np.floor(max(lift, i0)))
-            heel_p = np.median(heel[lo:hi + 1], axis=0)
-            toe_p = np.median(toe[lo:hi + 1], axis=0)
-            d = toe_p - heel_p
-            fwd_axis = dense.rest_forward
-            heading = float(np.arctan2(d[1], d[0]) - np.arctan2(fwd_axis[1], fwd_axis[0]))
-            heading = (heading + np.pi) % (2 * np.pi) - np.pi
-            si = int(np.clip(round(strike), 0, n - 1))
-            part = None if o_s else ("heel" if hh[si] <= ht[si] else "toe")
-            fp = Footprint(k, float(t[i0]), 0.5 * (heel_p + toe_p), heading, heel_p, toe_p, part)
-            stances.append(Stance(k, float(t[i0]), strike * dt, land * dt, lift * dt,
-                                  liftoff * dt, o_s, o_e, fp))
+        foot = _foot_stances(dense, k, body_speed_s, s)
+        balance[k] = foot.balance
+        lowest.append(foot.lowest)
+        for st in foot.stances:
+            contact[k] |= (t >= st.strike - 1e-9) & (t <= st.liftoff + 1e-9)
+        stances += foot.stances
     if not stances:
         raise AnalysisError(
             f"clip {name!r}: no foot ever touches the ground (the lowest heel or toe is "
@@ -447,6 +359,109 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
         cadence=cadence, tau=tau, best_cycle=best, loop_error=loop_error, is_loop=is_loop,
         stances=stances, flights=flights, jump_flights=jumps, balance=balance[:, idx],
         contact=contact[:, idx], motion=motion)
+
+
+@dataclass
+class _Foot:
+    stances: list[Stance]
+    balance: np.ndarray  # (N,) toe weight
+    lowest: float  # lowest of heel and toe, m
+
+
+def _foot_stances(dense: ClipMotion, k: int, body_speed: np.ndarray, s: Settings) -> _Foot:
+    """The stances of foot ``k`` on the densely resampled clip (Johansen's rules)."""
+    t = dense.times
+    n = len(t)
+    dt = t[1] - t[0]
+    heel, toe = dense.heel[k], dense.toe[k]
+    hh, ht = heel[:, 2], toe[:, 2]
+    # Johansen's balance: the toe's weight grows as the heel rises above the toe
+    b = np.clip(0.5 + (hh - ht) / s.balance_band, 0.0, 1.0)
+    hc = np.minimum(hh, ht)
+    # velocity of the part that is down: the heel's and toe's velocities blended by the
+    # balance (differentiating the blended point would add the roll-off itself)
+    sig = s.derivative_smoothing / dt
+    v_heel = gaussian_filter1d(heel[:, :2], sig, axis=0, order=1, mode="nearest") / dt
+    v_toe = gaussian_filter1d(toe[:, :2], sig, axis=0, order=1, mode="nearest") / dt
+    vc = v_heel + b[:, None] * (v_toe - v_heel)
+    sc = np.linalg.norm(vc, axis=1)
+    out = _Foot([], b, float(hc.min()))
+
+    # seeds: near the clip's ground (or the foot's lowest level, for feet that sink
+    # below it) and slow
+    ground = min(float(np.percentile(hc, 2)), 0.0)
+    down = (hc < ground + s.contact_height) & (sc < s.contact_speed)
+    runs = _clean_runs(down, int(round(0.06 / dt)), max(2, int(round(0.04 / dt))))
+    if not runs:
+        return out
+    # the firm part of each stance: heel and toe both near their lowest, the foot slow.
+    # Johansen's searches start from its edges, so a heel wobbling while the foot pivots
+    # on its ball (sharp turns) does not end the stance; the stance time lies inside it.
+    low = np.maximum(hh, ht)
+    firm, ts = [], []
+    for a, e in runs:
+        i0 = a + int(np.argmin(low[a:e]))
+        ok = (low[a:e] <= low[i0] + s.firm_height) & (sc[a:e] < s.firm_speed)
+        idx = np.flatnonzero(ok) + a
+        if len(idx):
+            firm.append((int(idx[0]), int(idx[-1])))
+            i0 = int(idx[np.argmin(low[idx])])
+        else:
+            firm.append((i0, i0))
+        ts.append(i0)
+
+    curves = [(y, gaussian_filter1d(y, sig, order=1, mode="nearest"),
+               gaussian_filter1d(y, sig, order=2, mode="nearest")) for y in (hh, ht)]
+    reverse = [(y[::-1], -d[::-1], dd[::-1]) for y, d, dd in curves]
+    found = []  # [stance, strike, land, lift, liftoff, open_start, open_end], in samples
+    for j, i0 in enumerate(ts):
+        fa, fb = firm[j]
+        nxt = firm[j + 1][0] if j + 1 < len(ts) else n
+        prv = firm[j - 1][1] if j > 0 else -1
+        rises = [x for x in (_rise_index(*c, fb, nxt, s) for c in curves) if x is not None]
+        touches = [x for x in (_flip(_rise_index(*c, n - 1 - fa, n - 1 - prv, s), n)
+                               for c in reverse) if x is not None]
+        # Johansen's horizontal check: the foot has left (not yet reached) the ground
+        # where its speed departs from its speed while firmly planted
+        thr = max(s.slip_tolerance * body_speed[i0], s.slip_min_speed)
+        dev = np.linalg.norm(vc - np.median(vc[fa:fb + 1], axis=0), axis=1)
+        fwd = np.flatnonzero(dev[fb:nxt] > thr)
+        bwd = np.flatnonzero(dev[prv + 1:fa + 1] > thr)
+        slip_f = _crossing(dev, fb + fwd[0], -1, thr) if len(fwd) else None
+        slip_b = _crossing(dev, prv + 1 + bwd[-1], +1, thr) if len(bwd) else None
+        lift, liftoff = (min(rises), max(rises)) if rises else (None, None)
+        if slip_f is not None and (liftoff is None or slip_f < liftoff):
+            liftoff = slip_f
+            lift = slip_f if lift is None else min(lift, slip_f)
+        strike, land = (min(touches), max(touches)) if touches else (None, None)
+        if slip_b is not None and (strike is None or slip_b > strike):
+            strike = slip_b
+            land = slip_b if land is None else max(land, slip_b)
+        found.append([i0, 0.0 if strike is None else strike, 0.0 if land is None else land,
+                      float(n - 1) if lift is None else lift,
+                      float(n - 1) if liftoff is None else liftoff,
+                      strike is None, liftoff is None])
+    # a foot that never left the ground between two stances stood all along: merge
+    merged = []
+    for st in found:
+        if merged and (merged[-1][6] or st[1] <= merged[-1][4]):
+            merged[-1][3], merged[-1][4], merged[-1][6] = st[3], st[4], st[6]
+        else:
+            merged.append(st)
+
+    fwd_angle = np.arctan2(dense.rest_forward[1], dense.rest_forward[0])
+    for i0, strike, land, lift, liftoff, o_s, o_e in merged:
+        lo, hi = int(np.ceil(min(land, i0))), int(np.floor(max(lift, i0)))
+        heel_p = np.median(heel[lo:hi + 1], axis=0)
+        toe_p = np.median(toe[lo:hi + 1], axis=0)
+        d = toe_p - heel_p
+        heading = float((np.arctan2(d[1], d[0]) - fwd_angle + np.pi) % (2 * np.pi) - np.pi)
+        si = int(np.clip(round(strike), 0, n - 1))
+        part = None if o_s else ("heel" if hh[si] <= ht[si] else "toe")
+        fp = Footprint(k, float(t[i0]), 0.5 * (heel_p + toe_p), heading, heel_p, toe_p, part)
+        out.stances.append(Stance(k, float(t[i0]), strike * dt, land * dt, lift * dt,
+                                  liftoff * dt, o_s, o_e, fp))
+    return out
 
 
 def _gaps(intervals, lo, hi):

@@ -120,18 +120,3 @@ def forward_kinematics(rig: Rig, basis: np.ndarray) -> np.ndarray:
         p = rig.parents[b]
         pose[:, b] = local[:, b] if p < 0 else pose[:, p] @ local[:, b]
     return pose
-
-
-def basis_from_components(loc: np.ndarray, quat_wxyz: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
-    """Pose basis matrices (..., 4, 4) from location (..., 3), quaternion (..., 4) in
-    Blender's (w, x, y, z) order and optional scale (..., 3)."""
-    from scipy.spatial.transform import Rotation
-
-    q = np.asarray(quat_wxyz, dtype=np.float64)
-    shape = q.shape[:-1]
-    rot = Rotation.from_quat(q.reshape(-1, 4)[:, [1, 2, 3, 0]]).as_matrix().reshape(*shape, 3, 3)
-    m = np.zeros((*shape, 4, 4))
-    m[..., :3, :3] = rot if scale is None else rot * np.asarray(scale)[..., None, :]
-    m[..., :3, 3] = loc
-    m[..., 3, 3] = 1.0
-    return m

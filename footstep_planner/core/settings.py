@@ -19,6 +19,9 @@ class Settings:
     """m. A foot point lower than this above its lowest level in the clip may be in contact."""
     contact_speed: float = 1.0
     """m/s. A foot point slower than this (horizontally) may be in contact."""
+    balance_band: float = 0.04
+    """m. Johansen's heel/toe balance moves from heel to toe while the heel rises this much
+    more than the toe (a half of it either side of level)."""
     firm_speed: float = 0.35
     """m/s. ... and while it moves (horizontally) slower than this."""
     firm_height: float = 0.03
