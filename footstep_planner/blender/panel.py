@@ -88,7 +88,47 @@ def _draw_clips(layout, ob):
         box.operator("footstep.analyze_clips", text="Reset to Proposal").reset = True
 
 
-CLASSES = (FOOTSTEP_UL_clips, FOOTSTEP_PT_main)
+class FOOTSTEP_PT_object_surface(bpy.types.Panel):
+    """Object Properties > Footstep: tag a mesh as traversable or an obstacle."""
+
+    bl_label = "Footstep"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "object"
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.object.type == "MESH"
+
+    def draw(self, context):
+        from .surfaces import effective_tag
+
+        ob = context.object
+        self.layout.prop(ob.footstep, "surface", text="Surface")
+        if ob.footstep.surface == "NONE":
+            tag = effective_tag(ob, context.scene)
+            if tag != "NONE":
+                self.layout.label(text=f"{tag.capitalize()} by its collection", icon="INFO")
+
+
+class FOOTSTEP_PT_collection_surface(bpy.types.Panel):
+    """Collection Properties > Footstep: a tag its objects inherit."""
+
+    bl_label = "Footstep"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "collection"
+
+    @classmethod
+    def poll(cls, context):
+        return getattr(context, "collection", None) is not None
+
+    def draw(self, context):
+        self.layout.prop(context.collection.footstep, "surface", text="Surface")
+
+
+CLASSES = (FOOTSTEP_UL_clips, FOOTSTEP_PT_main, FOOTSTEP_PT_object_surface,
+           FOOTSTEP_PT_collection_surface)
 
 
 def register():

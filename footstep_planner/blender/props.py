@@ -80,6 +80,19 @@ def _edited(self, context):
         arm.footstep.library_edited = True
 
 
+SURFACE_ITEMS = [
+    ("NONE", "None", "Not part of the walkable scene (inherits its collection's tag)"),
+    ("TRAVERSABLE", "Traversable", "The character may walk, run and land on it"),
+    ("OBSTACLE", "Obstacle", "The character keeps clear of it"),
+]
+
+
+class FOOTSTEP_PG_surface(bpy.types.PropertyGroup):
+    surface: EnumProperty(name="Footstep", items=SURFACE_ITEMS, default="NONE",
+                          description="How the footstep planner treats this mesh (objects "
+                                      "tagged None inherit their collection's tag)")
+
+
 class FOOTSTEP_PG_clip(bpy.types.PropertyGroup):
     # ``name`` (built in) is the action's name
     usage: EnumProperty(name="Use", items=USAGES, update=_edited)
@@ -124,7 +137,8 @@ def _armature_class():
 FOOTSTEP_PG_armature = _armature_class()
 
 
-CLASSES = (FOOTSTEP_PG_settings, FOOTSTEP_PG_scene, FOOTSTEP_PG_clip, FOOTSTEP_PG_armature)
+CLASSES = (FOOTSTEP_PG_settings, FOOTSTEP_PG_scene, FOOTSTEP_PG_surface, FOOTSTEP_PG_clip,
+           FOOTSTEP_PG_armature)
 
 
 def register():
@@ -132,9 +146,13 @@ def register():
         bpy.utils.register_class(cls)
     bpy.types.Scene.footstep = PointerProperty(type=FOOTSTEP_PG_scene)
     bpy.types.Armature.footstep = PointerProperty(type=FOOTSTEP_PG_armature)
+    bpy.types.Object.footstep = PointerProperty(type=FOOTSTEP_PG_surface)
+    bpy.types.Collection.footstep = PointerProperty(type=FOOTSTEP_PG_surface)
 
 
 def unregister():
+    del bpy.types.Collection.footstep
+    del bpy.types.Object.footstep
     del bpy.types.Armature.footstep
     del bpy.types.Scene.footstep
     for cls in reversed(CLASSES):

@@ -1,0 +1,284 @@
+"""Traversable surfaces and obstacles, and the ground queries the planner asks of them.
+
+Everything is batched over points. Conventions: world space, metres, Z up; a heading is
+a yaw in radians relative to the rig's rest forward ``forward`` (a unit (x, y) vector).
+
+The queries are a small interface (``Ground``) with two implementations: ``MeshGround``
+here, pure numpy (exact, for tests and small scenes), and the Blender layer's
+``BvhGround`` on ``mathutils.bvhtree`` (fast, for real scenes). Both answer the same
+questions the same way; a test holds them equal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from .errors import FootstepError
+
+
+class SurfaceError(FootstepError):
+    """A scene the planner cannot walk on; the message names the objects at fault."""
+
+
+@dataclass(frozen=True)
+class TriMesh:
+    """Triangles in world space: ``verts`` (V, 3), ``tris`` (T, 3) vertex indices, and
+    ``owner`` (T,) the index into ``names`` of the object each triangle came from."""
+
+    verts: np.ndarray
+    tris: np.ndarray
+    owner: np.ndarray
+    names: tuple[str, ...] = ()
+
+    @staticmethod
+    def empty() -> "TriMesh":
+        return TriMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros(0, np.int64), ())
+
+    @staticmethod
+    def concat(meshes) -> "TriMesh":
+        verts, tris, owner, names = [], [], [], []
+        offset = 0
+        for m in meshes:
+            verts.append(m.verts)
+            tris.append(m.tris + offset)
+            owner.append(m.owner + len(names))
+            names.extend(m.names)
+            offset += len(m.verts)
+        if not verts:
+            return TriMesh.empty()
+        return TriMesh(np.concatenate(verts), np.concatenate(tris), np.concatenate(owner), tuple(names))
+
+    @property
+    def n(self) -> int:
+        return len(self.tris)
+
+    def corners(self) -> np.ndarray:
+        """(T, 3, 3) the triangles' corner positions."""
+        return self.verts[self.tris]
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        if not len(self.verts):
+            return np.zeros(3), np.zeros(3)
+        return self.verts.min(axis=0), self.verts.max(axis=0)
+
+
+@dataclass(frozen=True)
+class GroundHit:
+    hit: np.ndarray  # (N,) bool
+    z: np.ndarray  # (N,) height of the surface (nan where no hit)
+    normal: np.ndarray  # (N, 3) unit normals, facing up (nan where no hit)
+    owner: np.ndarray  # (N,) object index (-1 where no hit)
+
+
+class Ground(Protocol):
+    mesh: TriMesh
+
+    def ray_down(self, points: np.ndarray, max_dist: float) -> GroundHit:
+        """The first surface below each point (N, 3), looking down at most ``max_dist``."""
+
+    def nearest(self, points: np.ndarray, max_dist: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+        """(closest points (N, 3), distances (N,)); inf and nan beyond ``max_dist``."""
+
+
+# ----------------------------------------------------------------------------------
+# pure numpy implementation
+
+@dataclass
+class MeshGround:
+    """Ground queries on a TriMesh in numpy: exact, O(points x triangles) in chunks."""
+
+    mesh: TriMesh
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    def _tri(self):
+        if "tri" not in self._cache:
+            c = self.mesh.corners()
+            n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+            self._cache["tri"] = (c, n)
+        return self._cache["tri"]
+
+    def ray_down(self, points: np.ndarray, max_dist: float) -> GroundHit:
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        n = len(p)
+        z = np.full(n, np.nan)
+        nor = np.full((n, 3), np.nan)
+        owner = np.full(n, -1)
+        if self.mesh.n and n:
+            c, tn = self._tri()
+            a, b, d = c[:, 0, :2], c[:, 1, :2], c[:, 2, :2]
+            area = (b[:, 0] - a[:, 0]) * (d[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (d[:, 0] - a[:, 0])
+            ok_t = np.abs(area) > 1e-14  # vertical triangles cannot be hit from above
+            for s in range(0, n, 256):
+                q = p[s:s + 256, None, :2]
+                w1 = ((d[:, 0] - q[..., 0]) * (a[:, 1] - q[..., 1]) - (d[:, 1] - q[..., 1]) * (a[:, 0] - q[..., 0])) / np.where(ok_t, area, 1)
+                w2 = ((a[:, 0] - q[..., 0]) * (b[:, 1] - q[..., 1]) - (a[:, 1] - q[..., 1]) * (b[:, 0] - q[..., 0])) / np.where(ok_t, area, 1)
+                w0 = 1 - w1 - w2
+                eps = -1e-9
+                inside = ok_t & (w0 >= eps) & (w1 >= eps) & (w2 >= eps)
+                zz = w0 * c[:, 0, 2] + w1 * c[:, 1, 2] + w2 * c[:, 2, 2]
+                below = p[s:s + 256, None, 2] - zz
+                valid = inside & (below >= -1e-9) & (below <= max_dist)
+                best = np.where(valid, below, np.inf)
+                j = np.argmin(best, axis=1)
+                got = np.isfinite(best[np.arange(len(j)), j])
+                idx = np.arange(s, s + len(j))[got]
+                z[idx] = zz[got, j[got]]
+                nn = tn[j[got]] / np.linalg.norm(tn[j[got]], axis=1, keepdims=True)
+                nn *= np.sign(nn[:, 2:3] + (nn[:, 2:3] == 0))
+                nor[idx] = nn
+                owner[idx] = self.mesh.owner[j[got]]
+        return GroundHit(owner >= 0, z, nor, owner)
+
+    def nearest(self, points: np.ndarray, max_dist: float = np.inf):
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        out = np.full((len(p), 3), np.nan)
+        dist = np.full(len(p), np.inf)
+        if self.mesh.n and len(p):
+            c, _ = self._tri()
+            for s in range(0, len(p), 128):
+                q = _closest_on_triangles(p[s:s + 128], c)  # (n, T, 3)
+                d = np.linalg.norm(q - p[s:s + 128, None], axis=2)
+                j = np.argmin(d, axis=1)
+                r = np.arange(len(j))
+                dist[s:s + len(j)] = d[r, j]
+                out[s:s + len(j)] = q[r, j]
+        far = dist > max_dist
+        out[far] = np.nan
+        dist[far] = np.inf
+        return out, dist
+
+
+def _closest_on_triangles(p: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Closest points (n, T, 3) on triangles c (T, 3, 3) to points p (n, 3) (Ericson's
+    region test, vectorized)."""
+    a, b, cc = c[None, :, 0], c[None, :, 1], c[None, :, 2]
+    p = p[:, None]
+    ab, ac, ap = b - a, cc - a, p - a
+    d1, d2 = (ab * ap).sum(-1), (ac * ap).sum(-1)
+    bp = p - b
+    d3, d4 = (ab * bp).sum(-1), (ac * bp).sum(-1)
+    cp = p - cc
+    d5, d6 = (ab * cp).sum(-1), (ac * cp).sum(-1)
+    va = d3 * d6 - d5 * d4
+    vb = d5 * d2 - d1 * d6
+    vc = d1 * d4 - d3 * d2
+    den = np.where(np.abs(va + vb + vc) > 1e-30, va + vb + vc, 1e-30)
+    v, w = vb / den, vc / den
+    res = a + ab * v[..., None] + ac * w[..., None]  # inside the face
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # edges
+        t_ab = np.clip(d1 / (d1 - d3), 0, 1)
+        t_ac = np.clip(d2 / (d2 - d6), 0, 1)
+        t_bc = np.clip((d4 - d3) / ((d4 - d3) + (d5 - d6)), 0, 1)
+    e_ab = (vc <= 0) & (d1 >= 0) & (d3 <= 0)
+    e_ac = (vb <= 0) & (d2 >= 0) & (d6 <= 0)
+    e_bc = (va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0)
+    res = np.where(e_bc[..., None], b + (cc - b) * np.nan_to_num(t_bc)[..., None], res)
+    res = np.where(e_ac[..., None], a + ac * np.nan_to_num(t_ac)[..., None], res)
+    res = np.where(e_ab[..., None], a + ab * np.nan_to_num(t_ab)[..., None], res)
+    # vertices
+    res = np.where(((d6 >= 0) & (d5 <= d6))[..., None], cc, res)
+    res = np.where(((d3 >= 0) & (d4 <= d3))[..., None], b, res)
+    res = np.where(((d1 <= 0) & (d2 <= 0))[..., None], a, res)
+    return res
+
+
+# ----------------------------------------------------------------------------------
+# footprints
+
+@dataclass(frozen=True)
+class FootShape:
+    """A foot's rectangle on the ground, in the foot's frame: ``back`` and ``front`` (m)
+    behind and ahead of the footprint's reference point along the heading, and
+    ``half_width`` (m) to either side."""
+
+    back: float = 0.1
+    front: float = 0.16
+    half_width: float = 0.05
+
+    def corners(self, pos: np.ndarray, heading: np.ndarray, forward: np.ndarray) -> np.ndarray:
+        """(N, 5, 2) ground points of each footprint: the four corners, then the
+        footprint's reference point itself."""
+        ang = np.asarray(heading) + np.arctan2(forward[1], forward[0])
+        f = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+        left = np.stack([-f[..., 1], f[..., 0]], axis=-1)
+        local = np.array([[-self.back, -self.half_width], [-self.back, self.half_width],
+                          [self.front, -self.half_width], [self.front, self.half_width],
+                          [0.0, 0.0]])
+        return (np.asarray(pos)[..., None, :2] + local[:, 0, None] * f[..., None, :]
+                + local[:, 1, None] * left[..., None, :])
+
+
+@dataclass(frozen=True)
+class Support:
+    ok: np.ndarray  # (N,) bool: the foot is supported and clear
+    z: np.ndarray  # (N,) height of the surface at the footprint's reference point
+    normal: np.ndarray  # (N, 3) normal of the plane through the foot's ground points
+    reason: np.ndarray  # (N,) str: "" or why not ("off surface", "uneven", "steep", "obstacle")
+
+
+def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
+                      heading: np.ndarray, forward: np.ndarray, foot: FootShape,
+                      step_height: float = 0.3, unevenness: float = 0.05,
+                      max_slope: float = np.radians(30), clearance: float = 0.25,
+                      body_height: float = 1.6) -> Support:
+    """Whether each footprint (positions (N, 3), headings (N,)) stands on the traversable
+    surface and clear of obstacles.
+
+    The foot's four corners and centre are dropped onto the surface from ``step_height``
+    above ``pos``: all must land, within ``unevenness`` of each other, on a slope no
+    steeper than ``max_slope``. The body above the footprint must keep ``clearance`` from
+    every obstacle at the ankle, knee, hip, chest and head (up to ``body_height``).
+    """
+    pos = np.atleast_2d(np.asarray(pos, dtype=np.float64))
+    n = len(pos)
+    pts = foot.corners(pos, np.broadcast_to(heading, (n,)), forward)  # (N, 5, 2)
+    top = np.concatenate([pts, np.broadcast_to(pos[:, None, 2:3] + step_height, (n, 5, 1))], axis=2)
+    hit = ground.ray_down(top.reshape(-1, 3), 2 * step_height)
+    got = hit.hit.reshape(n, 5)
+    z = hit.z.reshape(n, 5)
+    nor = hit.normal.reshape(n, 5, 3)
+    reason = np.full(n, "", dtype=object)
+    all_hit = got.all(axis=1)
+    reason[~all_hit] = "off surface"
+    # the plane through the foot's five ground points (least squares, per footprint):
+    # unevenness is the points' distance from it, the slope its tilt
+    mean_n = np.full((n, 3), np.nan)
+    uneven = np.zeros(n, bool)
+    if all_hit.any():
+        i = np.flatnonzero(all_hit)
+        a = np.concatenate([np.ones((len(i), 5, 1)), pts[i]], axis=2)  # z = c0 + c1 x + c2 y
+        coef = np.linalg.solve(a.transpose(0, 2, 1) @ a, (a.transpose(0, 2, 1) @ z[i, :, None]))[..., 0]
+        resid = np.abs((a @ coef[:, :, None])[..., 0] - z[i]).max(axis=1)
+        pn = np.c_[-coef[:, 1], -coef[:, 2], np.ones(len(i))]
+        mean_n[i] = pn / np.linalg.norm(pn, axis=1, keepdims=True)
+        # a step edge under the foot fits a tilted plane where the surface is level:
+        # the plane must agree with the normals under the foot (within 15 degrees)
+        agree = np.einsum("nkc,nc->nk", nor[i], mean_n[i]).min(axis=1) > np.cos(np.radians(15))
+        uneven[i] = (resid > unevenness) | ~agree
+    steep = all_hit & ~uneven & (np.arccos(np.clip(np.nan_to_num(mean_n[:, 2], nan=1.0), -1, 1)) > max_slope)
+    reason[uneven] = "uneven"
+    reason[steep] = "steep"
+    zc = z[:, 4]
+    ok = all_hit & ~uneven & ~steep
+    if obstacles is not None and obstacles.mesh.n and ok.any():
+        idx = np.flatnonzero(ok)
+        levels = np.array([0.1, 0.5, 0.9, 1.3, body_height])
+        probe = np.repeat(np.c_[pos[idx, :2], zc[idx]], len(levels), axis=0)
+        probe[:, 2] += np.tile(levels, len(idx))
+        _, d = obstacles.nearest(probe, max_dist=clearance)
+        blocked = (d < clearance).reshape(len(idx), len(levels)).any(axis=1)
+        # inside or under an obstacle (a thick wall's inside is far from all its faces):
+        # any obstacle surface between the foot and the head
+        head = np.c_[pos[idx, :2], zc[idx] + body_height]
+        blocked |= obstacles.ray_down(head, body_height - 0.05).hit
+        # the foot itself must not stand in an obstacle either
+        foot_pts = np.concatenate([pts[idx], zc[idx, None, None] + np.zeros((len(idx), 5, 1)) + 0.02], axis=2)
+        _, df = obstacles.nearest(foot_pts.reshape(-1, 3), max_dist=0.02)
+        blocked |= (df < 0.02).reshape(len(idx), 5).any(axis=1)
+        ok[idx[blocked]] = False
+        reason[idx[blocked]] = "obstacle"
+    return Support(ok, zc, mean_n, reason)
