@@ -1,0 +1,97 @@
+"""The sample scenes: built by code, tagged, and holding the features they promise."""
+
+import math
+import os
+import subprocess
+import sys
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+FWD = np.array([0.0, -1.0])
+
+
+def _scene(fp, name):
+    import bpy
+
+    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
+    surf = import_module(fp.__name__ + ".blender.surfaces")
+    ground, obstacles = surf.scene_surfaces(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
+    return bpy.context.scene, ground, obstacles, import_module(fp.__name__ + ".core.surface")
+
+
+def _heading_xy(ob):
+    a = ob.rotation_euler.z + math.atan2(FWD[1], FWD[0])
+    return np.array([math.cos(a), math.sin(a)])
+
+
+def _on_ground(ground, xy, z=0.0):
+    pts = np.c_[np.atleast_2d(xy), np.full(len(np.atleast_2d(xy)), z + 0.5)]
+    return ground.ray_down(pts, 1.0)
+
+
+@pytest.mark.parametrize("name", ["jumps", "turns", "obstacles"])
+def test_start_and_goal_stand_on_the_ground(fp, name):
+    scene, ground, obstacles, core = _scene(fp, name)
+    for marker in ("Start", "Goal"):
+        ob = scene.objects[marker]
+        s = core.footprint_support(ground, obstacles, np.array([ob.location[:]]),
+                                   np.array([ob.rotation_euler.z]), FWD, core.FootShape())
+        assert s.ok[0], f"{name}: {marker} is {s.reason[0]}"
+
+
+def test_jumps_has_two_one_metre_gaps_on_the_way(fp):
+    scene, ground, obstacles, core = _scene(fp, "jumps")
+    assert obstacles.mesh.n == 0
+    # along the run-up (x = 8, northwards) and the last straight (y = 12, eastwards)
+    for start, step in (((8.0, 7.0), (0.0, 0.01)), ((14.0, 12.0), (0.01, 0.0))):
+        pts = np.asarray(start) + np.outer(np.arange(300), step)
+        hit = _on_ground(ground, pts).hit
+        holes = np.flatnonzero(~hit)
+        assert len(holes) and hit[0] and hit[-1]
+        width = (holes[-1] - holes[0] + 1) * 0.01
+        assert width == pytest.approx(1.0, abs=0.02)
+
+
+def test_turns_path_is_one_connected_walk(fp):
+    scene, ground, obstacles, core = _scene(fp, "turns")
+    pts = np.array([(0, 0), (6, 0), (9, 4), (7, 9), (12, 12), (15.5, 10), (17, 10)], float)
+    line = np.concatenate([a + np.outer(np.linspace(0, 1, 60), b - a) for a, b in zip(pts[:-1], pts[1:])])
+    assert _on_ground(ground, line).hit.all()
+    # and on round the curved platform, to the goal
+    ang = np.linspace(-math.pi / 2, math.radians(55), 40)
+    arc = np.c_[17 + 4 * np.cos(ang), 14 + 4 * np.sin(ang)]
+    assert _on_ground(ground, arc).hit.all()
+
+
+def test_obstacles_scene_features(fp):
+    scene, ground, obstacles, core = _scene(fp, "obstacles")
+    foot = core.FootShape()
+    sup = lambda xy, head, z=0.0: core.footprint_support(  # noqa: E731
+        ground, obstacles, np.array([[xy[0], xy[1], z]]), np.array([head]), FWD, foot)
+    # the doorway lets a body through its middle, not near its jambs
+    assert sup((6.15, 4.5), math.pi / 2).ok[0]
+    assert sup((6.15, 3.9), math.pi / 2).reason[0] == "obstacle"
+    assert sup((5.0, 0.0), math.pi / 2).ok[0]
+    # the corridor is 1.2 m wide: its middle is clear, the walls are not
+    assert sup((-8.6, 5.0), math.pi).ok[0]
+    assert sup((-9.0, 5.0), math.pi).reason[0] == "obstacle"
+    # a 15 cm step and a 15-degree ramp
+    assert _on_ground(ground, [(8.5, 4.5)], 0.15).z[0] == pytest.approx(0.15)
+    ramp = _on_ground(ground, [(1.5, -8.0)], 0.5)
+    assert math.degrees(math.acos(ramp.normal[0, 2])) == pytest.approx(15, abs=0.01)
+    assert sup((1.5, -8.0), math.pi / 2, z=ramp.z[0]).ok[0]
+    # the pillars block
+    assert sup((3.0, 3.0), 0.0).reason[0] == "obstacle"
+
+
+def test_the_scripts_save_a_file(tmp_path):
+    out = tmp_path / "jumps.blend"
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "res"))
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "sample_scenes", "jumps.py"), "--out", str(out)],
+                       capture_output=True, text=True, timeout=120, env=env)
+    assert r.returncode == 0, r.stderr
+    assert out.stat().st_size > 1000
