@@ -66,6 +66,23 @@ def _parser() -> argparse.ArgumentParser:
     an.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                     help="change a setting, e.g. --set contact_height=0.06 (repeatable)")
 
+    pl = sub.add_parser(
+        "plan", help="plan a footstep path for a character to a goal",
+        description="Plan the footprints that take a character to a goal across the scene's "
+                    "traversable meshes (A* over footprints, jumping gaps where a jump clip can).")
+    pl.add_argument("blend", nargs="?", metavar="SCENE.blend",
+                    help="the scene (default: the file Blender has open)")
+    pl.add_argument("--character", required=True, metavar="ARMATURE")
+    pl.add_argument("--goal", metavar="OBJECT", help="walk to this object (default: the 3D cursor)")
+    pl.add_argument("--goal-heading", type=float, metavar="DEG",
+                    help="arrive facing this way (degrees, 0 = the character's rest forward)")
+    pl.add_argument("--start", metavar="OBJECT",
+                    help="start standing at this object instead of where the feet are now")
+    pl.add_argument("--traversable", default="", metavar="NAME,...", help="tag these objects traversable for this run")
+    pl.add_argument("--obstacles", default="", metavar="NAME,...", help="tag these objects obstacles for this run")
+    pl.add_argument("--json", action="store_true", help="print JSON")
+    pl.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+
     demo = sub.add_parser("demo", help="the main job on built-in content (clip analysis for now)")
     demo.add_argument("--scene", default="jumps", help="sample scene name (used once planning exists)")
     demo.add_argument("--mocap", default=None, metavar="DIR",
@@ -83,7 +100,8 @@ def cli_main(argv=None) -> int:
     except SystemExit as ex:  # --help or a usage error: argparse already printed
         return int(ex.code or 0)
     try:
-        return {"import-clips": _import_clips, "analyze": _analyze, "demo": _demo}[args.verb](args)
+        return {"import-clips": _import_clips, "analyze": _analyze, "plan": _plan,
+                "demo": _demo}[args.verb](args)
     except EXPECTED as ex:
         print(f"footstep: error: {ex}", file=sys.stderr)
         return 2
@@ -235,6 +253,46 @@ def _analyze(args) -> int:
     for msg in failed:
         print(f"footstep: error: {msg}", file=sys.stderr)
     return 1 if failed else 0
+
+
+def _names(csv: str) -> list[str]:
+    return [n.strip() for n in csv.split(",") if n.strip()]
+
+
+def _plan(args) -> int:
+    import math
+
+    from . import planning
+
+    if args.blend:
+        open_blend(args.blend)
+    scene = bpy.context.scene
+    ob = find_armature(args.character)
+    goal, heading = planning.goal_of(scene, args.goal)
+    if args.goal_heading is not None:
+        heading = math.radians(args.goal_heading)
+    start = None
+    if args.start:
+        start = scene.objects.get(args.start)
+        if start is None:
+            raise CliError(f"no object named {args.start!r} to start at")
+    result, setup = planning.plan(scene, ob, goal, heading, start, settings_from_args(args.set),
+                                  _names(args.traversable), _names(args.obstacles))
+    doc = result.to_dict()
+    doc["character"] = ob.name
+    doc["goal"] = [round(float(v), 4) for v in goal]
+    if args.json:
+        print(json.dumps(doc, indent=1))
+    else:
+        print(f"{ob.name}: {len(result.footsteps)} footprints to ({goal[0]:.2f}, {goal[1]:.2f}, "
+              f"{goal[2]:.2f}) in {result.footsteps[-1].time:.2f} s of motion")
+        print(f"{'#':>3s} {'foot':4s} {'x':>7s} {'y':>7s} {'z':>6s} {'head':>6s} {'time':>6s}  clip")
+        for i, f in enumerate(result.footsteps):
+            print(f"{i:3d} {'LR'[f.foot]:4s} {f.position[0]:7.2f} {f.position[1]:7.2f} {f.position[2]:6.2f} "
+                  f"{math.degrees(f.heading):6.0f} {f.time:6.2f}  {f.label}{' (jump)' if f.jump else ''}")
+        print(f"search: {result.expanded} footprints expanded, {result.generated} generated, "
+              f"{result.seconds * 1e3:.0f} ms")
+    return 0
 
 
 def format_table(title: str, analyses) -> str:

@@ -1,0 +1,127 @@
+"""A* over footprints (pure core, numpy ground, hand-made steps)."""
+
+import time
+
+import numpy as np
+import pytest
+
+from footstep_planner.core.navgraph import Footstep, PlanError, Planner
+from footstep_planner.core.steps import StepSet
+from footstep_planner.core.surface import FootShape, MeshGround, TriMesh, footprint_support
+from test_surface import box, plane
+
+FWD = np.array([0.0, -1.0])
+EAST = np.pi / 2
+
+
+def steps(with_jump=True, jump_len=1.7):
+    """A small library: straight, gentle and sharp turns each way, walk and run, and a
+    running jump from the right foot."""
+    rows = []
+    for gait, fwd, dt in (("walk", 0.6, 0.6), ("run", 1.1, 0.38)):
+        for turn in np.radians([-30, -15, 0, 15, 30]):
+            for foot, side in ((0, -0.15), (1, 0.15)):
+                rows.append((foot, fwd, side, turn, dt, gait, False, f"{gait}{np.degrees(turn):+.0f}"))
+    if with_jump:
+        rows.append((1, jump_len, -0.1, 0.0, 0.65, "run", True, "leap"))
+    c = list(zip(*rows))
+    return StepSet(np.array(c[1]), np.array(c[2]), np.array(c[3]), np.array(c[4]), np.array(c[0]),
+                   np.array(c[5], object), np.array(c[6], bool), np.array(c[7], object))
+
+
+def start(x, y, heading=EAST):
+    ang = heading + np.arctan2(FWD[1], FWD[0])
+    left = np.array([-np.sin(ang), np.cos(ang), 0.0])
+    p = np.array([x, y, 0.0])
+    return [Footstep(0, p + 0.1 * left, heading, 0, "start", "walk"),
+            Footstep(1, p - 0.1 * left, heading, 0, "start", "walk")]
+
+
+def check_path(planner, result, goal):
+    fs = result.footsteps
+    assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= planner.goal_radius
+    pos = np.array([f.position for f in fs[1:]])
+    sup = footprint_support(planner.ground, planner.obstacles, pos, np.array([f.heading for f in fs[1:]]),
+                            FWD, planner.foot, clearance=planner.clearance)
+    assert sup.ok.all(), sup.reason
+    assert [f.foot for f in fs[1:]] == [1 - f.foot for f in fs[:-1]]  # feet alternate
+    assert all(b.time > a.time for a, b in zip(fs[:-1], fs[1:]))
+
+
+def test_open_floor_reaches_the_goal_and_weighting_is_bounded():
+    g = MeshGround(plane(-2, 12, -6, 6))
+    goal = np.array([10.0, 3.0, 0.0])
+    w1 = Planner(g, None, steps(), FWD, heuristic_weight=1.0).plan(start(0, 0), goal)
+    p2 = Planner(g, None, steps(), FWD, heuristic_weight=2.0)
+    w2 = p2.plan(start(0, 0), goal)
+    check_path(p2, w2, goal)
+    assert w1.cost <= w2.cost + 1e-9 <= 2.0 * w1.cost + 1e-9
+    assert w2.expanded <= w1.expanded
+    assert not any(f.jump for f in w1.footsteps + w2.footsteps)  # jumps are for gaps only
+
+
+def test_a_wall_is_walked_around():
+    g = MeshGround(plane(-2, 12, -6, 6))
+    wall = MeshGround(box((4, -6, 0), (4.3, 2, 2.5), "wall"))
+    pl = Planner(g, wall, steps(), FWD)
+    goal = np.array([9.0, 0.0, 0.0])
+    r = pl.plan(start(0, 0), goal)
+    check_path(pl, r, goal)
+    # every step that crosses the wall's line does so beyond the wall's end (y > 2)
+    xs = [(a.position, b.position) for a, b in zip(r.footsteps[:-1], r.footsteps[1:])
+          if (a.position[0] - 4.15) * (b.position[0] - 4.15) <= 0]
+    assert xs
+    for a, b in xs:
+        t = (4.15 - a[0]) / (b[0] - a[0]) if b[0] != a[0] else 0.5
+        assert a[1] + t * (b[1] - a[1]) > 2.0
+
+
+@pytest.mark.parametrize("gap,jumps", [(1.0, True), (2.5, False)])
+def test_gaps_are_jumped_only_where_a_jump_reaches(gap, jumps):
+    g = MeshGround(TriMesh.concat([plane(-2, 5, -1, 1, name="A"), plane(5 + gap, 12, -1, 1, name="B")]))
+    pl = Planner(g, None, steps(), FWD, max_seconds=5)
+    goal = np.array([10.0, 0.0, 0.0])
+    if not jumps:
+        t = time.perf_counter()
+        with pytest.raises(PlanError, match="cannot be reached.*nearest reachable point is \\(4\\.[5-9]"):
+            pl.plan(start(0, 0), goal)
+        assert time.perf_counter() - t < 5  # bounded: never a hang
+        return
+    r = pl.plan(start(0, 0), goal)
+    check_path(pl, r, goal)
+    crossing = [(a, b) for a, b in zip(r.footsteps[:-1], r.footsteps[1:])
+                if a.position[0] < 5 < 5 + gap < b.position[0]]
+    assert len(crossing) == 1 and crossing[0][1].jump and crossing[0][0].gait == "run"
+
+
+def test_without_a_jump_clip_a_gap_is_never_crossed():
+    g = MeshGround(TriMesh.concat([plane(-2, 5, -1, 1, name="A"), plane(5.3, 12, -1, 1, name="B")]))
+    with pytest.raises(PlanError, match="cannot be reached"):
+        Planner(g, None, steps(with_jump=False), FWD, max_seconds=5).plan(start(0, 0), np.array([10.0, 0, 0]))
+
+
+def test_goal_off_every_surface():
+    g = MeshGround(plane(-2, 5, -1, 1))
+    with pytest.raises(PlanError, match="off every traversable surface"):
+        Planner(g, None, steps(), FWD).plan(start(0, 0), np.array([20.0, 20.0, 0.0]))
+
+
+def test_arrival_heading():
+    g = MeshGround(plane(-2, 12, -6, 6))
+    pl = Planner(g, None, steps(), FWD)
+    goal = np.array([8.0, 0.0, 0.0])
+    r = pl.plan(start(0, 0), goal, goal_heading=0.0)  # arrive facing -Y
+    assert abs(np.angle(np.exp(1j * r.footsteps[-1].heading))) <= pl.goal_heading_tolerance
+
+
+def test_the_support_cache_serves_the_next_plan():
+    g = MeshGround(plane(-2, 12, -6, 6))
+    pl = Planner(g, None, steps(), FWD, geometry_key="floor-v1")
+    goal = np.array([10.0, 3.0, 0.0])
+    a = pl.plan(start(0, 0), goal)
+    n = len(pl.cache.table)
+    b = pl.plan(start(0, 0), goal)
+    assert len(pl.cache.table) == n and [f.label for f in a.footsteps] == [f.label for f in b.footsteps]
+    pl.geometry_key = "floor-v2"  # the geometry changed: answers are dropped
+    pl.plan(start(0, 0), goal)
+    assert pl.cache.geometry_key == "floor-v2"

@@ -1,0 +1,135 @@
+"""Planning on the sample scenes with the real CMU library (subject 16 and its leap)."""
+
+import json
+import math
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from conftest import cmu, needs_cmu
+
+pytestmark = needs_cmu
+
+LIBRARY = ["16_16", "16_11", "16_13", "16_17", "16_19", "16_35", "16_37", "16_39", "16_41", "16_43", "49_05"]
+
+
+def _scene_with_character(fp, name, fps=30):
+    import bpy
+
+    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
+    scene = bpy.context.scene
+    scene.render.fps = fps
+    clips = import_module(fp.__name__ + ".blender.clips")
+    ob, _ = clips.import_bvh_clips([cmu(n) for n in LIBRARY], name="CMU")
+    return scene, ob
+
+
+def _plan(fp, name, **kw):
+    scene, ob = _scene_with_character(fp, name)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    goal = np.array(scene.objects["Goal"].location)
+    result, setup = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"], **kw)
+    return scene, result, setup, goal
+
+
+def _check(fp, result, setup, goal):
+    core = import_module(fp.__name__ + ".core.surface")
+    pl = setup.planner
+    fs = result.footsteps
+    assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= pl.goal_radius
+    sup = core.footprint_support(pl.ground, pl.obstacles, np.array([f.position for f in fs]),
+                                 np.array([f.heading for f in fs]), setup.forward, pl.foot,
+                                 clearance=pl.clearance)
+    assert sup.ok.all(), list(zip(sup.reason, [f.position for f in fs]))
+    assert [f.foot for f in fs[1:]] == [1 - f.foot for f in fs[:-1]]
+
+
+@pytest.mark.parametrize("name", ["jumps", "turns", "obstacles"])
+def test_every_sample_scene_reaches_its_goal(fp, name):
+    scene, result, setup, goal = _plan(fp, name)
+    _check(fp, result, setup, goal)
+    labels = set(f.label for f in result.footsteps)
+    assert labels - {"start"}  # carried by the library's clips and blends
+
+
+def test_jumps_jumps_both_gaps_and_only_them(fp):
+    scene, result, setup, goal = _plan(fp, "jumps")
+    jumps = [(a, b) for a, b in zip(result.footsteps[:-1], result.footsteps[1:]) if b.jump]
+    assert len(jumps) == 2
+    assert all(b.label == "cmu_49_05_run_leap_run" and a.gait == "run" for a, b in jumps)
+    (a1, b1), (a2, b2) = jumps
+    assert a1.position[1] < 8.0 < 9.0 < b1.position[1]  # across the first gap, northwards
+    assert a2.position[0] < 15.0 < 16.0 < b2.position[0]  # across the second, eastwards
+
+
+def test_obstacles_passes_the_doorway_and_climbs_the_step(fp):
+    scene, result, setup, goal = _plan(fp, "obstacles")
+    fs = result.footsteps
+    through = [(a.position, b.position) for a, b in zip(fs[:-1], fs[1:])
+               if a.position[0] < 6.15 <= b.position[0]]
+    assert len(through) == 1
+    a, b = through[0]
+    y = a[1] + (6.15 - a[0]) / (b[0] - a[0]) * (b[1] - a[1])
+    assert 4.0 < y < 5.0  # through the doorway
+    assert fs[-1].position[2] == pytest.approx(0.15, abs=1e-3)  # up on the step
+
+
+def test_a_gap_wider_than_any_jump_is_refused(fp):
+    import bpy
+
+    scene, ob = _scene_with_character(fp, "jumps")
+    p3 = scene.objects["Platform3"]
+    p3.location.x += 1.5  # the second gap becomes 2.5 m
+    goal = scene.objects["Goal"]
+    goal.location.x += 1.5
+    planning = import_module(fp.__name__ + ".blender.planning")
+    errors = import_module(fp.__name__ + ".core.navgraph")
+    with pytest.raises(errors.PlanError, match="cannot be reached.*nearest reachable point is \\(1[45]\\."):
+        planning.plan(scene, ob, np.array(goal.location), start_marker=scene.objects["Start"])
+    del bpy
+
+
+def test_plan_from_the_characters_own_feet(fp):
+    scene, ob = _scene_with_character(fp, "obstacles")
+    ob.animation_data.action = next(a for a in __import__("bpy").data.actions if a.name == "cmu_16_16_walk")
+    ob.animation_data.action_slot = ob.animation_data.action.slots[0]
+    ob.location = (-3.0, -3.0, 0.0)
+    ob.rotation_euler.z = 0.5
+    scene.frame_set(1)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    result, setup = planning.plan(scene, ob, np.array([2.0, -6.0, 0.0]))
+    _check(fp, result, setup, np.array([2.0, -6.0, 0.0]))
+    ob.scale = (2, 2, 2)
+    with pytest.raises(Exception, match="'CMU' is scaled"):
+        planning.plan(scene, ob, np.array([2.0, -6.0, 0.0]))
+
+
+def test_plan_verb(fp, capsys, tmp_path):
+    import bpy
+
+    scene, ob = _scene_with_character(fp, "turns")
+    path = str(tmp_path / "turns.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    capsys.readouterr()
+    assert cli(["plan", path, "--character", "CMU", "--goal", "Goal", "--start", "Start", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["character"] == "CMU" and len(doc["footprints"]) > 20
+    fp0 = doc["footprints"][-1]
+    assert {"foot", "position", "heading", "time", "clip"} <= set(fp0)
+    assert {"expanded", "generated", "seconds"} <= set(doc["search"])
+    assert cli(["plan", path, "--character", "CMU", "--goal", "Goal", "--start", "Start"]) == 0
+    assert "footprints expanded" in capsys.readouterr().out
+    # bad input: an object that isn't there, a goal off every surface, no traversable mesh
+    assert cli(["plan", path, "--character", "CMU", "--goal", "Nowhere", "--start", "Start"]) == 2
+    assert "'Nowhere'" in capsys.readouterr().err
+    bpy.ops.wm.open_mainfile(filepath=path)
+    bpy.context.scene.cursor.location = (40, 40, 0)
+    assert cli(["plan", "--character", "CMU", "--start", "Start"]) == 2
+    assert "off every traversable surface" in capsys.readouterr().err
+    bpy.data.collections["Traversable"].footstep.surface = "NONE"
+    assert cli(["plan", "--character", "CMU", "--goal", "Goal", "--start", "Start"]) == 2
+    assert "no traversable mesh" in capsys.readouterr().err
+    assert cli(["plan", "--character", "CMU", "--goal", "Goal", "--start", "Start",
+                "--traversable", "Path,CurvedPlatform"]) == 0
