@@ -11,7 +11,6 @@ from dataclasses import dataclass, field
 
 import bpy
 import numpy as np
-from mathutils import Vector
 from mathutils.bvhtree import BVHTree
 
 from ..core.surface import GroundHit, SurfaceError, TriMesh
@@ -123,29 +122,29 @@ class BvhGround:
         z = np.full(n, np.nan)
         nor = np.full((n, 3), np.nan)
         owner = np.full(n, -1)
-        if self.tree is not None:
-            down = Vector((0.0, 0.0, -1.0))
-            cast = self.tree.ray_cast
-            for i, q in enumerate(p.tolist()):
-                loc, normal, idx, _ = cast(Vector(q), down, max_dist + 1e-9)
-                if loc is not None:
-                    z[i] = loc.z
-                    nor[i] = normal if normal.z >= 0 else -normal
-                    owner[i] = self.mesh.owner[idx]
+        if self.tree is not None and n:
+            cast, down, dist = self.tree.ray_cast, (0.0, 0.0, -1.0), max_dist + 1e-9
+            res = [cast(q, down, dist) for q in p.tolist()]  # mathutils takes plain sequences
+            got = [i for i, r in enumerate(res) if r[0] is not None]
+            if got:
+                z[got] = [res[i][0][2] for i in got]
+                nn = np.array([res[i][1][:] for i in got])
+                nor[got] = nn * np.where(nn[:, 2:3] < 0, -1.0, 1.0)
+                owner[got] = self.mesh.owner[[res[i][2] for i in got]]
         return GroundHit(owner >= 0, z, nor, owner)
 
     def nearest(self, points, max_dist: float = np.inf):
         p = np.atleast_2d(np.asarray(points, dtype=np.float64))
         out = np.full((len(p), 3), np.nan)
         dist = np.full(len(p), np.inf)
-        if self.tree is not None:
+        if self.tree is not None and len(p):
             find = self.tree.find_nearest
             lim = 1e30 if not np.isfinite(max_dist) else float(max_dist)
-            for i, q in enumerate(p.tolist()):
-                loc, _, _, d = find(Vector(q), lim)
-                if loc is not None:
-                    out[i] = loc
-                    dist[i] = d
+            res = [find(q, lim) for q in p.tolist()]
+            got = [i for i, r in enumerate(res) if r[0] is not None]
+            if got:
+                out[got] = [res[i][0][:] for i in got]
+                dist[got] = [res[i][3] for i in got]
         return out, dist
 
 

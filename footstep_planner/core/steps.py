@@ -89,9 +89,12 @@ def _mean_by_foot(steps):
     return out
 
 
-def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_interval: int = 3) -> StepSet:
+def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_interval: int = 3,
+                  jump_tolerance: float = 0.1) -> StepSet:
     """Steps of every cyclic clip of the library's turning groups, of blends between
-    neighbouring clips of a group, and of the jumps (take-off to landing)."""
+    neighbouring clips of a group, and of the jumps (take-off to landing, within
+    ``jump_tolerance`` of their length and 10 degrees of their direction: the
+    refinement stage bends the clip that far)."""
     by = {a.name: a for a in analyses}
     rows = []  # foot, fwd, left, turn, duration, gait, jump, label
     for gait, group in library.turn_groups.items():
@@ -120,8 +123,13 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
         land = [f for f in fps_ if f.time > t1]
         if take and land and sp.entry_gait == "run":
             p, q = take[-1], land[0]
-            rows.append((p.foot, *relative(p, q, a.motion.rest_forward), q.time - p.time,
-                         "run", True, sp.clip))
+            fwd, left, turn = relative(p, q, a.motion.rest_forward)
+            # the jump within its tolerance: a little shorter or longer, a little turned
+            for scale in (1 - jump_tolerance, 1.0, 1 + jump_tolerance):
+                for dturn in np.radians([-10.0, 0.0, 10.0]):
+                    c, s_ = np.cos(dturn), np.sin(dturn)
+                    rows.append((p.foot, scale * (c * fwd - s_ * left), scale * (s_ * fwd + c * left),
+                                 turn + dturn, q.time - p.time, "run", True, sp.clip))
     if not rows:
         raise StepError("the clip library gives no steps: it needs walk or run clips "
                         "with at least two steps of each foot")
