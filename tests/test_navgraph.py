@@ -125,3 +125,21 @@ def test_the_support_cache_serves_the_next_plan():
     pl.geometry_key = "floor-v2"  # the geometry changed: answers are dropped
     pl.plan(start(0, 0), goal)
     assert pl.cache.geometry_key == "floor-v2"
+
+
+def test_a_changed_object_drops_only_the_answers_near_it():
+    from footstep_planner.core.navgraph import FootprintCache
+
+    c = FootprintCache()
+    c.update({"floor": ("a", np.array([0, 0, 0.0]), np.array([20, 20, 0.0])),
+              "box": ("b", np.array([5, 5, 0.0]), np.array([6, 6, 1.0]))})
+    for x in range(0, 1000, 10):  # answers along y = 1 m and y = 5.5 m
+        c.table[(x, 50, 0)] = (True, 0.0)
+        c.table[(x, 275, 0)] = (True, 0.0)
+    n = len(c.table)
+    assert c.update(dict(c.objects)) == 0 and len(c.table) == n  # nothing changed
+    # the box moves from x 5-6 to x 8-9: answers near either place go, the rest stay
+    dropped = c.update({"floor": c.objects["floor"], "box": ("b2", np.array([8, 5, 0.0]), np.array([9, 6, 1.0]))})
+    assert dropped > 0 and len(c.table) == n - dropped
+    assert (250, 275, 0) not in c.table and (420, 275, 0) not in c.table  # x = 5 m and 8.4 m
+    assert (700, 275, 0) in c.table and (250, 50, 0) in c.table  # far along, or on y = 1 m

@@ -133,3 +133,41 @@ def test_plan_verb(fp, capsys, tmp_path):
     assert "no traversable mesh" in capsys.readouterr().err
     assert cli(["plan", "--character", "CMU", "--goal", "Goal", "--start", "Start",
                 "--traversable", "Path,CurvedPlatform"]) == 0
+
+
+def test_replanning_after_moving_one_obstacle_keeps_the_other_answers(fp):
+    scene, ob = _scene_with_character(fp, "obstacles")
+    planning = import_module(fp.__name__ + ".blender.planning")
+    goal = np.array(scene.objects["Goal"].location)
+    _, s = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
+    cache = s.planner.cache
+    before = len(cache.table)
+    scene.objects["Pillar4"].location.x += 1.0  # (0, -3) -> (1, -3)
+    result, s2 = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
+    assert s2.planner.cache is cache
+    kept = [k for k in cache.table if abs(k[0] * 0.02 - 0.5) > 1.5 or abs(k[1] * 0.02 + 3) > 1.5]
+    assert 0 < len(kept) and before > 0
+    _check(fp, result, s2, goal)  # and the new plan respects the moved pillar
+
+
+def test_plan_operator_and_panel(fp):
+    import bpy
+
+    from test_panel_and_operators import Recorder
+
+    scene, ob = _scene_with_character(fp, "turns")
+    scene.footstep.character = ob
+    scene.footstep.goal = scene.objects["Goal"]
+    scene.footstep.start = scene.objects["Start"]
+    assert bpy.ops.footstep.plan() == {"FINISHED"}
+    doc = json.loads(scene.footstep.plan_json)
+    assert len(doc["footprints"]) > 20 and "footprints" in scene.footstep.last_report
+    panel = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_PT_main
+    stub = Recorder()
+    panel.draw(type("P", (), {"layout": stub})(), bpy.context)
+    assert any(a and a[0] == "footstep.plan" for name, a, _ in stub.log if name == "operator")
+    scene.footstep.goal = None
+    scene.cursor.location = (60, 60, 0)  # off every surface: a clear report, nothing changed
+    with pytest.raises(RuntimeError, match="off every traversable surface"):
+        bpy.ops.footstep.plan()  # the operator reports the error (scripts get it raised)
+    assert json.loads(scene.footstep.plan_json) == doc  # and changed nothing

@@ -105,7 +105,41 @@ class FOOTSTEP_OT_analyze_clips(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (FOOTSTEP_OT_import_clips, FOOTSTEP_OT_analyze_clips)
+class FOOTSTEP_OT_plan(bpy.types.Operator):
+    """Plan the footprints that take the character to the goal (the picked object, or
+    the 3D cursor) across the traversable meshes"""
+
+    bl_idname = "footstep.plan"
+    bl_label = "Plan"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return character(context) is not None
+
+    def execute(self, context):
+        import json
+
+        from . import planning
+
+        fs = context.scene.footstep
+        ob = character(context)
+        try:
+            goal, heading = planning.goal_of(context.scene, fs.goal.name if fs.goal else None)
+            result, _ = planning.plan(context.scene, ob, goal, heading, fs.start, _settings(context))
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        doc = result.to_dict()
+        doc["character"] = ob.name
+        fs.plan_json = json.dumps(doc)
+        fs.last_report = (f"{len(result.footsteps)} footprints, {result.footsteps[-1].time:.1f} s of "
+                          f"motion; search {result.expanded} expanded in {result.seconds * 1e3:.0f} ms")
+        self.report({"INFO"}, fs.last_report)
+        return {"FINISHED"}
+
+
+CLASSES = (FOOTSTEP_OT_import_clips, FOOTSTEP_OT_analyze_clips, FOOTSTEP_OT_plan)
 
 
 def _menu_import(self, context):

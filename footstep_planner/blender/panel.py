@@ -39,6 +39,13 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
         _draw_roles(layout, ob)
         _draw_clips(layout, ob)
         box = layout.box()
+        box.label(text="Plan", icon="TRACKING")
+        box.prop(fs, "goal")
+        box.prop(fs, "start")
+        box.operator("footstep.plan", icon="PLAY")
+        if fs.last_report:
+            box.label(text=fs.last_report)
+        box = layout.box()
         box.prop(fs, "show_settings", icon="TRIA_DOWN" if fs.show_settings else "TRIA_RIGHT",
                  emboss=False)
         if fs.show_settings:

@@ -57,12 +57,20 @@ def foot_shape(analyses) -> FootShape:
     return FootShape(back=half + 0.04, front=half + 0.07, half_width=0.05)
 
 
-def geometry_key(ground, obstacles) -> str:
-    h = hashlib.sha1()
-    for g in (ground, obstacles):
-        h.update(np.ascontiguousarray(g.mesh.verts, dtype=np.float32).tobytes())
-        h.update(np.ascontiguousarray(g.mesh.tris, dtype=np.int32).tobytes())
-    return h.hexdigest()
+def object_geometry(ground, obstacles) -> dict:
+    """name -> (hash, lo, hi) of every tagged object's world-space triangles (and its
+    role), for the support cache to drop answers only where something changed."""
+    out = {}
+    for role, g in (("T", ground), ("O", obstacles)):
+        m = g.mesh
+        for i, name in enumerate(m.names):
+            sel = m.owner == i
+            tris = m.tris[sel]
+            v = m.verts[np.unique(tris)] if len(tris) else np.zeros((1, 3))
+            h = hashlib.sha1(role.encode())
+            h.update(np.ascontiguousarray(m.verts[tris], dtype=np.float32).tobytes())
+            out[f"{role}:{name}"] = (h.hexdigest(), v.min(axis=0), v.max(axis=0))
+    return out
 
 
 def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
@@ -75,9 +83,10 @@ def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
     library = library_for(ob, clips)
     steps = library_steps(library, clips.analyses)
     forward = world_forward(ob, clips.analyses)
-    key = geometry_key(ground, obst)
-    planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses),
-                      cache=_CACHES.setdefault(scene.name, FootprintCache()), geometry_key=key)
+    cache = _CACHES.setdefault(scene.name, FootprintCache())
+    cache.update(object_geometry(ground, obst))
+    planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses), cache=cache,
+                      geometry_key=None)
     return PlanSetup(planner, clips.analyses, library, forward)
 
 

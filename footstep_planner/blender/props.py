@@ -69,6 +69,12 @@ def _is_armature(self, ob):
 class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
     character: PointerProperty(name="Character", type=bpy.types.Object, poll=_is_armature,
                                description="The armature the planner animates")
+    goal: PointerProperty(name="Goal", type=bpy.types.Object,
+                          description="Walk to this object (empty: the 3D cursor)")
+    start: PointerProperty(name="Start", type=bpy.types.Object,
+                           description="Start standing at this object (empty: where the "
+                                       "character's feet are now)")
+    plan_json: StringProperty(name="Plan", description="The last plan (JSON)", options={"HIDDEN"})
     settings: PointerProperty(type=FOOTSTEP_PG_settings)
     show_settings: BoolProperty(name="Settings", default=False)
     last_report: StringProperty(name="Last report", description="Summary of the last run")

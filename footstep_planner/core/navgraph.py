@@ -69,16 +69,40 @@ class PlanResult:
 
 @dataclass
 class FootprintCache:
-    """Support answers by grid key, for one geometry (``geometry_key``); reused by every
-    plan on that geometry and dropped when it changes."""
+    """Support answers by fine footprint key, reused by every plan while the tagged
+    geometry is unchanged. Geometry is described per object (a hash and its bounds):
+    when objects change, only the answers near their old and new bounds are dropped."""
 
-    geometry_key: object = None
-    table: dict = field(default_factory=dict)
+    objects: dict = field(default_factory=dict)  # name -> (hash, lo (3,), hi (3,))
+    table: dict = field(default_factory=dict)  # (ix, iy, heading bin) -> (ok, z)
+    margin: float = 0.6  # m around a changed object whose answers are dropped
+    geometry_key: object = None  # for callers that describe geometry by one key
 
     def for_geometry(self, key) -> dict:
         if key != self.geometry_key:
             self.geometry_key, self.table = key, {}
         return self.table
+
+    def update(self, objects: dict) -> int:
+        """Bring the cache to ``objects`` (name -> (hash, lo, hi)); returns how many
+        answers were dropped."""
+        changed = []
+        for name in set(self.objects) | set(objects):
+            old, new = self.objects.get(name), objects.get(name)
+            if old is None or new is None or old[0] != new[0]:
+                changed += [b for b in (old, new) if b is not None]
+        self.objects = dict(objects)
+        if not changed or not self.table:
+            return 0
+        keys = list(self.table)
+        xy = np.array([k[:2] for k in keys], dtype=np.float64) * 0.02
+        drop = np.zeros(len(keys), bool)
+        for _, lo, hi in changed:
+            drop |= ((xy[:, 0] >= lo[0] - self.margin) & (xy[:, 0] <= hi[0] + self.margin)
+                     & (xy[:, 1] >= lo[1] - self.margin) & (xy[:, 1] <= hi[1] + self.margin))
+        for k in np.flatnonzero(drop):
+            del self.table[keys[k]]
+        return int(drop.sum())
 
 
 @dataclass
