@@ -171,3 +171,17 @@ def test_plan_operator_and_panel(fp):
     with pytest.raises(RuntimeError, match="off every traversable surface"):
         bpy.ops.footstep.plan()  # the operator reports the error (scripts get it raised)
     assert json.loads(scene.footstep.plan_json) == doc  # and changed nothing
+
+
+def test_the_wall_is_stepped_around(fp):
+    """Wall1 runs from x = -6 to -2 at y = 2; straight through it is the short way."""
+    scene, ob = _scene_with_character(fp, "obstacles")
+    scene.objects["Start"].location = (-4.0, 0.0, 0.0)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    goal = np.array([-4.0, 4.5, 0.0])
+    result, s = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
+    _check(fp, result, s, goal)
+    for a, b in zip(result.footsteps[:-1], result.footsteps[1:]):
+        if (a.position[1] - 2.15) * (b.position[1] - 2.15) <= 0:  # a step across the wall's line
+            x = a.position[0] + (2.15 - a.position[1]) / (b.position[1] - a.position[1]) * (b.position[0] - a.position[0])
+            assert x < -6.2 or x > -1.8

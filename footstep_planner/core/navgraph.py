@@ -75,12 +75,13 @@ class FootprintCache:
 
     objects: dict = field(default_factory=dict)  # name -> (hash, lo (3,), hi (3,))
     table: dict = field(default_factory=dict)  # (ix, iy, heading bin) -> (ok, z)
+    between: dict = field(default_factory=dict)  # (from key, to key) -> (ground, clear)
     margin: float = 0.6  # m around a changed object whose answers are dropped
     geometry_key: object = None  # for callers that describe geometry by one key
 
     def for_geometry(self, key) -> dict:
         if key != self.geometry_key:
-            self.geometry_key, self.table = key, {}
+            self.geometry_key, self.table, self.between = key, {}, {}
         return self.table
 
     def update(self, objects: dict) -> int:
@@ -94,6 +95,12 @@ class FootprintCache:
         self.objects = dict(objects)
         if not changed or not self.table:
             return 0
+        # a step's answer goes with either end's region (a step is shorter than 2 m)
+        for k in [k for k in self.between
+                  if any(lo[0] - self.margin - 2 <= k[0][0] * 0.02 <= hi[0] + self.margin + 2
+                         and lo[1] - self.margin - 2 <= k[0][1] * 0.02 <= hi[1] + self.margin + 2
+                         for _, lo, hi in changed)]:
+            del self.between[k]
         keys = list(self.table)
         xy = np.array([k[:2] for k in keys], dtype=np.float64) * 0.02
         drop = np.zeros(len(keys), bool)
@@ -137,22 +144,37 @@ class Planner:
         b = int(round(psi / (2 * np.pi) * self.heading_bins)) % self.heading_bins
         return (foot, gait, int(round(x / self.cell)), int(round(y / self.cell)), b)
 
-    def _gap_free(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Whether the ground continues between footprint pairs (rows of a, b (N, 3)):
-        three points between them must stand on the surface within a step's height."""
+    def _between(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For footprint pairs (rows of a, b (N, 3)): (ground continues between them,
+        the way between them is clear of obstacles). Three points between are tested:
+        the ground must be under each within a step's height; no obstacle may stand
+        there below head height, nor closer than half the clearance at the hips."""
         t = np.array([0.25, 0.5, 0.75])
         pts = a[:, None] + (b - a)[:, None] * t[None, :, None]
         top = pts.copy()
         top[..., 2] = np.maximum(a[:, None, 2], b[:, None, 2]) + self.max_step_height
         hit = self.ground.ray_down(top.reshape(-1, 3), 2 * self.max_step_height + 0.2)
-        return hit.hit.reshape(len(a), 3).all(axis=1)
+        ground = hit.hit.reshape(len(a), 3).all(axis=1)
+        clear = np.ones(len(a), bool)
+        if self.obstacles is not None and self.obstacles.mesh.n:
+            base = np.minimum(a[:, None, 2], b[:, None, 2]) + np.zeros((1, 3))
+            head = np.concatenate([pts[..., :2], (base + 1.6)[..., None]], axis=2).reshape(-1, 3)
+            inside = self.obstacles.ray_down(head, 1.55).hit.reshape(len(a), 3).any(axis=1)
+            hips = head.copy()
+            hips[:, 2] -= 0.6
+            _, d = self.obstacles.nearest(hips, max_dist=0.5 * self.clearance)
+            near = (d < 0.5 * self.clearance).reshape(len(a), 3).any(axis=1)
+            clear = ~inside & ~near
+        return ground, clear
 
     def plan(self, start: list[Footstep], goal: np.ndarray, goal_heading: float | None = None) -> PlanResult:
         """A footstep path from ``start`` (the character's current footprints; the last
         one is the foot it stands on, the other foot steps first) to ``goal`` (x, y, z)."""
         t0 = time.perf_counter()
         goal = np.asarray(goal, dtype=np.float64)
-        table = self.cache.for_geometry(self.geometry_key)
+        table = self.cache.for_geometry(self.geometry_key) if self.geometry_key is not None \
+            else self.cache.table
+        between = self.cache.between
         gsup = self._support(goal[None], np.array([goal_heading or 0.0]))
         if not gsup.ok[0] and gsup.reason[0] in ("off surface", "uneven", "steep"):
             hit = self.ground.ray_down(np.array([[goal[0], goal[1], goal[2] + 2.0]]), 10.0)
@@ -165,7 +187,7 @@ class Planner:
                                    self._jump_reach(), self.max_step_height)
         self._field_seconds = time.perf_counter() - t_field
 
-        if not any(np.isfinite(dist.at(np.asarray(f.position, float))) for f in start):
+        if not np.isfinite(dist.at_many(np.array([f.position for f in start], float))).any():
             near = dist.nearest_reachable(np.asarray(start[0].position, float), goal)
             raise PlanError(
                 f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) cannot be reached: no walkable way, nor a "
@@ -174,8 +196,11 @@ class Planner:
                 "from the goal")
 
         def heuristic(p):
-            d = dist.at(p)
-            d = d if np.isfinite(d) else 3.0 * np.linalg.norm(goal[:2] - p[:2])
+            """Weighted remaining time for points (N, >=2); off the grid's reach, three
+            times the straight distance."""
+            p = np.atleast_2d(p)
+            d = dist.at_many(p)
+            d = np.where(np.isfinite(d), d, 3.0 * np.hypot(goal[0] - p[:, 0], goal[1] - p[:, 1]))
             return self.heuristic_weight * d / vmax
         fwd_angle = np.arctan2(self.forward[1], self.forward[0])
         st = self.steps
@@ -186,7 +211,7 @@ class Planner:
             for gait in ("walk", "run"):
                 idx = len(nodes)
                 nodes.append((s.foot, gait, np.asarray(s.position, float), float(s.heading), 0.0, -1, -1))
-                heapq.heappush(heap, (heuristic(np.asarray(s.position, float)), idx))
+                heapq.heappush(heap, (float(heuristic(np.asarray(s.position, float))[0]), idx))
         self.explored = nodes  # for review: every footprint the search reached
         expanded = generated = 0
         best_near = (np.inf, None)
@@ -243,12 +268,23 @@ class Planner:
             for j, k in enumerate(fine):
                 ok[j], z[j] = table[k]
             ok &= np.abs(z - pos[2]) <= self.max_step_height
-            # a step walks on continuous ground; a jump is only taken across a gap
+            # a step walks on continuous ground; a jump is only taken across a gap; and
+            # neither passes through an obstacle
             if ok.any():
+                here = (int(round(pos[0] / 0.02)), int(round(pos[1] / 0.02)))
                 j = np.flatnonzero(ok)
-                free = self._gap_free(np.repeat(pos[None], len(j), axis=0), np.c_[nxt[j], z[j]])
-                ok[j] &= np.where(st.jump[sel[j]], ~free, free)
-            for j in np.flatnonzero(ok):
+                pairs = [(here, fine[i]) for i in j]
+                ask = [n for n, k in enumerate(pairs) if k not in between]
+                if ask:
+                    ja = j[ask]
+                    ground, clear = self._between(np.repeat(pos[None], len(ja), axis=0), np.c_[nxt[ja], z[ja]])
+                    for n, g_, c_ in zip(ask, ground.tolist(), clear.tolist()):
+                        between[pairs[n]] = (g_, c_)
+                gc = np.array([between[k] for k in pairs], dtype=bool).reshape(-1, 2)
+                ok[j] &= np.where(st.jump[sel[j]], ~gc[:, 0], gc[:, 0]) & gc[:, 1]
+            good = np.flatnonzero(ok)
+            hs = heuristic(nxt[good]) if len(good) else ()
+            for j, h in zip(good, hs):
                 i = sel[j]
                 cost = (st.duration[i] + self.turn_penalty * abs(st.turn[i])
                         + (self.jump_penalty if st.jump[i] else 0.0)
@@ -260,7 +296,7 @@ class Planner:
                 best_g[k] = ng
                 p = np.array([nxt[j, 0], nxt[j, 1], z[j]])
                 nodes.append((1 - foot, st.gait[i], p, float(npsi[j]), ng, idx, int(i)))
-                heapq.heappush(heap, (ng + heuristic(p), len(nodes) - 1))
+                heapq.heappush(heap, (ng + float(h), len(nodes) - 1))
                 generated += 1
         near = best_near[1]
         where = "nowhere" if near is None else f"({near[0]:.2f}, {near[1]:.2f}, {near[2]:.2f})"
@@ -307,6 +343,14 @@ class DistanceField:
     shape: tuple[int, int]
     dist: np.ndarray  # (nx, ny), inf where the goal cannot be reached on the grid
     graph: object = field(default=None, repr=False)  # the cells' sparse graph
+
+    def at_many(self, p: np.ndarray) -> np.ndarray:
+        i = np.floor((p[:, 0] - self.origin[0]) / self.cell).astype(np.int64)
+        j = np.floor((p[:, 1] - self.origin[1]) / self.cell).astype(np.int64)
+        inside = (i >= 0) & (i < self.shape[0]) & (j >= 0) & (j < self.shape[1])
+        out = np.full(len(p), np.inf)
+        out[inside] = self.dist[i[inside], j[inside]]
+        return out
 
     def nearest_reachable(self, start, goal) -> np.ndarray:
         """The centre of the cell reachable from ``start`` that is nearest the goal."""
