@@ -156,3 +156,16 @@ def test_python_dash_m_runs_the_same_verbs(tmp_path):
     assert clip["gait"] == "run"
     bad = run("analyze", str(tmp_path / "missing.bvh"))
     assert bad.returncode == 2 and "Traceback" not in bad.stderr and "missing.bvh" in bad.stderr
+
+
+@needs_cmu
+def test_demo_analyses_plans_draws_and_renders(cli, capsys, tmp_path):
+    from conftest import CMU
+
+    assert cli(["demo", "--mocap", CMU, "--out", str(tmp_path), "--scene", "obstacles"]) == 0
+    out = capsys.readouterr().out
+    assert "cmu_16_16_walk" in out and "blend groups (proposed)" in out
+    assert "plan on 'obstacles'" in out and "footprints" in out
+    for name in ("cmu_16_library.blend", "obstacles_planned.blend", "obstacles_plan_top.png",
+                 "analysis_cmu_16_16_walk.png"):
+        assert (tmp_path / name).stat().st_size > 1000, name

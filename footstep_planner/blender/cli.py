@@ -14,6 +14,7 @@ import os
 import sys
 
 import bpy
+import numpy as np
 
 from ..core.errors import FootstepError
 from ..core.settings import Settings
@@ -363,8 +364,82 @@ def _demo(args) -> int:
     ob.animation_data.action_slot = actions[0].slots[0]
     bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
     print(f"library saved: {path}")
-    print(f"note: scene {args.scene!r} will be planned and baked once planning exists")
-    return 1 if result.errors else 0
+    rc = _demo_plan(args.scene, mocap, out_dir)
+    print("next milestones: motion synthesis, IK and the bake into NLA")
+    return 1 if result.errors or rc else 0
+
+
+DEMO_LIBRARY = ["16_16", "16_11", "16_13", "16_17", "16_19", "16_35", "16_37", "16_39", "16_41",
+                "16_43", "49_05"]
+
+
+def _demo_plan(scene_name: str, mocap: str, out_dir: str) -> int:
+    """Plan the sample scene with the CMU library, draw the footprints, render a top view."""
+    import glob
+    import math
+
+    from . import planning
+    from .clips import import_bvh_clips
+    from .sample_scenes import build
+
+    files = [f for n in DEMO_LIBRARY for f in glob.glob(os.path.join(mocap, f"cmu_{n}*.bvh"))]
+    scene = build(scene_name)
+    set_scene_fps(scene, 30)
+    ob, _ = import_bvh_clips(files, name="CMU")
+    goal = np.array(scene.objects["Goal"].location)
+    result, setup = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
+    print(f"\nplan on {scene_name!r} with {len(files)} CMU clips ({setup.planner.steps.n} steps): "
+          f"{len(result.footsteps)} footprints, {result.footsteps[-1].time:.1f} s of motion, "
+          f"{sum(f.jump for f in result.footsteps)} jumps; search {result.expanded} footprints "
+          f"expanded in {result.seconds * 1e3:.0f} ms")
+    for i, f in enumerate(result.footsteps):
+        print(f"  {i:3d} {'LR'[f.foot]} ({f.position[0]:6.2f}, {f.position[1]:6.2f}, {f.position[2]:5.2f}) "
+              f"{math.degrees(f.heading):5.0f} deg  t {f.time:5.2f}  {f.label}{' (jump)' if f.jump else ''}")
+    _draw_footprints(scene, result, setup)
+    png = os.path.join(out_dir, f"{scene_name}_plan_top.png")
+    _render_top(scene, png)
+    path = os.path.join(out_dir, f"{scene_name}_planned.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
+    print(f"top view: {png}\nplanned scene: {path}")
+    return 0
+
+
+def _draw_footprints(scene, result, setup):
+    """Footprints as small quads in a collection of the demo's own (left blue, right red,
+    jumps yellow)."""
+    coll = bpy.data.collections.new("Footprints (demo)")
+    scene.collection.children.link(coll)
+    foot = setup.planner.foot
+    mats = {}
+    for name, rgba in (("L", (0.15, 0.35, 0.95, 1)), ("R", (0.95, 0.2, 0.15, 1)), ("J", (1.0, 0.8, 0.1, 1))):
+        m = bpy.data.materials.new(f"footprint_{name}")
+        m.diffuse_color = rgba
+        mats[name] = m
+    for i, f in enumerate(result.footsteps):
+        c = foot.corners(f.position[None], np.array([f.heading]), setup.forward)[0, :4]
+        z = f.position[2] + 0.01
+        me = bpy.data.meshes.new(f"footprint{i}")
+        me.from_pydata([(x, y, z) for x, y in c[[0, 2, 3, 1]]], [], [(0, 1, 2, 3)])
+        me.materials.append(mats["J" if f.jump else "LR"[f.foot]])
+        coll.objects.link(bpy.data.objects.new(f"footprint{i:03d}", me))
+
+
+def _render_top(scene, path):
+    pts = np.array([ob.matrix_world @ v.co for ob in scene.objects if ob.type == "MESH"
+                    for v in ob.data.vertices])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    cam = bpy.data.objects.new("TopCamera", bpy.data.cameras.new("TopCamera"))
+    scene.collection.objects.link(cam)
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = float(max(hi[:2] - lo[:2])) * 1.08
+    cam.location = (float(lo[0] + hi[0]) / 2, float(lo[1] + hi[1]) / 2, float(hi[2]) + 20)
+    scene.camera = cam
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.display.shading.color_type = "MATERIAL"
+    scene.render.resolution_x = scene.render.resolution_y = 800
+    scene.render.filepath = path
+    scene.render.image_settings.file_format = "PNG"
+    bpy.ops.render.render(write_still=True)
 
 
 _HANDLE = None
