@@ -88,10 +88,12 @@ def test_obstacles_scene_features(fp):
     assert sup((3.0, 3.0), 0.0).reason[0] == "obstacle"
 
 
-def test_the_scripts_save_a_file(tmp_path):
-    out = tmp_path / "jumps.blend"
+def test_the_script_saves_the_scenes(tmp_path):
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "res"))
-    r = subprocess.run([sys.executable, os.path.join(ROOT, "sample_scenes", "jumps.py"), "--out", str(out)],
+    script = os.path.join(ROOT, "sample_scenes", "build.py")
+    r = subprocess.run([sys.executable, script, "jumps", "turns", "--out", str(tmp_path)],
                        capture_output=True, text=True, timeout=120, env=env)
     assert r.returncode == 0, r.stderr
-    assert out.stat().st_size > 1000
+    assert (tmp_path / "jumps.blend").stat().st_size > 1000 and (tmp_path / "turns.blend").exists()
+    bad = subprocess.run([sys.executable, script, "moon"], capture_output=True, text=True, timeout=60, env=env)
+    assert bad.returncode == 2 and "unknown scene 'moon'" in bad.stderr

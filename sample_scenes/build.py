@@ -1,0 +1,43 @@
+"""Build sample scenes and save them, so anyone can regenerate them.
+
+    .venv/bin/python sample_scenes/build.py [jumps turns obstacles] [--out DIR]
+
+With no names, builds all three into sample_scenes/out/NAME.blend. The scenes are made
+by footstep_planner/blender/sample_scenes.py (Jumps: platforms with bends and two 1 m
+gaps; Turns: bends onto a curved platform; Obstacles: walls, pillars, a doorway, a narrow
+corridor, a 15 cm step and a 15-degree ramp).
+"""
+
+import argparse
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+SCENES = ("jumps", "turns", "obstacles")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("names", nargs="*", metavar="NAME", help="jumps, turns, obstacles (default: all)")
+    ap.add_argument("--out", default=os.path.join(HERE, "out"), metavar="DIR")
+    args = ap.parse_args()
+    bad = [n for n in args.names if n not in SCENES]
+    if bad:
+        ap.error(f"unknown scene {bad[0]!r}; choose from {', '.join(SCENES)}")
+    import bpy
+
+    from footstep_planner import register
+    from footstep_planner.blender.sample_scenes import build
+
+    register()
+    os.makedirs(args.out, exist_ok=True)
+    for name in args.names or SCENES:
+        build(name)
+        path = os.path.join(os.path.abspath(args.out), f"{name}.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
+        print(f"saved {path}")
+
+
+if __name__ == "__main__":
+    main()
