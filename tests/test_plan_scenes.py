@@ -185,3 +185,17 @@ def test_the_wall_is_stepped_around(fp):
         if (a.position[1] - 2.15) * (b.position[1] - 2.15) <= 0:  # a step across the wall's line
             x = a.position[0] + (2.15 - a.position[1]) / (b.position[1] - a.position[1]) * (b.position[0] - a.position[0])
             assert x < -6.2 or x > -1.8
+
+
+def test_up_the_ramp_to_its_landing(fp):
+    scene, ob = _scene_with_character(fp, "obstacles")
+    scene.objects["Start"].location = (-3.0, -8.0, 0.0)
+    scene.objects["Start"].rotation_euler.z = math.pi / 2  # facing +X, towards the ramp
+    planning = import_module(fp.__name__ + ".blender.planning")
+    run = 0.8 / math.tan(math.radians(15))
+    goal = np.array([run + 1.2, -8.0, 0.8])
+    result, s = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
+    _check(fp, result, s, goal)
+    on_ramp = [f for f in result.footsteps if 0.2 < f.position[0] < run - 0.2]
+    assert on_ramp and all(0.0 < f.position[2] < 0.8 for f in on_ramp)
+    assert result.footsteps[-1].position[2] == pytest.approx(0.8, abs=1e-3)
