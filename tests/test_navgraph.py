@@ -114,15 +114,20 @@ def test_arrival_heading():
 
 def test_the_support_cache_serves_the_next_plan():
     g = MeshGround(plane(-2, 12, -6, 6))
-    pl = Planner(g, None, steps(), FWD, geometry_key="floor-v1")
+    pl = Planner(g, None, steps(), FWD)
+    pl.cache.update({"floor": ("v1", np.array([-2, -6, 0.0]), np.array([12, 6, 0.0]))})
     goal = np.array([10.0, 3.0, 0.0])
     a = pl.plan(start(0, 0), goal)
     n = len(pl.cache.table)
     b = pl.plan(start(0, 0), goal)
     assert len(pl.cache.table) == n and [f.label for f in a.footsteps] == [f.label for f in b.footsteps]
-    pl.geometry_key = "floor-v2"  # the geometry changed: answers are dropped
+    # the geometry changed: answers are dropped
+    pl.cache.update({"floor": ("v2", np.array([-2, -6, 0.0]), np.array([12, 6, 0.0]))})
+    left = np.array([k[:2] for k in pl.cache.table], dtype=float).reshape(-1, 2) * 0.02
+    assert len(left) < n and not pl.cache.between  # nothing kept on or near the changed floor
+    assert np.all((left[:, 0] > 12.6) | (left[:, 0] < -2.6) | (left[:, 1] > 6.6) | (left[:, 1] < -6.6))
     pl.plan(start(0, 0), goal)
-    assert pl.cache.geometry_key == "floor-v2"
+    assert pl.cache.objects["floor"][0] == "v2"
 
 
 def test_a_changed_object_drops_only_the_answers_near_it():

@@ -1,28 +1,17 @@
 """The Blender layer: everything that touches bpy. It reads scene data into plain arrays,
 calls the core, and writes results back."""
 
-import importlib
+from . import cli, operators, panel, props
 
-# Submodules that define register()/unregister(), in registration order.
-_MODULES = ("props", "operators", "panel", "cli")
-
-
-def _loaded():
-    mods = []
-    for name in _MODULES:
-        try:
-            mods.append(importlib.import_module(f"{__name__}.{name}"))
-        except ModuleNotFoundError as ex:  # module not written yet
-            if ex.name != f"{__name__}.{name}":
-                raise
-    return mods
+# registration order: properties before the operators and panels that use them
+_MODULES = (props, operators, panel, cli)
 
 
 def register():
-    for mod in _loaded():
+    for mod in _MODULES:
         mod.register()
 
 
 def unregister():
-    for mod in reversed(_loaded()):
+    for mod in reversed(_MODULES):
         mod.unregister()

@@ -181,7 +181,7 @@ def _retarget(src_ob, src_act, target, sk):
                                   for b in (src_ob.data.bones[n] for n in src_names)],
                       src_rest[:, :3, 3])
     hips = roles.bone("hips")
-    ratio = _hip_height(target, tgt_names, tgt_rest, hips) / _hip_height(src_ob, src_names, src_rest, hips)
+    ratio = _hip_height(tgt_names, tgt_rest, hips) / _hip_height(src_names, src_rest, hips)
 
     name = src_act.name
     src_act.name = "footstep_scratch"  # the importer's copy is scratch: free its name
@@ -208,7 +208,7 @@ def _retarget(src_ob, src_act, target, sk):
     return act
 
 
-def _hip_height(ob, names, rest, hips):
+def _hip_height(names, rest, hips):
     return max(float(rest[names.index(hips), 2, 3] - rest[:, 2, 3].min()), 1e-3)
 
 

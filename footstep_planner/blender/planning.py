@@ -85,8 +85,7 @@ def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
     forward = world_forward(ob, clips.analyses)
     cache = _CACHES.setdefault(scene.name, FootprintCache())
     cache.update(object_geometry(ground, obst))
-    planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses), cache=cache,
-                      geometry_key=None)
+    planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses), cache=cache)
     return PlanSetup(planner, clips.analyses, library, forward)
 
 
@@ -96,7 +95,7 @@ def _heading(vec_xy, forward) -> float:
 
 def character_footprints(ob, s: PlanSetup) -> list[Footstep]:
     """Where the character's feet are now (the evaluated pose at the current frame),
-    dropped onto the ground; the foot standing lower is the one it stands on."""
+    dropped onto the ground."""
     from .scene import rig_from_armature
 
     rig = rig_from_armature(ob)
@@ -115,8 +114,7 @@ def character_footprints(ob, s: PlanSetup) -> list[Footstep]:
                             f"({mid[0]:.2f}, {mid[1]:.2f}) is not above a traversable surface")
         pos = np.array([mid[0], mid[1], hit.z[0]])
         out.append(Footstep(k, pos, _heading(ball[:2] - ankle[:2], s.forward), 0.0, "start", "walk"))
-    low = [np.minimum(f.position[2], 9) for f in out]
-    return out if low[1] <= low[0] else out[::-1]
+    return out
 
 
 def marker_footprints(marker, s: PlanSetup, width: float = 0.1) -> list[Footstep]:

@@ -77,12 +77,6 @@ class FootprintCache:
     table: dict = field(default_factory=dict)  # (ix, iy, heading bin) -> (ok, z)
     between: dict = field(default_factory=dict)  # (from key, to key) -> (ground, clear)
     margin: float = 0.6  # m around a changed object whose answers are dropped
-    geometry_key: object = None  # for callers that describe geometry by one key
-
-    def for_geometry(self, key) -> dict:
-        if key != self.geometry_key:
-            self.geometry_key, self.table, self.between = key, {}, {}
-        return self.table
 
     def update(self, objects: dict) -> int:
         """Bring the cache to ``objects`` (name -> (hash, lo, hi)); returns how many
@@ -133,16 +127,17 @@ class Planner:
     field_cell: float = 0.25
     heuristic_weight: float = 2.0
     cache: FootprintCache = field(default_factory=FootprintCache)
-    geometry_key: object = None
     explored: list = field(default_factory=list, repr=False)
 
     def _support(self, pos, heading):
         return footprint_support(self.ground, self.obstacles, pos, heading, self.forward, self.foot,
                                  step_height=self.max_step_height, clearance=self.clearance)
 
-    def _key(self, foot, gait, x, y, psi):
-        b = int(round(psi / (2 * np.pi) * self.heading_bins)) % self.heading_bins
-        return (foot, gait, int(round(x / self.cell)), int(round(y / self.cell)), b)
+    def _keys(self, foot: int, gaits, xy: np.ndarray, psi: np.ndarray) -> list[tuple]:
+        """Merge-grid keys (foot, gait, cell x, cell y, heading bin) of footprints."""
+        c = np.rint(xy / self.cell).astype(np.int64)
+        b = np.rint(psi / (2 * np.pi) * self.heading_bins).astype(np.int64) % self.heading_bins
+        return list(zip([foot] * len(c), list(gaits), c[:, 0].tolist(), c[:, 1].tolist(), b.tolist()))
 
     def _between(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For footprint pairs (rows of a, b (N, 3)): (ground continues between them,
@@ -168,13 +163,11 @@ class Planner:
         return ground, clear
 
     def plan(self, start: list[Footstep], goal: np.ndarray, goal_heading: float | None = None) -> PlanResult:
-        """A footstep path from ``start`` (the character's current footprints; the last
-        one is the foot it stands on, the other foot steps first) to ``goal`` (x, y, z)."""
+        """A footstep path from ``start`` (the character's current footprints, in any
+        order: the search may step off either) to ``goal`` (x, y, z)."""
         t0 = time.perf_counter()
         goal = np.asarray(goal, dtype=np.float64)
-        table = self.cache.for_geometry(self.geometry_key) if self.geometry_key is not None \
-            else self.cache.table
-        between = self.cache.between
+        table, between = self.cache.table, self.cache.between
         gsup = self._support(goal[None], np.array([goal_heading or 0.0]))
         if not gsup.ok[0] and gsup.reason[0] in ("off surface", "uneven", "steep"):
             hit = self.ground.ray_down(np.array([[goal[0], goal[1], goal[2] + 2.0]]), 10.0)
@@ -219,7 +212,7 @@ class Planner:
         while heap:
             f, idx = heapq.heappop(heap)
             foot, gait, pos, psi, g, parent, si = nodes[idx]
-            key = self._key(foot, gait, pos[0], pos[1], psi)
+            key = self._keys(foot, [gait], pos[None, :2], np.array([psi]))[0]
             if key in closed:
                 continue
             closed.add(key)
@@ -243,10 +236,7 @@ class Planner:
             l_ = np.array([-f_[1], f_[0]])
             nxt = pos[:2] + st.fwd[sel, None] * f_ + st.left[sel, None] * l_
             npsi = _wrap(psi + st.turn[sel])
-            cx = np.rint(nxt / self.cell).astype(np.int64)
-            cb = np.rint(npsi / (2 * np.pi) * self.heading_bins).astype(np.int64) % self.heading_bins
-            keys = list(zip([1 - foot] * len(sel), st.gait[sel].tolist(), cx[:, 0].tolist(),
-                            cx[:, 1].tolist(), cb.tolist()))
+            keys = self._keys(1 - foot, st.gait[sel].tolist(), nxt, npsi)
             todo = [j for j, k in enumerate(keys) if k not in closed]
             if not todo:
                 continue
