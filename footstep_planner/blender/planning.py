@@ -16,6 +16,7 @@ import numpy as np
 from ..core.analysis import ClipAnalysis
 from ..core.library import Library
 from ..core.navgraph import FootprintCache, Footstep, PlanError, PlanResult, Planner
+from ..core.settings import Settings
 from ..core.steps import library_steps
 from ..core.surface import FootShape
 from .character import analyze_character, library_for
@@ -85,7 +86,11 @@ def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
     forward = world_forward(ob, clips.analyses)
     cache = _CACHES.setdefault(scene.name, FootprintCache())
     cache.update(object_geometry(ground, obst))
-    planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses), cache=cache)
+    st = settings or Settings()
+    planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses), cache=cache,
+                      turn_penalty=st.turn_penalty, jump_penalty=st.jump_penalty,
+                      run_penalty=st.run_penalty, gait_change_penalty=st.gait_change_penalty,
+                      heuristic_weight=st.heuristic_weight, goal_radius=st.goal_radius)
     return PlanSetup(planner, clips.analyses, library, forward)
 
 

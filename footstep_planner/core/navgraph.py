@@ -9,11 +9,12 @@ explored paths are ever tested. Footprints are merged on a grid (``cell`` metres
 serves later plans on the same geometry (see ``FootprintCache``).
 
 Cost is time (each step's duration), plus ``turn_penalty`` seconds per radian of
-heading change and ``jump_penalty`` seconds per jump. Steps walk on continuous ground;
+heading change, ``jump_penalty`` seconds per jump and ``run_penalty`` seconds per
+running step (so the path walks unless it must run). Steps walk on continuous ground;
 jump steps are taken only across a gap (where the ground between take-off and landing
 is missing), never on open floor. The heuristic is the walking
 distance to the goal on a coarse grid (``DistanceField``: around walls, across gaps only
-where a jump reaches) over the fastest step's speed; it never overestimates. The search
+where a jump reaches) over the cheapest step's metres per second of cost; it never overestimates. The search
 weighs it by ``heuristic_weight`` (weighted A*): with weight w the path found costs at
 most w times the cheapest, and the search expands far fewer footprints; w = 1 is plain
 A*.
@@ -118,6 +119,7 @@ class Planner:
     turn_penalty: float = 0.1
     jump_penalty: float = 0.5
     gait_change_penalty: float = 0.2
+    run_penalty: float = 0.0
     goal_radius: float = 0.35
     goal_heading_tolerance: float = np.radians(30)
     max_step_height: float = 0.3
@@ -174,7 +176,7 @@ class Planner:
             if not hit.hit[0]:
                 raise PlanError(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}, {goal[2]:.2f}) is off every "
                                 "traversable surface")
-        vmax = self.steps.max_speed()
+        vmax = self._cost_speed()
         t_field = time.perf_counter()
         dist = DistanceField.build(self.ground, self.obstacles, goal, self.field_cell, self.clearance,
                                    self._jump_reach(), self.max_step_height)
@@ -278,6 +280,7 @@ class Planner:
                 i = sel[j]
                 cost = (st.duration[i] + self.turn_penalty * abs(st.turn[i])
                         + (self.jump_penalty if st.jump[i] else 0.0)
+                        + (self.run_penalty if st.gait[i] == "run" else 0.0)
                         + (self.gait_change_penalty if st.gait[i] != gait else 0.0))
                 ng = g + cost
                 k = keys[j]
@@ -294,6 +297,14 @@ class Planner:
         raise PlanError(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) cannot be reached ({why}, "
                         f"{expanded} footprints expanded); the nearest reachable point is {where}, "
                         f"{best_near[0]:.2f} m from the goal")
+
+    def _cost_speed(self) -> float:
+        """Metres per second of cost of the step that covers ground cheapest: the
+        heuristic divides the distance to the goal by it, so it never overestimates."""
+        st = self.steps
+        cost = st.duration + np.where(st.gait == "run", self.run_penalty, 0.0) \
+            + np.where(st.jump, self.jump_penalty, 0.0)
+        return float(np.max(np.hypot(st.fwd, st.left) / cost))
 
     def _jump_reach(self) -> float:
         j = self.steps.jump

@@ -48,6 +48,22 @@ class Settings:
     run_flight_share: float = 0.5
     """A gait is a run when at least this share of its steps has a flight phase."""
 
+    # --- path search (thesis 3.2) ---------------------------------------------------
+    turn_penalty: float = 0.1
+    """s per radian of heading change added to a step's cost (cost is time)."""
+    jump_penalty: float = 0.5
+    """s added to the cost of each jump."""
+    run_penalty: float = 1.0
+    """s added to the cost of each running step: the path walks, and runs only where a
+    clip needs it (a jump is entered running); 0 plans the fastest path."""
+    gait_change_penalty: float = 0.2
+    """s added where the path changes between walking and running."""
+    heuristic_weight: float = 2.0
+    """Weighted A*: the path found costs at most this many times the cheapest; larger
+    searches less. 1 is plain A*."""
+    goal_radius: float = 0.35
+    """m. The path ends at the first footprint this close to the goal."""
+
     # --- smoothing (thesis 3.3) -----------------------------------------------------
     smoothing_iterations: int = 4
 
