@@ -120,7 +120,10 @@ def test_plan_verb(fp, capsys, tmp_path):
     assert {"foot", "position", "heading", "time", "clip"} <= set(fp0)
     assert {"expanded", "generated", "seconds"} <= set(doc["search"])
     assert cli(["plan", path, "--character", "CMU", "--goal", "Goal", "--start", "Start"]) == 0
-    assert "footprints expanded" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "footprints expanded" in out and "blend groups" in out
+    assert {"synthesis", "stages"} <= set(doc)
+    assert len(doc["synthesis"]["curves"]["tau"]) == doc["stages"]["frames"]
     # bad input: an object that isn't there, a goal off every surface, no traversable mesh
     assert cli(["plan", path, "--character", "CMU", "--goal", "Nowhere", "--start", "Start"]) == 2
     assert "'Nowhere'" in capsys.readouterr().err

@@ -81,8 +81,20 @@ def _parser() -> argparse.ArgumentParser:
                     help="start standing at this object instead of where the feet are now")
     pl.add_argument("--traversable", default="", metavar="NAME,...", help="tag these objects traversable for this run")
     pl.add_argument("--obstacles", default="", metavar="NAME,...", help="tag these objects obstacles for this run")
-    pl.add_argument("--json", action="store_true", help="print JSON")
+    pl.add_argument("--json", action="store_true", help="print JSON: the footprints, the search, "
+                    "and the synthesis (per frame: body, clip weights and times, tau and s curves)")
+    pl.add_argument("--report", metavar="REPORT.json", help="also write that JSON to this file")
     pl.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+
+    pt = sub.add_parser(
+        "plot", help="draw a plan report's curves (tau, s) and footprints as PNG",
+        description="Draw the synthesis of a plan report (from plan --json or --report) like "
+                    "the thesis's figures 4.3 to 4.5: the curvature tau (the plan's clips, the "
+                    "estimate from the body trajectory, the low-passed blend parameter), the "
+                    "walk/run parameter s, and a top view of the footprints and the body.")
+    pt.add_argument("report", metavar="REPORT.json")
+    pt.add_argument("--out", required=True, metavar="DIR", help="folder for the PNG files")
+    pt.add_argument("--name", help="file name prefix (default: the report's file name)")
 
     demo = sub.add_parser("demo", help="the main job on built-in content (clip analysis for now)")
     demo.add_argument("--scene", default="jumps", help="sample scene name (used once planning exists)")
@@ -102,7 +114,7 @@ def cli_main(argv=None) -> int:
         return int(ex.code or 0)
     try:
         return {"import-clips": _import_clips, "analyze": _analyze, "plan": _plan,
-                "demo": _demo}[args.verb](args)
+                "plot": _plot, "demo": _demo}[args.verb](args)
     except EXPECTED as ex:
         print(f"footstep: error: {ex}", file=sys.stderr)
         return 2
@@ -121,7 +133,13 @@ def settings_from_args(pairs) -> Settings:
         if default is None:
             raise CliError(f"unknown setting {k.strip()!r}")
         try:
-            changes[k.strip()] = type(default)(v)
+            if isinstance(default, bool):
+                low = v.strip().lower()
+                if low not in ("1", "0", "true", "false", "yes", "no", "on", "off"):
+                    raise ValueError(v)
+                changes[k.strip()] = low in ("1", "true", "yes", "on")
+            else:
+                changes[k.strip()] = type(default)(v)
         except ValueError:
             raise CliError(f"setting {k.strip()!r} wants a {type(default).__name__}, got {v!r}") from None
     return s.replace(**changes)
@@ -277,22 +295,81 @@ def _plan(args) -> int:
         start = scene.objects.get(args.start)
         if start is None:
             raise CliError(f"no object named {args.start!r} to start at")
-    result, setup = planning.plan(scene, ob, goal, heading, start, settings_from_args(args.set),
+    settings = settings_from_args(args.set)
+    result, setup = planning.plan(scene, ob, goal, heading, start, settings,
                                   _names(args.traversable), _names(args.obstacles))
+    syn = planning.synthesize(scene, result, setup, settings)
     doc = result.to_dict()
     doc["character"] = ob.name
     doc["goal"] = [round(float(v), 4) for v in goal]
+    doc["stages"] = stage_row(result, syn)
+    doc["synthesis"] = syn.to_dict(frame0=float(scene.frame_current))
+    if args.report:
+        with open(args.report, "w") as fh:
+            json.dump(doc, fh)
     if args.json:
-        print(json.dumps(doc, indent=1))
+        print(json.dumps(doc))
     else:
         print(f"{ob.name}: {len(result.footsteps)} footprints to ({goal[0]:.2f}, {goal[1]:.2f}, "
-              f"{goal[2]:.2f}) in {result.footsteps[-1].time:.2f} s of motion")
-        print(f"{'#':>3s} {'foot':4s} {'x':>7s} {'y':>7s} {'z':>6s} {'head':>6s} {'time':>6s}  clip")
+              f"{goal[2]:.2f}) in {syn.t[-1]:.2f} s of motion ({len(syn.t)} frames)")
+        planted = syn.planted()
+        rate = planning.scene_rate(scene)
+        print(f"{'#':>3s} {'foot':4s} {'x':>7s} {'y':>7s} {'z':>6s} {'head':>6s} {'frame':>7s}  clip")
+        pos, head = syn.footprints
         for i, f in enumerate(result.footsteps):
-            print(f"{i:3d} {'LR'[f.foot]:4s} {f.position[0]:7.2f} {f.position[1]:7.2f} {f.position[2]:6.2f} "
-                  f"{math.degrees(f.heading):6.0f} {f.time:6.2f}  {f.label}{' (jump)' if f.jump else ''}")
+            fr = scene.frame_current + planted[i][1] * rate
+            print(f"{i:3d} {'LR'[f.foot]:4s} {pos[i, 0]:7.2f} {pos[i, 1]:7.2f} {pos[i, 2]:6.2f} "
+                  f"{math.degrees(head[i]):6.0f} {fr:7.1f}  {f.label}{' (jump)' if f.jump else ''}")
         print(f"search: {result.expanded} footprints expanded, {result.generated} generated, "
               f"{result.seconds * 1e3:.0f} ms")
+        print(format_stages([doc["stages"]]))
+        print(f"tau {syn.tau_final.min():+.2f} to {syn.tau_final.max():+.2f} 1/m; running "
+              f"(s > 0.5) {np.mean(syn.s_final > 0.5) * 100:.0f} % of the frames")
+    return 0
+
+
+def stage_row(result, syn) -> dict:
+    """One row of thesis Table 4.1: footprints, frames and the time of each stage (ms)."""
+    sec = syn.seconds
+    row = {"footprints": len(result.footsteps), "frames": int(len(syn.t)),
+           "search_ms": round(result.seconds * 1e3, 2)}
+    for k in ("smoothing", "refinement", "body_trajectory", "blend_groups"):
+        row[f"{k}_ms"] = round(sec[k] * 1e3, 2)
+    synth = sum(sec[k] for k in ("smoothing", "refinement", "body_trajectory", "blend_groups"))
+    row["synthesis_ms"] = round(synth * 1e3, 2)
+    row["per_frame_ms"] = round(synth * 1e3 / max(len(syn.t), 1), 4)
+    return row
+
+
+def format_stages(rows, names=None) -> str:
+    """Rows of stage_row as a table in the layout of thesis Table 4.1."""
+    cols = [("footprints", "footprints", "d"), ("frames", "frames", "d"), ("search_ms", "search", ".0f"),
+            ("smoothing_ms", "smoothing", ".1f"), ("refinement_ms", "refinement", ".1f"),
+            ("body_trajectory_ms", "body traj.", ".1f"), ("blend_groups_ms", "blend groups", ".1f"),
+            ("synthesis_ms", "total", ".1f"), ("per_frame_ms", "per frame", ".3f")]
+    names = names or [""] * len(rows)
+    w0 = max([8] + [len(n) for n in names])
+    head = f"{'':{w0}s} " + " ".join(f"{h:>12s}" for _, h, _ in cols)
+    lines = ["stage times (ms), thesis Table 4.1 layout (IK and bake: issue 5):", head, "-" * len(head)]
+    for n, r in zip(names, rows):
+        lines.append(f"{n:{w0}s} " + " ".join(f"{format(r[k], f):>12s}" for k, _, f in cols))
+    return "\n".join(lines)
+
+
+def _plot(args) -> int:
+    from ..core.plots import plot_synthesis
+
+    try:
+        with open(args.report) as fh:
+            doc = json.load(fh)
+    except (OSError, ValueError) as ex:
+        raise CliError(f"cannot read the plan report {args.report!r}: {ex}") from None
+    if "synthesis" not in doc:
+        raise CliError(f"{args.report!r} is not a plan report (no \"synthesis\" section): make it "
+                       "with: footstep plan ... --report REPORT.json")
+    name = args.name or os.path.splitext(os.path.basename(args.report))[0]
+    for path in plot_synthesis(doc, args.out, name):
+        print(path)
     return 0
 
 
@@ -388,40 +465,65 @@ def _demo_plan(scene_name: str, mocap: str, out_dir: str) -> int:
     ob, _ = import_bvh_clips(files, name="CMU")
     goal = np.array(scene.objects["Goal"].location)
     result, setup = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
+    syn = planning.synthesize(scene, result, setup)
     print(f"\nplan on {scene_name!r} with {len(files)} CMU clips ({setup.planner.steps.n} steps): "
-          f"{len(result.footsteps)} footprints, {result.footsteps[-1].time:.1f} s of motion, "
+          f"{len(result.footsteps)} footprints, {syn.t[-1]:.1f} s of motion ({len(syn.t)} frames), "
           f"{sum(f.jump for f in result.footsteps)} jumps; search {result.expanded} footprints "
           f"expanded in {result.seconds * 1e3:.0f} ms")
+    pos, head = syn.footprints
+    planted = syn.planted()
     for i, f in enumerate(result.footsteps):
-        print(f"  {i:3d} {'LR'[f.foot]} ({f.position[0]:6.2f}, {f.position[1]:6.2f}, {f.position[2]:5.2f}) "
-              f"{math.degrees(f.heading):5.0f} deg  t {f.time:5.2f}  {f.label}{' (jump)' if f.jump else ''}")
-    _draw_footprints(scene, result, setup)
+        print(f"  {i:3d} {'LR'[f.foot]} ({pos[i, 0]:6.2f}, {pos[i, 1]:6.2f}, {pos[i, 2]:5.2f}) "
+              f"{math.degrees(head[i]):5.0f} deg  frame {1 + planted[i][1] * 30:6.1f}  "
+              f"s {np.interp(planted[i][1], syn.t, syn.s_final):.2f}  {f.label}{' (jump)' if f.jump else ''}")
+    print(format_stages([stage_row(result, syn)], [scene_name]))
+    report = os.path.join(out_dir, f"{scene_name}_report.json")
+    doc = result.to_dict()
+    doc["stages"] = stage_row(result, syn)
+    doc["synthesis"] = syn.to_dict(frame0=1.0)
+    with open(report, "w") as fh:
+        json.dump(doc, fh)
+    from ..core.plots import plot_synthesis
+
+    pngs = plot_synthesis(doc, out_dir, scene_name)
+    _draw_footprints(scene, result, setup, syn)
     png = os.path.join(out_dir, f"{scene_name}_plan_top.png")
     _render_top(scene, png)
     path = os.path.join(out_dir, f"{scene_name}_planned.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
-    print(f"top view: {png}\nplanned scene: {path}")
+    print(f"report: {report}\ncurves: {', '.join(pngs)}\ntop view: {png}\nplanned scene: {path}")
     return 0
 
 
-def _draw_footprints(scene, result, setup):
-    """Footprints as small quads in a collection of the demo's own (left blue, right red,
-    jumps yellow)."""
+def _draw_footprints(scene, result, setup, syn):
+    """The synthesized footprints as small quads (left blue, right red, jumps yellow) and
+    the body trajectory as a thin orange tube, in a collection of the demo's own."""
     coll = bpy.data.collections.new("Footprints (demo)")
     scene.collection.children.link(coll)
     foot = setup.planner.foot
     mats = {}
-    for name, rgba in (("L", (0.15, 0.35, 0.95, 1)), ("R", (0.95, 0.2, 0.15, 1)), ("J", (1.0, 0.8, 0.1, 1))):
+    for name, rgba in (("L", (0.15, 0.35, 0.95, 1)), ("R", (0.95, 0.2, 0.15, 1)), ("J", (1.0, 0.8, 0.1, 1)),
+                       ("B", (1.0, 0.5, 0.0, 1))):
         m = bpy.data.materials.new(f"footprint_{name}")
         m.diffuse_color = rgba
         mats[name] = m
+    pos, head = syn.footprints
     for i, f in enumerate(result.footsteps):
-        c = foot.corners(f.position[None], np.array([f.heading]), setup.forward)[0, :4]
-        z = f.position[2] + 0.01
+        c = foot.corners(pos[i][None], np.array([head[i]]), setup.forward)[0, :4]
+        z = pos[i, 2] + 0.01
         me = bpy.data.meshes.new(f"footprint{i}")
         me.from_pydata([(x, y, z) for x, y in c[[0, 2, 3, 1]]], [], [(0, 1, 2, 3)])
         me.materials.append(mats["J" if f.jump else "LR"[f.foot]])
         coll.objects.link(bpy.data.objects.new(f"footprint{i:03d}", me))
+    cu = bpy.data.curves.new("body_trajectory", "CURVE")
+    cu.dimensions = "3D"
+    cu.bevel_depth = 0.03
+    sp = cu.splines.new("POLY")
+    body = syn.body_position[::2]
+    sp.points.add(len(body) - 1)
+    sp.points.foreach_set("co", np.c_[body[:, :2], body[:, 2] + 0.05, np.ones(len(body))].ravel())
+    cu.materials.append(mats["B"])
+    coll.objects.link(bpy.data.objects.new("body_trajectory", cu))
 
 
 def _render_top(scene, path):

@@ -126,15 +126,23 @@ class FOOTSTEP_OT_plan(bpy.types.Operator):
         ob = character(context)
         try:
             goal, heading = planning.goal_of(context.scene, fs.goal.name if fs.goal else None)
-            result, _ = planning.plan(context.scene, ob, goal, heading, fs.start, _settings(context))
+            settings = _settings(context)
+            result, setup = planning.plan(context.scene, ob, goal, heading, fs.start, settings)
+            syn = planning.synthesize(context.scene, result, setup, settings)
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
+        from .cli import stage_row
+
         doc = result.to_dict()
         doc["character"] = ob.name
+        doc["stages"] = stage_row(result, syn)
         fs.plan_json = json.dumps(doc)
-        fs.last_report = (f"{len(result.footsteps)} footprints, {result.footsteps[-1].time:.1f} s of "
-                          f"motion; search {result.expanded} expanded in {result.seconds * 1e3:.0f} ms")
+        st = doc["stages"]
+        fs.last_report = (f"{len(result.footsteps)} footprints, {len(syn.t)} frames; search "
+                          f"{result.seconds * 1e3:.0f} ms, synthesis {st['synthesis_ms']:.0f} ms "
+                          f"(smoothing {st['smoothing_ms']:.0f}, refinement {st['refinement_ms']:.0f}, "
+                          f"body {st['body_trajectory_ms']:.0f}, blend groups {st['blend_groups_ms']:.0f})")
         self.report({"INFO"}, fs.last_report)
         return {"FINISHED"}
 

@@ -16,6 +16,8 @@ import numpy as np
 from ..core.analysis import ClipAnalysis
 from ..core.library import Library
 from ..core.navgraph import FootprintCache, Footstep, PlanError, PlanResult, Planner
+from ..core.pipeline import Synthesis, surface_snap
+from ..core.pipeline import synthesize as _synthesize
 from ..core.settings import Settings
 from ..core.steps import library_steps
 from ..core.surface import FootShape
@@ -156,3 +158,17 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     s = setup(scene, ob, settings, traversable, obstacles)
     start = marker_footprints(start_marker, s) if start_marker is not None else character_footprints(ob, s)
     return s.planner.plan(start, goal, goal_heading), s
+
+
+def scene_rate(scene) -> float:
+    return float(scene.render.fps) / float(scene.render.fps_base or 1.0)
+
+
+def synthesize(scene, result: PlanResult, s: PlanSetup, settings=None) -> Synthesis:
+    """Thesis 3.3 to 3.7 on a planned path: the body trajectory and every clip's weight
+    and time per scene frame, footprints kept on the tagged surfaces."""
+    pl = s.planner
+    snap = surface_snap(pl.ground, pl.obstacles, s.forward, pl.foot, clearance=pl.clearance,
+                        step_height=pl.max_step_height)
+    return _synthesize(result.footsteps, s.library, s.analyses, settings or Settings(),
+                       fps=scene_rate(scene), forward=s.forward, snap=snap)

@@ -42,7 +42,9 @@ def _settings_class():
     for f in fields(Settings):
         label = f.name.replace("_", " ").capitalize()
         desc = docs.get(f.name, "")[:400]
-        if f.type in ("int", int):
+        if f.type in ("bool", bool):
+            ann[f.name] = BoolProperty(name=label, description=desc, default=f.default)
+        elif f.type in ("int", int):
             ann[f.name] = IntProperty(name=label, description=desc, default=f.default, min=0)
         else:
             ann[f.name] = FloatProperty(name=label, description=desc, default=f.default, min=0.0)
@@ -58,7 +60,7 @@ def settings_from_props(pg) -> Settings:
     values = {}
     for f in fields(Settings):
         v = getattr(pg, f.name)
-        values[f.name] = v if isinstance(v, int) else float(f"{v:.7g}")
+        values[f.name] = v if isinstance(v, (bool, int)) else float(f"{v:.7g}")
     return Settings(**values)
 
 

@@ -58,3 +58,73 @@ def plot_clip(a: ClipAnalysis, path: str) -> str:
     fig.savefig(path, dpi=80)
     plt.close(fig)
     return path
+
+
+def _save(fig, path: str) -> str:
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_synthesis(report: dict, out_dir: str, name: str = "plan") -> list[str]:
+    """The synthesis of a plan as thesis figures 4.3 to 4.5, from a plan report
+    (``pipeline.Synthesis.to_dict`` under "synthesis"): the curvature tau (the plan's
+    clips in blue, the estimate from the body trajectory in black, the low-passed blend
+    parameter in red), the walk/run parameter s with its pins, and a top view of the
+    footprints (planned, smoothed, final) and the body trajectory. Returns the PNG paths."""
+    import os
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    syn = report.get("synthesis", report)
+    cur = syn["curves"]
+    first = cur["tau_first"]
+    os.makedirs(out_dir, exist_ok=True)
+    paths = []
+
+    fig, ax = plt.subplots(figsize=(12, 4))
+    ax.plot(first["time"], first["plan"], color="tab:blue", lw=1.2, label="plan's clips")
+    ax.plot(first["time"], first["raw"], color="black", lw=0.8, label="estimated from the body trajectory")
+    ax.plot(first["time"], first["smoothed"], color="tab:red", lw=2, label="blend parameter (low-passed)")
+    ax.axhline(0, color="grey", lw=0.5)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("curvature tau (1/m, + left)")
+    ax.set_title(f"{name}: curvature (thesis fig. 4.3/4.4)")
+    ax.legend(loc="upper right", fontsize=8)
+    paths.append(_save(fig, os.path.join(out_dir, f"{name}_tau.png")))
+
+    fig, ax = plt.subplots(figsize=(12, 3.2))
+    ax.plot(cur["u"], cur["s"], color="tab:red", lw=2, label="s (0 walk, 1 run)")
+    pins = np.array(cur["speed_pins"], float).reshape(-1, 2)
+    ax.plot(pins[:, 0], pins[:, 1], "ko", ms=5, label="pins: start, end, jump entry/exit")
+    ax.set_xlabel("footsteps")
+    ax.set_ylabel("s")
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_title(f"{name}: speed blend parameter (thesis fig. 4.5)")
+    ax.legend(loc="upper right", fontsize=8)
+    paths.append(_save(fig, os.path.join(out_dir, f"{name}_speed.png")))
+
+    fps_ = syn["footprints"]
+    fig, ax = plt.subplots(figsize=(9, 9))
+    for key, style, label in (("planned", dict(color="0.6", marker="s", ms=4, ls=":"), "planned"),
+                              ("smoothed", dict(color="tab:green", marker=".", ms=4, ls=""), "smoothed"),
+                              ("position", dict(color="black", marker="o", ms=4, ls=""), "final")):
+        p = np.array([f[key] for f in fps_])
+        ax.plot(p[:, 0], p[:, 1], label=f"{label} footprints", **style)
+    for k, c in zip("LR", COLOURS):
+        p = np.array([f["position"] for f in fps_ if f["foot"] == k])
+        if len(p):
+            ax.plot(p[:, 0], p[:, 1], "o", color=c, ms=3)
+    body = np.array(syn["body"]["position"])
+    ax.plot(body[:, 0], body[:, 1], color="tab:orange", lw=1.5, label="body trajectory")
+    ax.set_aspect("equal")
+    ax.set_title(f"{name}: footprints and body trajectory (top view)")
+    ax.legend(loc="best", fontsize=8)
+    paths.append(_save(fig, os.path.join(out_dir, f"{name}_path.png")))
+    return paths

@@ -1,0 +1,357 @@
+"""Motion synthesis: from a footprint path to a body trajectory with blended clips
+(thesis 3.3 to 3.7), each stage timed and kept for review.
+
+    smoothing      3.3  binomial kernels on the footprints, snapped to the surface
+    refinement     3.5  play the plan's clips (0.3 s transitions), pull the footprints
+                        towards what the clips do locally
+    body trajectory 3.6 the played body, carried from the played footprints' midpoint
+                        spline to the desired footprints' one
+    blend groups   3.7  turning weights from the curvature tau of that trajectory, walk/run
+                        weights from the speed parameter s; then play, refine and carry the
+                        body again
+
+Conventions: world Z up, metres, seconds; headings in radians about +Z relative to the
+world forward (the rig's rest forward as the character stands in the scene), positive
+turning left; tau positive turning left. Normalized time u counts footsteps.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from . import blend_groups as bg
+from .analysis import ClipAnalysis
+from .blending import (BlendError, ClipTrack, PlanStep, Playback, Schedule, build_schedule, make_track,
+                       playback, step_durations_of)
+from .library import Library
+from .refinement import Refined, refine
+from .settings import Settings
+from .smoothing import Smoothed, smooth_footprints
+from .surface import FootShape, Ground, footprint_support
+from .trajectory import transfer_body
+
+SnapFn = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+#: Hz at which the curvature tau is estimated and low-passed.
+TAU_RATE = 10.0
+
+#: Table 4.1's stage columns, in order.
+STAGES = ("smoothing", "refinement", "body_trajectory", "blend_groups")
+
+
+@dataclass
+class Pass:
+    """One play-refine-carry round."""
+
+    schedule: Schedule
+    played: Playback
+    refined: Refined
+    body_pos: np.ndarray  # (F, 3) desired body trajectory R^D
+    body_heading: np.ndarray  # (F,) Q^D
+
+
+@dataclass
+class Synthesis:
+    footsteps: list  # the plan (navgraph.Footstep)
+    settings: Settings
+    clips: list[str]  # the weight columns
+    smoothed: Smoothed
+    first: Pass  # the plan's own clips
+    tau_plan: np.ndarray  # (F1,) the plan's clips' own tau, blended by the first weights
+    tau_raw: np.ndarray  # (F1,) on the first pass's frames
+    tau: np.ndarray  # (F1,) smoothed
+    final: Pass  # blend groups
+    tau_final: np.ndarray  # (F,) tau and s on the final frames
+    s_final: np.ndarray
+    speed_pins: list[tuple[float, float]]
+    seconds: dict = field(default_factory=dict)  # stage -> s
+
+    # ------------------------------------------------------------------ results
+    @property
+    def t(self) -> np.ndarray:
+        return self.final.schedule.t
+
+    @property
+    def body_position(self) -> np.ndarray:
+        return self.final.body_pos
+
+    @property
+    def body_heading(self) -> np.ndarray:
+        return self.final.body_heading
+
+    @property
+    def weights(self) -> np.ndarray:
+        return self.final.schedule.weights
+
+    @property
+    def clip_time(self) -> np.ndarray:
+        return self.final.schedule.clip_time
+
+    @property
+    def footprints(self) -> tuple[np.ndarray, np.ndarray]:
+        r = self.final.refined
+        return r.position, r.heading
+
+    def planted(self) -> list[tuple[float, float, float]]:
+        """Per footprint: (strike time, stance time, liftoff time) in seconds, from the
+        blended contact of its foot around its stance."""
+        return planted_ranges(self.final.schedule, self.final.played)
+
+    def to_dict(self, frame0: float = 1.0) -> dict:
+        S = self.final.schedule
+        fps = S.fps
+        fr = lambda t: round(frame0 + float(t) * fps, 2)  # noqa: E731
+        pos, head = self.footprints
+        r4 = lambda a: np.round(np.asarray(a, float), 4).tolist()  # noqa: E731
+        planted = self.planted()
+        return {
+            "fps": fps, "frame_start": frame0, "frames": S.n,
+            "clips": list(self.clips),
+            "footprints": [{"foot": "LR"[int(S.feet[i])], "position": r4(pos[i]),
+                            "heading": round(float(head[i]), 4),
+                            "planned": r4(self.footsteps[i].position),
+                            "smoothed": r4(self.smoothed.position[i]),
+                            "played": r4(self.final.played.footprints[i]),
+                            "frame": fr(planted[i][1]),
+                            "planted": [fr(planted[i][0]), fr(planted[i][2])]}
+                           for i in range(len(pos))],
+            "curves": {
+                "time": r4(S.t), "u": r4(S.u), "tau": r4(self.tau_final), "s": r4(self.s_final),
+                "tau_first": {"time": r4(self.first.schedule.t), "plan": r4(self.tau_plan),
+                              "raw": r4(self.tau_raw), "smoothed": r4(self.tau)},
+                "speed_pins": [[round(u, 3), s] for u, s in self.speed_pins],
+            },
+            "body": {"position": r4(self.body_position), "heading": r4(self.body_heading)},
+            "weights": {c: r4(self.weights[:, i]) for i, c in enumerate(self.clips)},
+            "clip_time": {c: r4(self.clip_time[:, i]) for i, c in enumerate(self.clips)},
+            "refinement": {"first": r4(self.first.refined.mismatch),
+                           "final": r4(self.final.refined.mismatch)},
+            "seconds": {k: round(v, 5) for k, v in self.seconds.items()},
+        }
+
+
+# ----------------------------------------------------------------------------- pieces
+
+def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, foot: FootShape,
+                 clearance: float = 0.25, step_height: float = 0.3) -> SnapFn:
+    """A snap for the smoothing and refinement stages: the footprint dropped onto the
+    traversable surface under it (or pulled to the nearest surface point when there is
+    none under it), and whether a foot may stand there (supported, clear of obstacles)."""
+
+    def snap(pos: np.ndarray, heading: np.ndarray):
+        pos = np.array(pos, float, copy=True)
+        sup = footprint_support(ground, obstacles, pos, heading, forward, foot,
+                                step_height=step_height, clearance=clearance)
+        off = ~sup.ok & (sup.reason == "off surface")
+        if off.any():
+            near, _ = ground.nearest(pos[off], max_dist=0.5)
+            pos[off] = np.where(np.isfinite(near), near, pos[off])
+            again = footprint_support(ground, obstacles, pos[off], heading[off], forward, foot,
+                                      step_height=step_height, clearance=clearance)
+            sup.ok[off], sup.z[off] = again.ok, again.z
+        pos[:, 2] = np.where(sup.ok, sup.z, pos[:, 2])
+        return pos, sup.ok
+
+    def height(pos: np.ndarray) -> np.ndarray:
+        """The footprints dropped onto the surface under them (where there is one)."""
+        pos = np.array(pos, float, copy=True)
+        top = pos + [0.0, 0.0, step_height]
+        hit = ground.ray_down(top, 2 * step_height)
+        pos[:, 2] = np.where(hit.hit, hit.z, pos[:, 2])
+        return pos
+
+    snap.height = height
+    return snap
+
+
+def cyclic_clips(library: Library) -> list[str]:
+    """The turning groups' clips, walk first, each group sorted by tau."""
+    out = []
+    for gait in ("walk", "run"):
+        g = library.turn_groups.get(gait)
+        if g:
+            out += [c.clip for c in g.clips if c.clip not in out]
+    for name, g in library.turn_groups.items():
+        if name not in ("walk", "run"):
+            out += [c.clip for c in g.clips if c.clip not in out]
+    return out
+
+
+def label_weights(label: str, library: Library, cyclic: list[str]) -> np.ndarray:
+    """The cyclic clip weights (C,) of a plan step's label: a clip name, or
+    "<group name>@<tau>" for a blend inside a turning group."""
+    w = np.zeros(len(cyclic))
+    if "@" in label:
+        gname, tau = label.rsplit("@", 1)
+        group = next((g for g in library.turn_groups.values() if g.name == gname), None)
+        if group is None:
+            raise BlendError(f"the plan uses blend group {gname!r}, which the clip library no longer has")
+        for c, x in group.weights(float(tau)).items():
+            w[cyclic.index(c)] += x
+    elif label in cyclic:
+        w[cyclic.index(label)] = 1.0
+    else:
+        raise BlendError(f"the plan uses clip {label!r}, which is not in the clip library's groups")
+    return w
+
+
+def _clip_tau(library: Library, clip: str) -> float:
+    for g in library.turn_groups.values():
+        for c in g.clips:
+            if c.clip == clip:
+                return c.tau
+    return 0.0
+
+
+def plan_steps(footsteps, library: Library, cyclic: list[str]) -> list[PlanStep]:
+    specials = {s.clip for s in library.specials}
+    out = []
+    for a, b in zip(footsteps[:-1], footsteps[1:]):
+        if b.label in specials:
+            out.append(PlanStep(a.foot, b.label, None))
+        else:
+            out.append(PlanStep(a.foot, None, label_weights(b.label, library, cyclic)))
+    return out
+
+
+def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack]) -> list[tuple[float, float]]:
+    """(u, s) where the walk/run parameter is known: walking at the start and the end,
+    and each special clip's entry and exit gait at its take-off and landing."""
+    val = {"walk": 0.0, "run": 1.0, "stand": 0.0}
+    pins = [(0.0, 0.0)]
+    for j, s in enumerate(steps):
+        if s.special:
+            tr = tracks[s.special]
+            pins.append((float(j), val.get(tr.entry_gait, 0.0)))
+            pins.append((float(j + 1), val.get(tr.exit_gait, 0.0)))
+    pins.append((float(len(steps)), 0.0))
+    return pins
+
+
+def planted_ranges(S: Schedule, pb: Playback) -> list[tuple[float, float, float]]:
+    """(strike, stance, liftoff) seconds of each footprint: the run of blended contact
+    (> 1/2) of its foot that holds its stance time, else the stance time alone."""
+    out = []
+    for i, T in enumerate(S.footprint_times):
+        c = pb.contact[int(S.feet[i])] > 0.5
+        k = int(np.clip(np.searchsorted(S.t, T), 0, S.n - 1))
+        if not c[k]:
+            out.append((float(T), float(T), float(T)))
+            continue
+        a = k - int(np.argmin(c[k::-1])) + 1 if not c[:k + 1].all() else 0
+        b = k + int(np.argmin(c[k:])) - 1 if not c[k:].all() else S.n - 1
+        out.append((float(S.t[a]), float(T), float(S.t[b])))
+    return out
+
+
+def _one_pass(schedule, tracks, desired_pos, desired_head, forward, s: Settings, snap,
+              seconds: dict, key: str) -> Pass:
+    t0 = time.perf_counter()
+    played = playback(schedule, tracks, start=(desired_pos[0], desired_head[0]), forward=forward)
+    refined = refine(played.footprints, played.footprint_heading, desired_pos, desired_head,
+                     s.refinement_iterations, snap, height=getattr(snap, "height", None))
+    t1 = time.perf_counter()
+    body_pos, body_head = transfer_body(played.footprints, played.footprint_heading, refined.position,
+                                        refined.heading, schedule.footprint_times, played.root,
+                                        played.heading, schedule.t)
+    t2 = time.perf_counter()
+    seconds[f"refinement{key}"] = t1 - t0
+    seconds[f"body_trajectory{key}"] = t2 - t1
+    return Pass(schedule, played, refined, body_pos, body_head)
+
+
+# ----------------------------------------------------------------------------- the pipeline
+
+def synthesize(footsteps, library: Library, analyses: list[ClipAnalysis] | dict[str, ClipTrack],
+               settings: Settings | None = None, fps: float = 30.0, forward=None,
+               snap: SnapFn | None = None) -> Synthesis:
+    """Synthesize the motion of a footstep path (``navgraph.Footstep`` list, feet
+    alternating). ``analyses`` are the library's clips analysed (or their tracks);
+    ``snap`` keeps footprints on the surface (see ``surface_snap``); ``forward`` is
+    the world direction of heading 0 (default the clips' rest forward)."""
+    s = settings or Settings()
+    if len(footsteps) < 2:
+        raise BlendError("the path has a single footprint: the character is already at its goal")
+    seconds: dict[str, float] = {}
+    t_start = time.perf_counter()
+    if isinstance(analyses, dict):
+        tracks = analyses
+    else:
+        by = {a.name: a for a in analyses}
+        missing = [c for c in library.clips() if c not in by]
+        if missing:
+            raise BlendError(f"clips of the library are missing: {', '.join(missing)}")
+        tracks = {c: make_track(by[c]) for c in library.clips()}
+    seconds["tracks"] = time.perf_counter() - t_start
+    cyc = cyclic_clips(library)
+    steps = plan_steps(footsteps, library, cyc)
+
+    # 3.3 smoothing
+    t0 = time.perf_counter()
+    pos0 = np.array([f.position for f in footsteps], float)
+    head0 = np.unwrap(np.array([f.heading for f in footsteps], float))
+    smoothed = smooth_footprints(pos0, head0, s.smoothing_iterations, snap,
+                                 preserve_arcs=s.smoothing_keep_arcs)
+    seconds["smoothing"] = time.perf_counter() - t0
+
+    # 3.5 / 3.6 with the plan's clips
+    sch1 = build_schedule(steps, tracks, cyc, fps, s.transition_time)
+    first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, s, snap, seconds, "_1")
+
+    # 3.7 blend groups: tau from the body trajectory, s from the special clips
+    t0 = time.perf_counter()
+    cyc_tau = np.array([_clip_tau(library, c) for c in cyc])
+    wc = sch1.weights[:, :len(cyc)]
+    tau_plan = (wc @ cyc_tau) / np.maximum(wc.sum(axis=1), 1e-9)
+    # tau is estimated and low-passed at TAU_RATE Hz (the filter keeps nothing faster
+    # than a step), then read at every frame
+    tc = np.linspace(0.0, sch1.t[-1], max(8, int(np.ceil(sch1.t[-1] * TAU_RATE)) + 1))
+    body_c = np.stack([np.interp(tc, sch1.t, first.body_pos[:, k]) for k in range(3)], axis=1)
+    tau_c = bg.curvature(body_c, tc, s.tau_dt)
+    tau_raw = np.interp(sch1.t, tc, tau_c)
+    tau = np.interp(sch1.t, tc, bg.smooth_signal(tc, tau_c, s.tau_smoothing / (2 * np.pi)))
+    pins = speed_pins(steps, tracks)
+    groups = library.turn_groups
+    walk, run = groups.get("walk"), groups.get("run")
+    pu, ps = zip(*pins)
+
+    def loco_weights(u):
+        tau_u = np.interp(u, sch1.u, tau)
+        parts = []
+        for g in (walk, run):
+            if g is None or not g.clips:
+                continue
+            taus = np.array([c.tau for c in g.clips])
+            w = bg.group_weights(taus, tau_u)
+            full = np.zeros((len(u), len(cyc)))
+            for k, c in enumerate(g.clips):
+                full[:, cyc.index(c.clip)] += w[:, k]
+            parts.append(full)
+        if len(parts) == 2:
+            sp = bg.speed_parameter(u, pu, ps, s.speed_sigma)
+            return (1.0 - sp)[:, None] * parts[0] + sp[:, None] * parts[1]
+        return parts[0]
+
+    # step durations follow the new weights (evaluated mid-step)
+    umid = np.arange(len(steps)) + 0.5
+    wmid = loco_weights(umid)
+    feet = np.array([st.foot for st in steps])
+    dur = (wmid * step_durations_of([tracks[c] for c in cyc])[feet]).sum(axis=1)
+    sch2 = build_schedule(steps, tracks, cyc, fps, s.transition_time, loco_weights=loco_weights,
+                          step_durations=dur)
+    seconds["blend_groups"] = time.perf_counter() - t0
+    final = _one_pass(sch2, tracks, first.refined.position, first.refined.heading, forward, s, snap,
+                      seconds, "_2")
+    tau_final = np.interp(sch2.u, sch1.u, tau)
+    s_final = (bg.speed_parameter(sch2.u, pu, ps, s.speed_sigma) if walk and run and walk.clips and run.clips
+               else np.full(sch2.n, 1.0 if run and not walk else 0.0))
+    seconds["refinement"] = seconds["refinement_1"] + seconds["refinement_2"]
+    seconds["body_trajectory"] = seconds["body_trajectory_1"] + seconds["body_trajectory_2"]
+    seconds["total"] = time.perf_counter() - t_start
+    return Synthesis(footsteps=list(footsteps), settings=s, clips=sch2.clips, smoothed=smoothed,
+                     first=first, tau_plan=tau_plan, tau_raw=tau_raw, tau=tau, final=final, tau_final=tau_final,
+                     s_final=s_final, speed_pins=list(pins), seconds=seconds)
