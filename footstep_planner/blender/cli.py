@@ -86,6 +86,32 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument("--report", metavar="REPORT.json", help="also write that JSON to this file")
     pl.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
 
+    bk = sub.add_parser(
+        "bake", help="plan, synthesize, IK and bake a character's walk to a goal into NLA",
+        description="Plan the footprints to the goal, synthesize the motion, put the feet on "
+                    "the footprints (IK) and bake it as a new Action in an NLA track of the "
+                    "planner's own on the character, starting at the scene's current frame (or "
+                    "--frame-start). Writes the report (plan, stage times, quality measured on "
+                    "the baked armature). Several characters and goals: --job JOBS.json, a list "
+                    "of {\"character\", \"goal\", \"start\", \"name\", \"frame_start\", "
+                    "\"report\"}; they run one after another, a failing job does not stop the "
+                    "others, and the exit status is 1 when any failed.")
+    bk.add_argument("blend", nargs="?", metavar="SCENE.blend", help="the scene (default: the file open)")
+    bk.add_argument("--character", metavar="ARMATURE")
+    bk.add_argument("--goal", metavar="OBJECT", help="walk to this object (default: the 3D cursor)")
+    bk.add_argument("--goal-heading", type=float, metavar="DEG")
+    bk.add_argument("--start", metavar="OBJECT", help="start standing at this object")
+    bk.add_argument("--name", help="name of the bake (track and action; default: character to goal)")
+    bk.add_argument("--frame-start", type=int, metavar="FRAME")
+    bk.add_argument("--markers", action="store_true", help="add a timeline marker at each footstep")
+    bk.add_argument("--job", metavar="JOBS.json", help="several jobs, run one after another")
+    bk.add_argument("--out", metavar="OUT.blend", help="save the baked scene here")
+    bk.add_argument("--report", metavar="REPORT.json", help="write the report here (with --job: "
+                    "REPORT_<n>.json per job unless the job names its own)")
+    bk.add_argument("--traversable", default="", metavar="NAME,...")
+    bk.add_argument("--obstacles", default="", metavar="NAME,...")
+    bk.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+
     pt = sub.add_parser(
         "plot", help="draw a plan report's curves (tau, s) and footprints as PNG",
         description="Draw the synthesis of a plan report (from plan --json or --report) like "
@@ -114,7 +140,7 @@ def cli_main(argv=None) -> int:
         return int(ex.code or 0)
     try:
         return {"import-clips": _import_clips, "analyze": _analyze, "plan": _plan,
-                "plot": _plot, "demo": _demo}[args.verb](args)
+                "plot": _plot, "bake": _bake, "demo": _demo}[args.verb](args)
     except EXPECTED as ex:
         print(f"footstep: error: {ex}", file=sys.stderr)
         return 2
@@ -298,7 +324,7 @@ def _plan(args) -> int:
     settings = settings_from_args(args.set)
     result, setup = planning.plan(scene, ob, goal, heading, start, settings,
                                   _names(args.traversable), _names(args.obstacles))
-    syn = planning.synthesize(scene, result, setup, settings)
+    syn = planning.synthesize(scene, result, setup, settings, goal=goal)
     doc = result.to_dict()
     doc["character"] = ob.name
     doc["goal"] = [round(float(v), 4) for v in goal]
@@ -353,6 +379,89 @@ def format_stages(rows, names=None) -> str:
     lines = ["stage times (ms), thesis Table 4.1 layout (IK and bake: issue 5):", head, "-" * len(head)]
     for n, r in zip(names, rows):
         lines.append(f"{n:{w0}s} " + " ".join(f"{format(r[k], f):>12s}" for k, _, f in cols))
+    return "\n".join(lines)
+
+
+def _bake(args) -> int:
+    import math
+
+    from . import planning
+
+    if args.blend:
+        open_blend(args.blend)
+    scene = bpy.context.scene
+    settings = settings_from_args(args.set)
+    if args.job:
+        try:
+            with open(args.job) as fh:
+                jobs = json.load(fh)
+            assert isinstance(jobs, list) and all(isinstance(j, dict) for j in jobs)
+        except (OSError, ValueError, AssertionError) as ex:
+            raise CliError(f"cannot read the job list {args.job!r}: it must be a JSON list of objects "
+                           f"({ex or 'not a list'})") from None
+    else:
+        if not args.character:
+            raise CliError("bake needs --character (or --job JOBS.json)")
+        jobs = [{"character": args.character, "goal": args.goal, "start": args.start, "name": args.name,
+                 "frame_start": args.frame_start, "report": args.report, "goal_heading": args.goal_heading}]
+    failed = 0
+    for n, job in enumerate(jobs):
+        label = f"job {n + 1} ({job.get('character')} to {job.get('goal') or 'the 3D cursor'})"
+        try:
+            ob = find_armature(job.get("character"))
+            goal, heading = planning.goal_of(scene, job.get("goal"))
+            if job.get("goal_heading") is not None:
+                heading = math.radians(float(job["goal_heading"]))
+            start = None
+            if job.get("start"):
+                start = scene.objects.get(job["start"])
+                if start is None:
+                    raise CliError(f"no object named {job['start']!r} to start at")
+            doc = planning.run(scene, ob, goal, heading, start, settings, _names(args.traversable),
+                               _names(args.obstacles), name=job.get("name"), frame_start=job.get("frame_start"),
+                               markers=args.markers)
+        except EXPECTED as ex:
+            failed += 1
+            print(f"footstep: error: {label}: {ex}", file=sys.stderr)
+            continue
+        report = job.get("report") or (args.report if len(jobs) == 1 else (
+            f"{os.path.splitext(args.report)[0]}_{n + 1}.json" if args.report else None))
+        if report:
+            with open(report, "w") as fh:
+                json.dump(doc, fh)
+        print(format_bake(doc))
+    if args.out:
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.out), compress=True)
+        print(f"saved {args.out}")
+    return 1 if failed else 0
+
+
+def format_bake(doc) -> str:
+    """The stage times (Table 4.1 layout) and the quality figures of one bake."""
+    st, q = doc["stages"], doc["quality"]
+    cols = [("footprints", "d"), ("frames", "d"), ("search_ms", ".0f"), ("smoothing_ms", ".1f"),
+            ("refinement_ms", ".1f"), ("body_trajectory_ms", ".1f"), ("blend_groups_ms", ".1f"),
+            ("ik_ms", ".1f"), ("bake_ms", ".1f"), ("synthesis_ms", ".1f"), ("per_frame_ms", ".3f")]
+    head = " ".join(f"{k.replace('_ms', ''):>13s}" for k, _ in cols)
+    row = " ".join(f"{format(st[k], f):>13s}" for k, f in cols)
+    pops = q["pops"]
+    intro = pops["introduced"]
+    lines = [
+        f"{doc['character']}: baked {doc['name']!r} into NLA track {doc['track']!r}, frames "
+        f"{doc['frame_start']}-{doc['frame_end']}",
+        "stage times (ms; thesis Table 4.1 layout; 'synthesis' sums smoothing to IK):", head, row,
+        f"foot skate per stance: mean {q['foot_skate']['mean_mm']:.2f} mm, max {q['foot_skate']['max_mm']:.2f} mm; "
+        f"planted foot to footprint: mean {q['footprint_error']['mean_mm']:.2f} mm, max "
+        f"{q['footprint_error']['max_mm']:.2f} mm",
+        f"ground penetration: max {q['penetration']['max_mm']:.2f} mm ({q['penetration']['frames_over_tolerance']} "
+        f"frames over 5 mm); floating while planted: max {q['floating']['max_mm']:.2f} mm",
+        f"goal: {q['goal']['distance_m'] * 100:.1f} cm" + (
+            f", heading {q['goal']['heading_deg']:.1f} deg" if q['goal'].get('heading_deg') is not None else ""),
+        f"pops: largest step {pops['max_rotation_deg']:.1f} deg ({pops['rotation_bone']}, as in its clip); "
+        f"made by the planner: {intro['count']} steps over the clips' own, worst "
+        f"{intro['max_excess_deg']:.1f} deg over" + (f" ({intro['bone']}, frame {intro['frame']})"
+                                                     if intro['bone'] else ""),
+    ]
     return "\n".join(lines)
 
 
@@ -465,7 +574,7 @@ def _demo_plan(scene_name: str, mocap: str, out_dir: str) -> int:
     ob, _ = import_bvh_clips(files, name="CMU")
     goal = np.array(scene.objects["Goal"].location)
     result, setup = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
-    syn = planning.synthesize(scene, result, setup)
+    syn = planning.synthesize(scene, result, setup, goal=goal)
     print(f"\nplan on {scene_name!r} with {len(files)} CMU clips ({setup.planner.steps.n} steps): "
           f"{len(result.footsteps)} footprints, {syn.t[-1]:.1f} s of motion ({len(syn.t)} frames), "
           f"{sum(f.jump for f in result.footsteps)} jumps; search {result.expanded} footprints "

@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 
 import bpy
+import numpy as np
 from bpy.props import BoolProperty, CollectionProperty, EnumProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
@@ -19,6 +20,14 @@ def character(context):
     if ob is None and context.active_object is not None and context.active_object.type == "ARMATURE":
         ob = context.active_object
     return ob
+
+
+class _OnCharacter:
+    """Operators that work on the planner's character: available once there is one."""
+
+    @classmethod
+    def poll(cls, context):
+        return character(context) is not None
 
 
 class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
@@ -64,7 +73,7 @@ def _settings(context):
     return settings_from_props(context.scene.footstep.settings)
 
 
-class FOOTSTEP_OT_analyze_clips(bpy.types.Operator):
+class FOOTSTEP_OT_analyze_clips(_OnCharacter, bpy.types.Operator):
     """Analyse the character's clips (contacts, speed, stride, tau, gait) and, unless the
     clip library was edited by hand, propose its blend groups"""
 
@@ -74,10 +83,6 @@ class FOOTSTEP_OT_analyze_clips(bpy.types.Operator):
 
     reset: BoolProperty(name="Reset Library", default=False,
                                   description="Replace an edited clip library by the proposal")
-
-    @classmethod
-    def poll(cls, context):
-        return character(context) is not None
 
     def execute(self, context):
         from .character import analyze_character, library_for, summary, write_library
@@ -105,17 +110,13 @@ class FOOTSTEP_OT_analyze_clips(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class FOOTSTEP_OT_plan(bpy.types.Operator):
+class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
     """Plan the footprints that take the character to the goal (the picked object, or
     the 3D cursor) across the traversable meshes"""
 
     bl_idname = "footstep.plan"
     bl_label = "Plan"
     bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        return character(context) is not None
 
     def execute(self, context):
         import json
@@ -128,7 +129,11 @@ class FOOTSTEP_OT_plan(bpy.types.Operator):
             goal, heading = planning.goal_of(context.scene, fs.goal.name if fs.goal else None)
             settings = _settings(context)
             result, setup = planning.plan(context.scene, ob, goal, heading, fs.start, settings)
-            syn = planning.synthesize(context.scene, result, setup, settings)
+            syn = planning.synthesize(context.scene, result, setup, settings, goal=goal)
+            from . import overlay
+
+            overlay.remember(context.scene, result.footsteps, *syn.footprints, setup.forward, setup.planner.foot,
+                             syn.body_position, np.array([n[2] for n in setup.planner.explored]))
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
@@ -147,7 +152,158 @@ class FOOTSTEP_OT_plan(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (FOOTSTEP_OT_import_clips, FOOTSTEP_OT_analyze_clips, FOOTSTEP_OT_plan)
+def _goal(context):
+    from . import planning
+
+    fs = context.scene.footstep
+    return planning.goal_of(context.scene, fs.goal.name if fs.goal else None)
+
+
+class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
+    """Analyse the character's clips and build what the search needs: the footsteps of the
+    clip library and the walking-distance map to the goal (footprints themselves are
+    sampled lazily, during the search)"""
+
+    bl_idname = "footstep.build_graph"
+    bl_label = "Build Graph"
+
+    def execute(self, context):
+        import time
+
+        from ..core.navgraph import DistanceField
+        from . import planning
+
+        ob = character(context)
+        try:
+            goal, _ = _goal(context)
+            t0 = time.perf_counter()
+            s = planning.setup(context.scene, ob, _settings(context))
+            pl = s.planner
+            field = DistanceField.build(pl.ground, pl.obstacles, goal, pl.field_cell, pl.clearance,
+                                        pl._jump_reach(), pl.max_step_height)
+            secs = time.perf_counter() - t0
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        reach = int(np.isfinite(field.dist).sum()) if hasattr(field, "dist") else 0
+        context.scene.footstep.last_report = (
+            f"graph: {len(s.analyses)} clips, {pl.steps.n} footsteps ({int(pl.steps.jump.sum())} jumps); "
+            f"distance map {reach} cells; {secs * 1e3:.0f} ms")
+        self.report({"INFO"}, context.scene.footstep.last_report)
+        return {"FINISHED"}
+
+
+class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
+    """Plan the walk to the goal, synthesize it, put the feet on the footprints and bake it
+    into an NLA track of the planner's own on the character (Esc cancels and leaves the
+    scene as it was)"""
+
+    bl_idname = "footstep.bake"
+    bl_label = "Bake"
+    bl_options = {"REGISTER", "UNDO"}
+
+    markers: BoolProperty(name="Footstep markers", default=False,
+                          description="Add a timeline marker at each footstep")
+
+    _steps = None
+    _timer = None
+
+    def _start(self, context):
+        from . import planning
+
+        fs = context.scene.footstep
+        goal, heading = _goal(context)
+        return planning.run_steps(context.scene, character(context), goal, heading, fs.start,
+                                  _settings(context), markers=self.markers)
+
+    def _finish(self, context, doc):
+        import json
+
+        fs = context.scene.footstep
+        fs.plan_json = json.dumps({k: doc[k] for k in ("footprints", "search", "character", "stages", "quality",
+                                                       "name", "track", "action", "frame_start", "frame_end")})
+        q, st = doc["quality"], doc["stages"]
+        fs.last_report = (f"{doc['frames'] if 'frames' in doc else st['frames']} frames baked into "
+                          f"{doc['track']!r}; skate {q['foot_skate']['max_mm']:.1f} mm max, goal "
+                          f"{q['goal']['distance_m'] * 100:.1f} cm; synthesis {st['synthesis_ms']:.0f} ms, "
+                          f"IK {st['ik_ms']:.0f} ms, bake {st['bake_ms']:.0f} ms")
+        self.report({"INFO"}, fs.last_report)
+        ad = character(context).animation_data
+        if ad is not None and ad.action is not None:
+            self.report({"WARNING"}, f"the character's active action {ad.action.name!r} plays over the baked "
+                        "track: clear it in the Action Editor to see the bake")
+
+    def execute(self, context):
+        try:
+            steps = self._start(context)
+            while True:
+                next(steps)
+        except StopIteration as done:
+            self._finish(context, done.value)
+            return {"FINISHED"}
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+
+    def invoke(self, context, event):
+        try:
+            self._steps = self._start(context)
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._end(context)
+            self.report({"INFO"}, "bake cancelled: nothing was changed")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            fraction, stage = next(self._steps)
+            context.window_manager.progress_update(int(fraction * 100))
+            context.workspace.status_text_set(f"Footstep: {stage}... (Esc to cancel)")
+            return {"RUNNING_MODAL"}
+        except StopIteration as done:
+            self._end(context)
+            context.workspace.status_text_set(None)
+            self._finish(context, done.value)
+            return {"FINISHED"}
+        except FootstepError as ex:
+            self._end(context)
+            context.workspace.status_text_set(None)
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+
+
+class FOOTSTEP_OT_clear(_OnCharacter, bpy.types.Operator):
+    """Remove the planner's own bake from the character (its NLA track, action and
+    markers); nothing of yours is touched"""
+
+    bl_idname = "footstep.clear"
+    bl_label = "Clear"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from .bake import clear
+
+        n = clear(character(context), context.scene)
+        self.report({"INFO"}, f"removed {n} planner track(s)" if n else "nothing of the planner's to remove")
+        return {"FINISHED"}
+
+
+CLASSES = (FOOTSTEP_OT_import_clips, FOOTSTEP_OT_analyze_clips, FOOTSTEP_OT_plan, FOOTSTEP_OT_build_graph,
+           FOOTSTEP_OT_bake, FOOTSTEP_OT_clear)
 
 
 def _menu_import(self, context):

@@ -42,9 +42,20 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
         box.label(text="Plan", icon="TRACKING")
         box.prop(fs, "goal")
         box.prop(fs, "start")
-        box.operator("footstep.plan", icon="PLAY")
+        row = box.row(align=True)
+        row.operator("footstep.build_graph", icon="OUTLINER_DATA_LIGHTPROBE")
+        row.operator("footstep.plan", icon="TRACKING_FORWARDS")
+        row = box.row(align=True)
+        row.operator("footstep.bake", icon="REC")
+        row.operator("footstep.clear", icon="TRASH")
+        row = box.row(align=True)
+        row.prop(fs, "show_overlay")
+        row.prop(fs, "show_sampled")
         if fs.last_report:
-            box.label(text=fs.last_report)
+            col = box.column(align=True)
+            for line in _wrap(fs.last_report, 60):
+                col.label(text=line)
+        _draw_report(box, fs)
         box = layout.box()
         box.prop(fs, "show_settings", icon="TRIA_DOWN" if fs.show_settings else "TRIA_RIGHT",
                  emboss=False)
@@ -53,6 +64,48 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
             for name in fs.settings.bl_rna.properties.keys():
                 if name not in {"rna_type", "name"}:
                     col.prop(fs.settings, name)
+
+
+def _wrap(text: str, width: int) -> list[str]:
+    out, line = [], ""
+    for word in text.split():
+        if line and len(line) + 1 + len(word) > width:
+            out.append(line)
+            line = word
+        else:
+            line = f"{line} {word}".strip()
+    return out + ([line] if line else [])
+
+
+def _draw_report(layout, fs):
+    """The last bake's stage times and quality figures."""
+    import json
+
+    try:
+        doc = json.loads(fs.plan_json) if fs.plan_json else {}
+    except ValueError:
+        return
+    st, q = doc.get("stages"), doc.get("quality")
+    if not st or not q:
+        return
+    col = layout.column(align=True)
+    col.label(text="Stage times (ms)", icon="TIME")
+    for key in ("search", "smoothing", "refinement", "body_trajectory", "blend_groups", "ik", "bake"):
+        if f"{key}_ms" in st:
+            row = col.row()
+            row.label(text=key.replace("_", " "))
+            row.label(text=f"{st[key + '_ms']:.1f}")
+    col = layout.column(align=True)
+    col.label(text="Quality (measured on the bake)", icon="CHECKMARK")
+    rows = [("foot skate, mean / max", f"{q['foot_skate']['mean_mm']:.1f} / {q['foot_skate']['max_mm']:.1f} mm"),
+            ("foot to footprint, max", f"{q['footprint_error']['max_mm']:.1f} mm"),
+            ("ground penetration, max", f"{q['penetration']['max_mm']:.1f} mm"),
+            ("goal", f"{q['goal']['distance_m'] * 100:.1f} cm"),
+            ("pops made by the planner", f"{q['pops']['introduced']['count']}")]
+    for name, value in rows:
+        row = col.row()
+        row.label(text=name)
+        row.label(text=value)
 
 
 def _draw_roles(layout, ob):

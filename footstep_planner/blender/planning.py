@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core.analysis import ClipAnalysis
 from ..core.library import Library
+from ..core.rig import Rig
 from ..core.navgraph import FootprintCache, Footstep, PlanError, PlanResult, Planner
 from ..core.pipeline import Synthesis, surface_snap
 from ..core.pipeline import synthesize as _synthesize
@@ -34,6 +35,7 @@ class PlanSetup:
     analyses: list[ClipAnalysis]
     library: Library
     forward: np.ndarray  # world (x, y) of heading 0
+    rig: Rig | None = None
 
 
 def world_forward(ob, analyses) -> np.ndarray:
@@ -93,7 +95,7 @@ def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
                       turn_penalty=st.turn_penalty, jump_penalty=st.jump_penalty,
                       run_penalty=st.run_penalty, gait_change_penalty=st.gait_change_penalty,
                       heuristic_weight=st.heuristic_weight, goal_radius=st.goal_radius)
-    return PlanSetup(planner, clips.analyses, library, forward)
+    return PlanSetup(planner, clips.analyses, library, forward, clips.rig)
 
 
 def _heading(vec_xy, forward) -> float:
@@ -164,11 +166,146 @@ def scene_rate(scene) -> float:
     return float(scene.render.fps) / float(scene.render.fps_base or 1.0)
 
 
-def synthesize(scene, result: PlanResult, s: PlanSetup, settings=None) -> Synthesis:
+def synthesize(scene, result: PlanResult, s: PlanSetup, settings=None, goal=None) -> Synthesis:
     """Thesis 3.3 to 3.7 on a planned path: the body trajectory and every clip's weight
     and time per scene frame, footprints kept on the tagged surfaces."""
     pl = s.planner
     snap = surface_snap(pl.ground, pl.obstacles, s.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
     return _synthesize(result.footsteps, s.library, s.analyses, settings or Settings(),
-                       fps=scene_rate(scene), forward=s.forward, snap=snap)
+                       fps=scene_rate(scene), forward=s.forward, snap=snap, goal=goal)
+
+
+def _spin(forward, analyses) -> float:
+    """World yaw of heading 0 minus the rig's rest forward's yaw: the armature object's
+    yaw is this plus the body heading."""
+    rest = analyses[0].motion.rest_forward
+    return float(np.arctan2(forward[1], forward[0]) - np.arctan2(rest[1], rest[0]))
+
+
+def source_steps(tracks, schedule, fps: float) -> np.ndarray:
+    """(B,) the largest rotation step (rad) each bone takes between two frames at ``fps``
+    in any clip the schedule plays."""
+    from ..core.metrics import rotation_steps
+
+    out = None
+    for c, name in enumerate(schedule.clips):
+        if not (schedule.weights[:, c] > 0).any():
+            continue
+        tr = tracks[name]
+        step = rotation_steps(tr.quat).max(axis=0) * tr.pose_rate / fps  # per sample -> per frame
+        out = step if out is None else np.maximum(out, step)
+    return out
+
+
+def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
+        obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
+        progress=None) -> dict:
+    """Plan, synthesize, IK and bake ``ob`` walking to ``goal``; returns the report
+    (plan, stage times in the layout of thesis Table 4.1, quality of the baked result).
+    ``progress(fraction, stage)`` is called between stages."""
+    steps = run_steps(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
+                      name, frame_start, markers)
+    while True:
+        try:
+            fraction, stage = next(steps)
+        except StopIteration as done:
+            return done.value
+        if progress is not None:
+            progress(fraction, stage)
+
+
+def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
+              obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False):
+    """``run`` one stage at a time: a generator yielding (fraction done, next stage) and
+    returning the report. Nothing in the scene changes before the last stage (the bake),
+    so a caller may stop it at any yield and leave the scene as it was."""
+    import time
+
+    from ..core.ik import solve_ik
+    from ..core.metrics import introduced_pops, quality
+    from ..core.pose import blend_pose, pose_bases
+    from ..core.surface import footprint_support
+    from . import bake as baking
+
+    st = settings or Settings()
+    fps_scene = scene_rate(scene)
+    name = name or f"{ob.name} to goal"
+    frame_start = int(scene.frame_current if frame_start is None else frame_start)
+    yield 0.0, "planning"
+    result, s = plan(scene, ob, goal, goal_heading, start_marker, st, traversable, obstacles)
+    yield 0.3, "synthesis"
+    syn = synthesize(scene, result, s, st, goal=goal)
+    from . import overlay
+
+    overlay.remember(scene, result.footsteps, *syn.footprints, s.forward, s.planner.foot, syn.body_position,
+                     np.array([n[2] for n in s.planner.explored]) if s.planner.explored else None)
+    sched = syn.final.schedule
+    tracks = syn.tracks
+    yield 0.5, "inverse kinematics"
+    t0 = time.perf_counter()
+    quat, hips = blend_pose(sched, tracks)
+    basis = pose_bases(s.rig, quat, hips)
+    t_pose = time.perf_counter() - t0
+    pl = s.planner
+    pos, head = syn.footprints
+    sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot, clearance=pl.clearance)
+    normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
+    walk = next((a for a in s.analyses if a.kind == "cycle"), s.analyses[0]).motion
+    spin = _spin(s.forward, s.analyses)
+    planted = syn.planted()
+    def ground_z(points):
+        hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, 0.3], 0.6)
+        return np.where(hit.hit, hit.z, np.nan)
+
+    ik = solve_ik(s.rig, basis, sched.t, syn.body_position, syn.body_heading, spin, walk.heel_local,
+                  walk.toe_local, sched.feet, planted, pos, head, normal, s.forward, st, ground_z=ground_z)
+    t_ik = time.perf_counter() - t0
+    yield 0.7, "bake"
+    t1 = time.perf_counter()
+    act, track = baking.bake(ob, scene, s.rig, ik, spin, name, frame_start, result.footsteps, planted, markers)
+    t_bake = time.perf_counter() - t1
+    yield 0.85, "quality"
+    world, body_pos, body_yaw, bone_rot = baking.evaluate(ob, s.rig, act, frame_start, ik.frames)
+    feet = [s.rig.foot_chain(x)[0] for x in ("l", "r")]
+    heel = np.stack([(world[:, f] @ walk.heel_local[k])[:, :3] for k, f in enumerate(feet)])
+    toe = np.stack([(world[:, f] @ walk.toe_local[k])[:, :3] for k, f in enumerate(feet)])
+    ground_z = np.full((2, ik.frames, 2), np.nan)
+    for k in range(2):
+        for i, p in enumerate((heel[k], toe[k])):
+            hit = pl.ground.ray_down(p + [0.0, 0.0, 0.5], 1.5)
+            ground_z[k, :, i] = np.where(hit.hit, hit.z, np.nan)
+    idx = lambda t: int(np.clip(round(t * fps_scene), 0, ik.frames - 1))  # noqa: E731
+    stances = [{"foot": int(sched.feet[i]), "start": idx(a), "end": idx(b), "stance": idx(m),
+                "position": pos[i], "heading": float(head[i])} for i, (a, m, b) in enumerate(planted)]
+    qual = quality(heel, toe, ground_z, stances, world[..., :3, 3], bone_rot, body_pos,
+                   body_yaw - spin, np.asarray(goal, float), goal_heading)
+    allowance = source_steps(tracks, sched, fps_scene)
+    qual["pops"]["introduced"] = introduced_pops(bone_rot, allowance)
+    for key in ("rotation_bone", "offset_bone"):
+        if qual["pops"].get(key) is not None:
+            qual["pops"][key] = s.rig.names[qual["pops"][key]]
+    if qual["pops"]["introduced"]["bone"] is not None:
+        qual["pops"]["introduced"]["bone"] = s.rig.names[qual["pops"]["introduced"]["bone"]]
+    stages = {"footprints": len(result.footsteps), "frames": ik.frames,
+              "search_ms": result.seconds * 1e3}
+    for k in ("smoothing", "refinement", "body_trajectory", "blend_groups"):
+        stages[f"{k}_ms"] = syn.seconds[k] * 1e3
+    stages["ik_ms"] = t_ik * 1e3
+    stages["pose_blend_ms"] = t_pose * 1e3
+    stages["bake_ms"] = t_bake * 1e3
+    stages["synthesis_ms"] = sum(stages[f"{k}_ms"] for k in ("smoothing", "refinement", "body_trajectory",
+                                                           "blend_groups")) + stages["ik_ms"]
+    stages["per_frame_ms"] = stages["synthesis_ms"] / max(ik.frames, 1)
+    doc = result.to_dict()
+    doc.update({"character": ob.name, "goal": [round(float(v), 4) for v in goal], "name": name,
+                "frame_start": frame_start, "frame_end": frame_start + ik.frames - 1,
+                "action": act.name, "track": track.name,
+                "stages": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in stages.items()},
+                "quality": qual,
+                "footprints": [{**f, "planted_frames": [frame_start + idx(a), frame_start + idx(b)],
+                                "frame": frame_start + idx(m), "position": [round(float(v), 4) for v in pos[i]],
+                                "heading": round(float(head[i]), 4)}
+                               for i, (f, (a, m, b)) in enumerate(zip(doc["footprints"], planted))]})
+    doc["synthesis"] = syn.to_dict(frame0=float(frame_start))
+    return doc

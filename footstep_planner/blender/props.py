@@ -79,6 +79,11 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
     plan_json: StringProperty(name="Plan", description="The last plan (JSON)", options={"HIDDEN"})
     settings: PointerProperty(type=FOOTSTEP_PG_settings)
     show_settings: BoolProperty(name="Settings", default=False)
+    show_overlay: BoolProperty(name="Show footprints", default=True,
+                               description="Draw the last plan's footprints (by foot and clip) and the "
+                                           "body trajectory in the viewport")
+    show_sampled: BoolProperty(name="Show sampled footprints", default=False,
+                               description="Also draw the footprints the search tested")
     last_report: StringProperty(name="Last report", description="Summary of the last run")
 
 

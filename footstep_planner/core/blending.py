@@ -64,6 +64,11 @@ class ClipTrack:
     hips_in_root: np.ndarray  # (n, 4, 4)
     phase_times: np.ndarray | None  # cyclic: (3,) clip times of left, right, left stances
     rest_forward: np.ndarray = field(default_factory=lambda: np.array([0.0, -1.0]))  # heading 0
+    # the pose, at the clip's own samples (``pose_rate`` Hz): bone rotations as unit
+    # quaternions in scipy's (x, y, z, w) order, and the hips' matrix in the root frame
+    pose_rate: float = 0.0
+    quat: np.ndarray | None = field(repr=False, default=None)  # (m, B, 4)
+    hips: np.ndarray | None = field(repr=False, default=None)  # (m, 4, 4)
     stances: list = field(default_factory=list)  # (foot, stance time) in time order
 
     @property
@@ -139,7 +144,20 @@ def make_track(a: ClipAnalysis, rate: float = 120.0) -> ClipTrack:
                      exit_gait=a.exit_gait, rate=float(dense.fps), duration=dense.duration,
                      vel=vel, yaw_rate=yaw_rate, heel=heel, toe=toe, contact_point=cpt,
                      contact=con, hips_in_root=dense.hips_in_root, phase_times=phase,
-                     rest_forward=np.asarray(m.rest_forward, float), stances=stances)
+                     rest_forward=np.asarray(m.rest_forward, float), stances=stances,
+                     pose_rate=float(m.fps), quat=_quats(m.local_rot), hips=m.hips_in_root)
+
+
+def _quats(rot: np.ndarray) -> np.ndarray:
+    """(N, B, 3, 3) rotation matrices -> (N, B, 4) unit quaternions (x, y, z, w), each
+    bone's sequence kept on one hemisphere (no sign flips between samples)."""
+    from scipy.spatial.transform import Rotation
+
+    n, b = rot.shape[:2]
+    q = Rotation.from_matrix(rot.reshape(-1, 3, 3)).as_quat().reshape(n, b, 4)
+    flip = np.cumprod(np.where(np.einsum("nbk,nbk->nb", q[1:], q[:-1]) < 0, -1.0, 1.0), axis=0)
+    q[1:] *= flip[..., None]
+    return q
 
 
 def _phase_times(a: ClipAnalysis, stances) -> np.ndarray:

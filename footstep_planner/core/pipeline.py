@@ -36,6 +36,12 @@ from .trajectory import transfer_body
 
 SnapFn = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
+#: Footprints before the last two over which the path's end is eased onto the goal.
+GOAL_STEPS = 4
+
+#: m: a body that ends further than this from the goal gets one more pass.
+GOAL_TOLERANCE = 0.02
+
 #: Hz at which the curvature tau is estimated and low-passed.
 TAU_RATE = 10.0
 
@@ -69,6 +75,7 @@ class Synthesis:
     s_final: np.ndarray
     speed_pins: list[tuple[float, float]]
     seconds: dict = field(default_factory=dict)  # stage -> s
+    tracks: dict = field(default_factory=dict, repr=False)  # clip name -> ClipTrack
 
     # ------------------------------------------------------------------ results
     @property
@@ -266,13 +273,37 @@ def _one_pass(schedule, tracks, desired_pos, desired_head, forward, s: Settings,
 
 # ----------------------------------------------------------------------------- the pipeline
 
+def ease_end(pos: np.ndarray, heading: np.ndarray, off, snap: SnapFn | None = None,
+             steps: int = GOAL_STEPS) -> np.ndarray:
+    """The path's last two footprints moved by ``off`` (x, y), the ``steps`` before them by
+    less and less; a footprint the surface refuses at its new place keeps its old one."""
+    pos = np.array(pos, float, copy=True)
+    n = len(pos)
+    if off is None or n < 3 or not np.any(off):
+        return pos
+    w = np.zeros(n)
+    w[-2:] = 1.0
+    k = min(steps, n - 3)
+    if k > 0:
+        w[n - 2 - k:n - 2] = (np.arange(1, steps + 1) / (steps + 1))[-k:]
+    moved = pos.copy()
+    moved[:, :2] += w[:, None] * np.asarray(off, float)[:2]
+    sel = np.flatnonzero(w > 0)
+    if snap is not None and len(sel):
+        sp, ok = snap(moved[sel], np.asarray(heading, float)[sel])
+        moved[sel] = np.where(ok[:, None], sp, pos[sel])
+    return moved
+
+
 def synthesize(footsteps, library: Library, analyses: list[ClipAnalysis] | dict[str, ClipTrack],
                settings: Settings | None = None, fps: float = 30.0, forward=None,
-               snap: SnapFn | None = None) -> Synthesis:
+               snap: SnapFn | None = None, goal=None) -> Synthesis:
     """Synthesize the motion of a footstep path (``navgraph.Footstep`` list, feet
     alternating). ``analyses`` are the library's clips analysed (or their tracks);
     ``snap`` keeps footprints on the surface (see ``surface_snap``); ``forward`` is
-    the world direction of heading 0 (default the clips' rest forward)."""
+    the world direction of heading 0 (default the clips' rest forward). With ``goal``
+    the path's end is moved so that the body ends on it (the planner stops anywhere
+    within its goal radius; see ``ease_end``)."""
     s = settings or Settings()
     if len(footsteps) < 2:
         raise BlendError("the path has a single footprint: the character is already at its goal")
@@ -294,6 +325,8 @@ def synthesize(footsteps, library: Library, analyses: list[ClipAnalysis] | dict[
     t0 = time.perf_counter()
     pos0 = np.array([f.position for f in footsteps], float)
     head0 = np.unwrap(np.array([f.heading for f in footsteps], float))
+    if goal is not None:  # first guess: the body ends between the last two feet
+        pos0 = ease_end(pos0, head0, np.asarray(goal, float)[:2] - 0.5 * (pos0[-1, :2] + pos0[-2, :2]), snap)
     smoothed = smooth_footprints(pos0, head0, s.smoothing_iterations, snap,
                                  preserve_arcs=s.smoothing_keep_arcs)
     seconds["smoothing"] = time.perf_counter() - t0
@@ -344,8 +377,19 @@ def synthesize(footsteps, library: Library, analyses: list[ClipAnalysis] | dict[
     sch2 = build_schedule(steps, tracks, cyc, fps, s.transition_time, loco_weights=loco_weights,
                           step_durations=dur)
     seconds["blend_groups"] = time.perf_counter() - t0
-    final = _one_pass(sch2, tracks, first.refined.position, first.refined.heading, forward, s, snap,
-                      seconds, "_2")
+    desired = first.refined.position
+    if goal is not None:  # where the first pass's body ended tells how far to move the end
+        desired = ease_end(desired, first.refined.heading,
+                           np.asarray(goal, float)[:2] - first.body_pos[-1, :2], snap)
+    final = _one_pass(sch2, tracks, desired, first.refined.heading, forward, s, snap, seconds, "_2")
+    if goal is not None:  # the blend groups move the end a little: once more if it missed
+        miss = np.asarray(goal, float)[:2] - final.body_pos[-1, :2]
+        if np.linalg.norm(miss) > GOAL_TOLERANCE:
+            desired = ease_end(desired, first.refined.heading, miss, snap)
+            extra = {}
+            final = _one_pass(sch2, tracks, desired, first.refined.heading, forward, s, snap, extra, "_2")
+            for k, v in extra.items():
+                seconds[k] += v
     tau_final = np.interp(sch2.u, sch1.u, tau)
     s_final = (bg.speed_parameter(sch2.u, pu, ps, s.speed_sigma) if walk and run and walk.clips and run.clips
                else np.full(sch2.n, 1.0 if run and not walk else 0.0))
@@ -354,4 +398,4 @@ def synthesize(footsteps, library: Library, analyses: list[ClipAnalysis] | dict[
     seconds["total"] = time.perf_counter() - t_start
     return Synthesis(footsteps=list(footsteps), settings=s, clips=sch2.clips, smoothed=smoothed,
                      first=first, tau_plan=tau_plan, tau_raw=tau_raw, tau=tau, final=final, tau_final=tau_final,
-                     s_final=s_final, speed_pins=list(pins), seconds=seconds)
+                     s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks)

@@ -18,17 +18,17 @@ The midpoint path M(t) is a centripetal Catmull-Rom spline (alpha = 1/2 on chord
 the non-uniform curve of Barry and Goldman, evaluated here as the equal cubic Hermite
 form; not the uniform matrix printed in the thesis, which is not centripetal). It passes
 through the k-th midpoint at the k-th midpoint time. Between knots, time is mapped onto
-the knot parameter by a monotone C1 cubic (PCHIP) instead of a linear map per segment:
-the path's *shape* is exactly the centripetal curve (no loops or cusps), and the velocity
-is continuous across knots, which a per-segment linear map only gives when the knot
-intervals happen to be proportional to the time intervals (see
-``centripetal_catmull_rom(..., smooth_timing=False)`` for that literal variant).
+the knot parameter by a monotone C1 cubic (Fritsch-Carlson slopes) instead of a linear
+map per segment: the path's *shape* is exactly the centripetal curve (no loops or cusps)
+and the velocity is continuous across knots, which a per-segment linear map only gives
+where the knot intervals happen to be proportional to the time intervals (see
+``centripetal_catmull_rom(..., smooth_timing=False)`` for that literal variant). Both
+maps agree in the end segments' velocity at the ends, where the path goes on linearly.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
 
 __all__ = [
     "centripetal_catmull_rom",
@@ -63,8 +63,8 @@ def _safe_div(num: np.ndarray, den: np.ndarray) -> np.ndarray:
 
 
 def _array(name: str, a, shape: tuple) -> np.ndarray:
-    """``a`` as a finite float64 array of ``shape`` (None: any length). Never a view that
-    we write to: callers only read it."""
+    """``a`` as a finite float64 array of ``shape`` (None: any length), else ValueError.
+    It may share memory with ``a``: callers only read it, inputs are never modified."""
     arr = np.asarray(a, dtype=np.float64)
     if arr.ndim != len(shape) or any(
             want is not None and got != want for got, want in zip(arr.shape, shape)):
@@ -79,7 +79,8 @@ def _array(name: str, a, shape: tuple) -> np.ndarray:
 def _same_length(**arrays: np.ndarray) -> int:
     lengths = {k: len(v) for k, v in arrays.items()}
     if len(set(lengths.values())) > 1:
-        raise ValueError("lengths differ: " + ", ".join(f"{k} {n}" for k, n in lengths.items()))
+        listed = ", ".join(f"{k} {n}" for k, n in lengths.items())
+        raise ValueError(f"lengths differ: {listed}")
     return next(iter(lengths.values()))
 
 
@@ -96,6 +97,22 @@ def _footprints(position, heading, times, who: str = "footprint"):
         raise ValueError(f"{who} times: at most two footprints may share a time "
                          "(the midpoint times must increase)")
     return p, h, tt
+
+
+def _monotone_slopes(h: np.ndarray, secant: np.ndarray) -> np.ndarray:
+    """Knot slopes (n,) of a monotone C1 cubic through non-decreasing data with interval
+    widths ``h`` (n-1,) and secant slopes ``secant`` (n-1,) >= 0: at interior knots the
+    Fritsch-Carlson (Brodlie) weighted harmonic mean of the two secants, 0 if either is
+    0; at the two ends the end secant, so that the path's velocity at its ends is the
+    end segment's mean velocity. Every slope is at most 3x the secants beside it, which
+    keeps the cubic monotone."""
+    out = np.empty(len(secant) + 1)
+    out[0], out[-1] = secant[0], secant[-1]
+    a, b = secant[:-1], secant[1:]
+    w1, w2 = 2.0 * h[1:] + h[:-1], h[1:] + 2.0 * h[:-1]
+    pos = (a > 0.0) & (b > 0.0)
+    out[1:-1] = np.where(pos, (w1 + w2) * a * b / np.where(pos, w1 * b + w2 * a, 1.0), 0.0)
+    return out
 
 
 # ----------------------------------------------------------------------------- spline
@@ -118,10 +135,12 @@ def centripetal_catmull_rom(points: np.ndarray, knot_times: np.ndarray, t: np.nd
     with every term over a zero interval taken as 0 (its limit for alpha < 1): points
     that coincide give a segment that stays at that point, and no division by zero.
 
-    Time to knot parameter: with ``smooth_timing`` (default) s(t) is the monotone PCHIP
-    interpolant of (knot_times, s), so the curve is C1 in time and exactly the centripetal
-    curve in shape; with ``smooth_timing=False`` the map is linear within each segment
-    (velocity continuous across a knot only where d_k / dt_k is the same on both sides).
+    Time to knot parameter: with ``smooth_timing`` (default) s(t) is the monotone C1
+    cubic Hermite interpolant of (knot_times, s) with Fritsch-Carlson slopes inside and
+    the end secants at the ends (``_monotone_slopes``), so the curve is C1 in time and
+    exactly the centripetal curve in shape; with ``smooth_timing=False`` the map is linear
+    within each segment (velocity continuous across a knot only where d_k / dt_k is the
+    same on both sides). Either way ds/dt at the ends is the end segment's d / dt.
 
     Outside [knot_times[0], knot_times[-1]] the curve goes on linearly with its velocity
     at the end point (continuous in position and velocity there). One point: constant.
@@ -153,12 +172,17 @@ def centripetal_catmull_rom(points: np.ndarray, knot_times: np.ndarray, t: np.nd
 
     tc = np.clip(tq, kt[0], kt[-1])
     k = np.clip(np.searchsorted(kt, tc, side="right") - 1, 0, n - 2)
+    tau = (tc - kt[k]) / dt[k]  # time fraction of the segment
     if smooth_timing:
-        s_of_t = PchipInterpolator(kt, s, extrapolate=False)
-        u = _safe_div((s_of_t(tc) - s[k])[:, None], dseg[k])[:, 0]
-        ds_end = s_of_t(kt[[0, -1]], 1)  # ds/dt at the two end points
+        rate = _monotone_slopes(dt, dseg / dt)  # (n,) ds/dt at the knots
+        # u(tau) = (s(t) - s_k) / d_k for the cubic Hermite s(t) with those slopes
+        m = _safe_div(np.stack([rate[:-1], rate[1:]], axis=1) * dt[:, None], dseg)  # (n-1, 2)
+        t2, t3 = tau * tau, tau * tau * tau
+        u = (3.0 * t2 - 2.0 * t3) + (t3 - 2.0 * t2 + tau) * m[k, 0] + (t3 - t2) * m[k, 1]
+        u = np.where(dseg[k] > 0.0, u, 0.0)
+        ds_end = rate[[0, -1]]
     else:
-        u = (tc - kt[k]) / dt[k]
+        u = tau
         ds_end = np.array([dseg[0] / dt[0], dseg[-1] / dt[-1]])
     u = np.clip(u, 0.0, 1.0)[:, None]
 
@@ -172,7 +196,8 @@ def centripetal_catmull_rom(points: np.ndarray, knot_times: np.ndarray, t: np.nd
 
     # linear extrapolation with the end velocities (dC/ds * ds/dt)
     v0, v1 = T[0] * ds_end[0], T[-1] * ds_end[1]
-    out += np.minimum(tq - kt[0], 0.0)[:, None] * v0 + np.maximum(tq - kt[-1], 0.0)[:, None] * v1
+    out += np.minimum(tq - kt[0], 0.0)[:, None] * v0
+    out += np.maximum(tq - kt[-1], 0.0)[:, None] * v1
     return out
 
 
@@ -183,7 +208,8 @@ def midpoints(position, heading, times) -> tuple[np.ndarray, np.ndarray, np.ndar
     (m (N-1, 3), m_heading (N-1,), m_time (N-1,)).
 
     m_i = (p_i + p_{i+1}) / 2, m_time_i = (t_i + t_{i+1}) / 2 and m_heading_i the mid
-    angle h_i + wrap(h_{i+1} - h_i) / 2 (slerp at 1/2 about Z), then unwrapped along i so
+    angle h_i + wrap(h_{i+1} - h_i) / 2 (slerp at 1/2 about Z), then unwrapped along i
+    (a no-op for unwrapped footprint headings that turn less than pi per footprint) so
     that the sequence is continuous even if the footprint headings were wrapped. Fewer
     than two footprints: empty arrays.
     """
@@ -204,8 +230,8 @@ def footprint_spline(position, heading, times, t) -> tuple[np.ndarray, np.ndarra
     (``centripetal_catmull_rom``), linear beyond the first and last midpoint times. M_q
     interpolates the mid headings linearly in time between consecutive midpoint times
     (slerp about Z of the unwrapped angles) and is constant outside them. (M_q uses the
-    time fraction of the segment; M's knot parameter is the PCHIP map of time, which has
-    no meaning on a zero-length chord, where the character turns on the spot.)
+    time fraction of the segment; M's knot parameter is a monotone cubic of time, which
+    has no meaning on a zero-length chord, where the character turns on the spot.)
     One midpoint: constant. One footprint: the footprint itself, constant.
     """
     p, h, tt = _footprints(position, heading, times)

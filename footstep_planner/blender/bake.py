@@ -1,0 +1,216 @@
+"""The result baked into the character: one slotted Action per bake, in an NLA track the
+planner owns, and the quality of what was baked, measured on the baked action itself.
+
+What the planner owns is marked: its actions carry the custom property ``OWNED_PROP``
+(the character's name) and its NLA tracks are named ``TRACK_PREFIX`` + the plan's name,
+holding only such actions; its timeline markers start with ``MARKER_PREFIX``. A re-bake
+removes those and nothing else: the user's actions, tracks, strips, keyframes and
+markers are never touched.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import bpy
+from scipy.spatial.transform import Rotation
+
+from ..core.errors import FootstepError
+from ..core.ik import IKResult, body_frames
+from ..core.rig import Rig, forward_kinematics
+
+OWNED_PROP = "footstep_bake"
+#: The character's own object transform before the first bake (row-major 4x4), put back
+#: by ``clear``: the bake animates the object, and Blender leaves the last evaluated
+#: transform in it when the animation goes.
+REST_PROP = "footstep_rest_matrix"
+TRACK_PREFIX = "Footstep: "
+MARKER_PREFIX = "FP "
+
+
+class BakeError(FootstepError):
+    pass
+
+
+def _linear():
+    return bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items["LINEAR"].value
+
+
+def owned_tracks(ob) -> list:
+    """The planner's own NLA tracks on ``ob``."""
+    ad = ob.animation_data
+    if ad is None:
+        return []
+    return [tr for tr in ad.nla_tracks if tr.name.startswith(TRACK_PREFIX) and tr.strips
+            and all(st.action is not None and st.action.get(OWNED_PROP) is not None for st in tr.strips)]
+
+
+def clear(ob, scene=None) -> int:
+    """Remove the planner's tracks, their actions (when nothing else uses them) and its
+    markers. Returns how many tracks went."""
+    tracks = owned_tracks(ob)
+    acts = {st.action for tr in tracks for st in tr.strips}
+    rest = next((a.get(REST_PROP) for a in acts if a.get(REST_PROP) is not None), None)
+    for tr in tracks:
+        ob.animation_data.nla_tracks.remove(tr)
+    if rest is not None and len(rest) == 16:  # the object's own transform, as it was
+        from mathutils import Matrix
+
+        vals = [float(v) for v in rest]
+        ob.matrix_basis = Matrix([vals[0:4], vals[4:8], vals[8:12], vals[12:16]])
+    for act in acts:
+        if act.users == 0 or (act.users == 1 and act.use_fake_user):
+            bpy.data.actions.remove(act)
+    if scene is not None:
+        for m in [m for m in scene.timeline_markers if m.name.startswith(MARKER_PREFIX)]:
+            scene.timeline_markers.remove(m)
+    return len(tracks)
+
+
+def _euler(q_xyzw: np.ndarray, mode: str) -> np.ndarray:
+    """(F, 3) Euler angles in Blender's rotation_mode order, unwrapped over frames."""
+    # Blender's "XYZ" applies X first: extrinsic x-y-z, which scipy spells "xyz"
+    e = Rotation.from_quat(q_xyzw).as_euler(mode.lower())
+    out = np.empty_like(e)
+    for i, axis in enumerate(mode):
+        out[:, "XYZ".index(axis)] = e[:, i]
+    return np.unwrap(out, axis=0)
+
+
+def _wxyz(q_xyzw: np.ndarray) -> np.ndarray:
+    q = np.roll(q_xyzw, 1, axis=-1)
+    flip = np.cumprod(np.where(np.sum(q[1:] * q[:-1], axis=-1) < 0, -1.0, 1.0), axis=0)
+    q[1:] *= flip[..., None]
+    return q
+
+
+def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start: int,
+         footsteps=None, planted=None, markers: bool = False):
+    """Key ``res`` into a new Action on the armature ``ob`` (object transform for the body,
+    bone rotations, and the hips' location) in a new NLA track of the planner's, starting
+    at ``frame_start``. The planner's earlier bake of this character is replaced."""
+    names = [pb.name for pb in ob.pose.bones]
+    if tuple(names) != tuple(rig.names):
+        raise BakeError(f"armature {ob.name!r} changed since it was read (bones differ)")
+    F = res.frames
+    # (copied out now: clearing frees the old action, and its property with it)
+    old = [[float(v) for v in st.action[REST_PROP]] for tr in owned_tracks(ob) for st in tr.strips
+           if st.action.get(REST_PROP) is not None]
+    rest = old[0] if old else None
+    if rest is None:
+        rest = [v for row in ob.matrix_basis for v in row]
+    clear(ob, scene)
+    frames = frame_start + np.arange(F, dtype=np.float64)
+    act = bpy.data.actions.new(f"Footstep {name}")
+    act[OWNED_PROP] = ob.name
+    act[REST_PROP] = [float(v) for v in rest]
+    slot = act.slots.new(id_type="OBJECT", name=ob.name)
+    cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
+    lin = _linear()
+
+    def key(path, values, group, index=None):
+        values = np.atleast_2d(np.asarray(values, float).T).T if values.ndim == 1 else values
+        for i in range(values.shape[1]):
+            fc = cbag.fcurves.new(path, index=i if index is None else index[i], group_name=group)
+            kp = fc.keyframe_points
+            kp.add(F)
+            co = np.empty(2 * F, np.float32)
+            co[0::2] = frames
+            co[1::2] = values[:, i]
+            kp.foreach_set("co", co)
+            kp.foreach_set("interpolation", np.full(F, lin, np.int32))
+            fc.update()
+
+    # the body: the object's location and yaw (its tilt, if any, is kept)
+    yaw = spin + res.body_heading
+    key("location", res.body_pos, "Object Transforms")
+    mode = ob.rotation_mode
+    base = ob.matrix_basis.to_euler("XYZ")
+    qz = Rotation.from_euler("xyz", np.c_[np.full(F, base.x), np.full(F, base.y), yaw]).as_quat()
+    if mode == "QUATERNION":
+        key("rotation_quaternion", _wxyz(qz), "Object Transforms")
+    elif mode == "AXIS_ANGLE":
+        rv = Rotation.from_quat(qz).as_rotvec()
+        ang = np.linalg.norm(rv, axis=1)
+        axis = np.where(ang[:, None] > 1e-12, rv / np.maximum(ang, 1e-12)[:, None], [0.0, 0.0, 1.0])
+        key("rotation_axis_angle", np.c_[ang, axis], "Object Transforms")
+    else:
+        key("rotation_euler", _euler(qz, mode), "Object Transforms")
+
+    # the bones
+    q = Rotation.from_matrix(res.basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, len(names), 4)
+    moved = np.abs(res.basis[..., :3, 3]).max(axis=0).max(axis=1) > 1e-6
+    for b, pb in enumerate(ob.pose.bones):
+        path = f'pose.bones["{bpy.utils.escape_identifier(pb.name)}"]'
+        if pb.rotation_mode == "QUATERNION":
+            key(f"{path}.rotation_quaternion", _wxyz(q[:, b]), pb.name)
+        elif pb.rotation_mode == "AXIS_ANGLE":
+            rv = Rotation.from_quat(q[:, b]).as_rotvec()
+            ang = np.linalg.norm(rv, axis=1)
+            axis = np.where(ang[:, None] > 1e-12, rv / np.maximum(ang, 1e-12)[:, None], [0.0, 1.0, 0.0])
+            key(f"{path}.rotation_axis_angle", np.c_[ang, axis], pb.name)
+        else:
+            key(f"{path}.rotation_euler", _euler(q[:, b], pb.rotation_mode), pb.name)
+        if moved[b]:
+            key(f"{path}.location", res.basis[:, b, :3, 3], pb.name)
+
+    ad = ob.animation_data_create()
+    track = ad.nla_tracks.new()
+    track.name = f"{TRACK_PREFIX}{name}"
+    strip = track.strips.new(act.name, int(frame_start), act)
+    strip.action_slot = slot
+    strip.extrapolation = "HOLD_FORWARD"
+    strip.blend_type = "REPLACE"
+    if markers and footsteps is not None and planted is not None:
+        rate = scene.render.fps / (scene.render.fps_base or 1.0)
+        for i, (f, (_, st, _)) in enumerate(zip(footsteps, planted)):
+            scene.timeline_markers.new(f"{MARKER_PREFIX}{i} {'LR'[f.foot]}", frame=int(round(frame_start + st * rate)))
+    return act, track
+
+
+def evaluate(ob, rig: Rig, act, frame_start: int, frames: int):
+    """The baked action evaluated as Blender plays it: (world bone matrices (F, B, 4, 4),
+    body positions (F, 3), body yaw (F,), bone rotations (F, B, 4) (x, y, z, w)). The
+    action's curves are evaluated per frame onto a copy of the pose state, which is
+    restored; the object's own transform comes from the action's object curves."""
+    pbones = ob.pose.bones
+    B = len(pbones)
+    saved = np.empty(B * 16, dtype=np.float32)
+    pbones.foreach_get("matrix_basis", saved)
+    basis = np.empty((frames, B, 4, 4))
+    buf = np.empty(B * 16, dtype=np.float32)
+    try:
+        for i in range(frames):
+            ob.pose.apply_pose_from_action(act, evaluation_time=float(frame_start + i))
+            pbones.foreach_get("matrix_basis", buf)
+            basis[i] = buf.reshape(B, 4, 4).transpose(0, 2, 1)
+    finally:
+        pbones.foreach_set("matrix_basis", saved)
+    slot = act.slots[0]
+    cbag = act.layers[0].strips[0].channelbag(slot)
+    fr = frame_start + np.arange(frames, dtype=np.float64)
+
+    def curve(path, i):
+        fc = cbag.fcurves.find(path, index=i)
+        return np.array([fc.evaluate(f) for f in fr])
+
+    loc = np.stack([curve("location", i) for i in range(3)], axis=1)
+    mode = ob.rotation_mode
+    if mode == "QUATERNION":
+        qw = np.stack([curve("rotation_quaternion", i) for i in range(4)], axis=1)
+        rot = Rotation.from_quat(np.roll(qw, -1, axis=1))
+    elif mode == "AXIS_ANGLE":
+        aa = np.stack([curve("rotation_axis_angle", i) for i in range(4)], axis=1)
+        rot = Rotation.from_rotvec(aa[:, 1:] * aa[:, :1])
+    else:
+        e = np.stack([curve("rotation_euler", i) for i in range(3)], axis=1)
+        rot = Rotation.from_euler(mode.lower(), e[:, ["XYZ".index(a) for a in mode]])
+    yaw = rot.as_euler("xyz")[:, 2]
+    obm = np.tile(np.eye(4), (frames, 1, 1))
+    obm[:, :3, :3] = rot.as_matrix()
+    obm[:, :3, 3] = loc
+    world = obm[:, None] @ forward_kinematics(rig, basis)
+    q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(frames, B, 4)
+    return world, loc, np.unwrap(yaw), q
+
+
+__all__ = ["bake", "clear", "evaluate", "owned_tracks", "BakeError", "body_frames"]

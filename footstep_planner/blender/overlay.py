@@ -1,0 +1,71 @@
+"""The viewport overlay for review: the planned footprints coloured by foot and clip, the
+body trajectory, and optionally the footprints the search sampled. The geometry comes from
+``core/overlay.py``; this module only keeps the last run's arrays and draws them."""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ..core import overlay as geo
+
+#: scene name -> the arrays of its last plan or bake (not saved with the file)
+LAST: dict[str, dict] = {}
+_HANDLE = None
+
+
+def remember(scene, footsteps, positions, headings, forward, foot, body=None, sampled=None) -> None:
+    tri, col = geo.footprint_triangles(positions, headings, forward, foot, [f.foot for f in footsteps],
+                                       [f.label for f in footsteps], [f.jump for f in footsteps])
+    LAST[scene.name] = {
+        "triangles": tri.astype(np.float32), "colours": col.astype(np.float32),
+        "body": geo.polyline_segments(body).astype(np.float32) if body is not None else np.zeros((0, 3), np.float32),
+        "sampled": geo.crosses(sampled).astype(np.float32) if sampled is not None else np.zeros((0, 3), np.float32),
+    }
+    _redraw()
+
+
+def _redraw():
+    wm = getattr(bpy.context, "window_manager", None)
+    for win in (wm.windows if wm else []):
+        for area in win.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+
+
+def _draw():
+    import gpu
+    from gpu_extras.batch import batch_for_shader
+
+    scene = bpy.context.scene
+    fs = getattr(scene, "footstep", None)
+    data = LAST.get(scene.name)
+    if fs is None or not fs.show_overlay or data is None:
+        return
+    gpu.state.blend_set("ALPHA")
+    gpu.state.depth_test_set("LESS_EQUAL")
+    if len(data["triangles"]):
+        sh = gpu.shader.from_builtin("SMOOTH_COLOR")
+        batch_for_shader(sh, "TRIS", {"pos": data["triangles"], "color": data["colours"]}).draw(sh)
+    sh = gpu.shader.from_builtin("UNIFORM_COLOR")
+    for key, colour in (("body", geo.BODY), ("sampled", geo.SAMPLED)):
+        if key == "sampled" and not fs.show_sampled:
+            continue
+        if len(data[key]):
+            sh.uniform_float("color", colour)
+            batch_for_shader(sh, "LINES", {"pos": data[key]}).draw(sh)
+    gpu.state.depth_test_set("NONE")
+    gpu.state.blend_set("NONE")
+
+
+def register():
+    global _HANDLE
+    if not bpy.app.background:  # no viewport to draw in without a window
+        _HANDLE = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
+
+
+def unregister():
+    global _HANDLE
+    if _HANDLE is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_HANDLE, "WINDOW")
+        _HANDLE = None

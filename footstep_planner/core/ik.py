@@ -1,0 +1,372 @@
+"""Feet on the footprints (thesis 3.8): body offset, then each leg solved in closed form.
+
+1. **Targets.** Every footprint is planted from its strike to its liftoff (from the
+   synthesis). While planted, the foot keeps the clip's own roll (heel strike,
+   flat, toe off) turned by one rotation per footprint that lays the clip's stance
+   onto the footprint: its heading and the surface's normal (slopes). The pinned point
+   is the heel or the toe, whichever is nearer the ground (Johansen), blended over
+   ``balance_band`` so the switch is smooth; the other end follows the roll.
+2. **Body offset** (3.8.1, ``offsets.py``): the body is pulled and turned so the pinned
+   points reach their targets, and the offsets are spread over time by a multilevel
+   B-spline, so the body anticipates each step.
+3. **Reach.** Where a target is out of the leg's reach the hips are lowered (smoothly,
+   ahead of time) instead of popping the knee straight.
+4. **Swing.** Between two stances of a foot, the correction that put the foot on the
+   first footprint (the ankle's offset and the foot's turn from the clip's own) eases
+   into the one the next footprint needs (smoothstep): the foot leaves and lands on its
+   footprints with the clip's own swing, never released or caught in a hurry, and it
+   clears the surface.
+5. **Legs** (3.8.2): with the body fixed, the ankle goes to its target and the knee
+   stays in the plane of the clip's own knee (the swivel closest to the clip: the only
+   free variable, solved in closed form); the thigh and the shin turn by the least
+   rotation, so their twist is the clip's; the knee bends only the clip's way and never
+   past straight. The foot takes its target rotation.
+
+Conventions: world Z up, metres, seconds; quaternions (x, y, z, w) (scipy); headings
+are yaws about +Z relative to the world forward; ``spin`` is the world yaw of heading 0
+minus the rig's rest forward's yaw, so the armature object's yaw is ``spin + heading``.
+Arrays are per frame (F) and vectorized over frames.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d, maximum_filter1d
+from scipy.spatial.transform import Rotation, Slerp  # noqa: F401  (Slerp: see _slerp_mats)
+
+from .offsets import body_offsets, smooth_offsets
+from .rig import Rig, forward_kinematics
+from .settings import Settings
+
+#: s over which a foot would settle onto its footprint (and leave it) by easing towards
+#: the pinned place. Off: easing in world space holds the foot back while the clip's foot
+#: rushes on, and then lets it go faster than any clip (measured: more pops, not fewer).
+SETTLE = 0.0
+#: m a swinging foot keeps above the surface.
+GROUND_MARGIN = 0.002
+#: The leg is never stretched past this share of its length (a straight knee pops).
+MAX_REACH = 0.995
+
+SIDES = ("l", "r")
+
+
+@dataclass
+class FootTargets:
+    """Per foot and frame: IK weight, pinned point, ankle target and foot rotation."""
+
+    weight: np.ndarray  # (2, F) 0 free .. 1 planted
+    footprint: np.ndarray  # (2, F) int index of the footprint, -1 when free
+    pin: np.ndarray  # (2, F, 3) world target of the pinned point (heel or toe)
+    pin_local: np.ndarray  # (2, F, 3) the pinned point in the foot bone's frame
+    foot_rot: np.ndarray  # (2, F, 3, 3) world target rotation of the foot bone
+    ankle: np.ndarray  # (2, F, 3) world target of the foot bone's head
+
+
+@dataclass
+class IKResult:
+    body_pos: np.ndarray  # (F, 3)
+    body_heading: np.ndarray  # (F,)
+    basis: np.ndarray  # (F, B, 4, 4) pose bases after IK
+    targets: FootTargets
+    hips_drop: np.ndarray  # (F,) m the hips were lowered to keep the legs in reach
+    body_offset: tuple[np.ndarray, np.ndarray]  # (dp (F, 3), dpsi (F,)) from 3.8.1
+    seconds: dict = field(default_factory=dict)
+
+    @property
+    def frames(self) -> int:
+        return len(self.body_heading)
+
+
+def body_frames(pos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """(F, 4, 4) world matrices of the armature object: rotation about Z, translation."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    m = np.tile(np.eye(4), (len(yaw), 1, 1))
+    m[:, 0, 0], m[:, 0, 1], m[:, 1, 0], m[:, 1, 1] = c, -s, s, c
+    m[:, :3, 3] = pos
+    return m
+
+
+def min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(F, 3, 3) least rotations taking directions a (F, 3) onto b (F, 3)."""
+    a = a / np.linalg.norm(a, axis=1, keepdims=True)
+    b = b / np.linalg.norm(b, axis=1, keepdims=True)
+    v = np.cross(a, b)
+    c = np.einsum("fi,fi->f", a, b)
+    k = np.zeros((len(a), 3, 3))
+    k[:, 0, 1], k[:, 0, 2], k[:, 1, 0] = -v[:, 2], v[:, 1], v[:, 2]
+    k[:, 1, 2], k[:, 2, 0], k[:, 2, 1] = -v[:, 0], -v[:, 1], v[:, 0]
+    s2 = np.einsum("fi,fi->f", v, v)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f = np.where(s2 > 1e-18, (1 - c) / np.where(s2 > 1e-18, s2, 1.0), 0.5)
+    r = np.eye(3)[None] + k + f[:, None, None] * (k @ k)
+    # opposite directions: half a turn about any axis perpendicular to a
+    opp = c < -1 + 1e-9
+    if opp.any():
+        axis = np.cross(a[opp], np.where(np.abs(a[opp, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
+        r[opp] = Rotation.from_rotvec(np.pi * axis / np.linalg.norm(axis, axis=1, keepdims=True)).as_matrix()
+    return r
+
+
+def _slerp_mats(r0: np.ndarray, r1: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Per-frame slerp between rotation matrices r0 and r1 (F, 3, 3) by w (F,)."""
+    rel = Rotation.from_matrix(np.einsum("fji,fjk->fik", r0, r1))  # r0^T r1
+    return r0 @ Rotation.from_rotvec(rel.as_rotvec() * w[:, None]).as_matrix()
+
+
+def _tilt(normal: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) least rotations taking +Z onto each surface normal."""
+    up = np.tile([0.0, 0.0, 1.0], (len(normal), 1))
+    return min_rotation(up, np.asarray(normal, float))
+
+
+def _smoothstep(u: np.ndarray) -> np.ndarray:
+    u = np.clip(u, 0.0, 1.0)
+    return u * u * (3.0 - 2.0 * u)
+
+
+def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np.ndarray,
+                  rot: np.ndarray, ease: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Ankle positions (F, 3) and foot rotations (F, 3, 3) for every frame of one foot:
+    ``ankle``/``rot`` where ``planted``; elsewhere the clip's own (``A0``, ``R0``) plus a
+    correction eased (smoothstep) from the last planted frame's to the next one's, held
+    before the first and after the last planted frame."""
+    F = len(planted)
+    idx = np.flatnonzero(planted)
+    if not len(idx):
+        return A0.copy(), R0.copy()
+    off = np.zeros((F, 3))
+    turn = np.zeros((F, 3))
+    off[idx] = ankle[idx] - A0[idx]
+    turn[idx] = Rotation.from_matrix(rot[idx] @ np.transpose(R0[idx], (0, 2, 1))).as_rotvec()
+    f = np.arange(F)
+    prev = np.maximum.accumulate(np.where(planted, f, -1))
+    nxt = np.minimum.accumulate(np.where(planted, f, F)[::-1])[::-1]
+    prev_c = np.where(prev < 0, nxt, prev)
+    nxt_c = np.where(nxt >= F, prev, nxt)
+    span = np.maximum(nxt_c - prev_c, 1)
+    u = _smoothstep((f - prev_c) / span)[:, None]
+    o = (1 - u) * off[prev_c] + u * off[nxt_c]
+    tv = (1 - u) * turn[prev_c] + u * turn[nxt_c]
+    A = A0 + o
+    R = Rotation.from_rotvec(tv).as_matrix() @ R0
+    # the foot settles onto (and leaves) its footprint over ``ease`` frames instead of
+    # stopping dead: the clip's heel still moves a little at the strike
+    if ease > 0:
+        for near, gap in ((nxt, nxt - f), (prev, f - prev)):
+            sel = np.flatnonzero(~planted & (near >= 0) & (near < F) & (gap <= ease))
+            if len(sel):
+                e = _smoothstep(1.0 - gap[sel] / (ease + 1.0))
+                A[sel] = (1 - e)[:, None] * A[sel] + e[:, None] * ankle[near[sel]]
+                R[sel] = _slerp_mats(R[sel], rot[near[sel]], e)
+    A[idx], R[idx] = ankle[idx], rot[idx]
+    return A, R
+
+
+def foot_targets(rig: Rig, heel_local: np.ndarray, toe_local: np.ndarray, world: np.ndarray,
+                 t: np.ndarray, feet: np.ndarray, planted: list, pos: np.ndarray, heading: np.ndarray,
+                 normal: np.ndarray, forward: np.ndarray, band: float) -> FootTargets:
+    """The targets of both feet (see the module docstring). ``world`` (F, B, 4, 4) is the
+    unadjusted pose in the world; ``planted`` per footprint (strike, stance, liftoff) s;
+    ``pos``, ``heading``, ``normal`` the footprints (N, 3), (N,), (N, 3)."""
+    F = len(t)
+    fps = 1.0 / (t[1] - t[0]) if F > 1 else 30.0
+    weight = np.zeros((2, F))
+    index = np.full((2, F), -1)
+    pin = np.zeros((2, F, 3))
+    pin_local = np.zeros((2, F, 3))
+    rot = np.zeros((2, F, 3, 3))
+    ankle = np.zeros((2, F, 3))
+    fa = np.arctan2(forward[1], forward[0])
+    tilt = _tilt(normal)
+    for k, side in enumerate(SIDES):
+        foot, _ = rig.foot_chain(side)
+        Wf = world[:, foot]
+        rot[k] = Wf[:, :3, :3]
+        heel_w = (Wf @ heel_local[k])[:, :3]
+        toe_w = (Wf @ toe_local[k])[:, :3]
+        length = float(np.linalg.norm(toe_local[k, :3] - heel_local[k, :3]))
+        # whose footprint each frame belongs to: its planted range, strike to liftoff
+        for j in np.flatnonzero(feet == k):
+            a, s_, b = planted[j]
+            fr = np.arange(max(0, int(np.ceil(a * fps - 1e-6))), min(F, int(np.floor(b * fps + 1e-6)) + 1))
+            weight[k, fr] = 1.0
+            index[k, fr] = j
+        on = np.flatnonzero(index[k] >= 0)
+        if not len(on):
+            continue
+        j = index[k, on]
+        # the foot keeps the clip's pitch and roll (heel strike, flat, toe off), but its
+        # heading is the footprint's for the whole stance (a planted foot does not turn with
+        # the body), and it is tilted onto the surface: tilt_j Rz(want_j) Rz(-yaw(f)) R0(f)
+        js = np.unique(j)
+        d = toe_w[on] - heel_w[on]
+        yaw_now = np.arctan2(d[:, 1], d[:, 0])
+        yaw_want = np.zeros(len(feet))
+        yaw_want[js] = heading[js] + fa
+        turn = Rotation.from_euler("z", (yaw_want[j] - yaw_now)[:, None]).as_matrix()
+        rot[k, on] = tilt[j] @ turn @ rot[k, on]
+        yaw_want = yaw_want[js]
+        # the footprint's heel and toe on the surface
+        u = tilt[js] @ np.c_[np.cos(yaw_want), np.sin(yaw_want), np.zeros(len(js))][..., None]
+        heel_t = np.zeros((len(feet), 3))
+        toe_t = np.zeros((len(feet), 3))
+        heel_t[js] = pos[js] - 0.5 * length * u[..., 0]
+        toe_t[js] = pos[js] + 0.5 * length * u[..., 0]
+        # Johansen: the pinned point is the heel or the toe, whichever is lower. The ankle
+        # target blends the heel-pinned and the toe-pinned solutions while their heights
+        # differ by less than a quarter of ``band``: the two agree while the foot lies
+        # flat, and a blend over a wider band slides the pinned end (a 10 degree roll puts
+        # the two solutions 3 cm apart)
+        bal = np.clip((heel_w[on, 2] - toe_w[on, 2]) / max(0.25 * band, 1e-6) + 0.5, 0.0, 1.0)[:, None]
+        r_on = rot[k, on]
+        a_heel = heel_t[j] - np.einsum("fij,j->fi", r_on, heel_local[k, :3])
+        a_toe = toe_t[j] - np.einsum("fij,j->fi", r_on, toe_local[k, :3])
+        ankle[k, on] = (1 - bal) * a_heel + bal * a_toe
+        toe_down = bal[:, 0] > 0.5
+        pin[k, on] = np.where(toe_down[:, None], toe_t[j], heel_t[j])
+        pin_local[k, on] = np.where(toe_down[:, None], toe_local[k, :3], heel_local[k, :3])
+    return FootTargets(weight, index, pin, pin_local, rot, ankle)
+
+
+def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, body_heading: np.ndarray,
+             spin: float, heel_local: np.ndarray, toe_local: np.ndarray, feet: np.ndarray, planted: list,
+             fp_pos: np.ndarray, fp_heading: np.ndarray, fp_normal: np.ndarray, forward: np.ndarray,
+             settings: Settings | None = None, ground_z=None) -> IKResult:
+    """Thesis 3.8 on a synthesized motion. ``basis`` (F, B, 4, 4) the blended pose
+    (``pose.pose_bases``), the body on (body_pos, body_heading); the footprints and their
+    planted ranges from the synthesis. ``ground_z(points (M, 3)) -> heights (M,)`` (NaN
+    where there is no surface) lets a swinging foot clear the ground: where the heel or
+    the toe would pass under the surface, the ankle is lifted by that much.
+    Returns the adjusted body and pose bases."""
+    s = settings or Settings()
+    sec = {}
+    t0 = time.perf_counter()
+    F = len(t)
+    fps = 1.0 / (t[1] - t[0]) if F > 1 else 30.0
+    pose = forward_kinematics(rig, basis)
+    yaw = spin + np.asarray(body_heading, float)
+    world = body_frames(body_pos, yaw)[:, None] @ pose
+    tg = foot_targets(rig, heel_local, toe_local, world, t, np.asarray(feet), planted, fp_pos,
+                      np.asarray(fp_heading, float), fp_normal, forward, s.balance_band)
+    sec["targets"] = time.perf_counter() - t0
+
+    # 3.8.1 body offset: pinned points (where fully planted) onto their targets
+    t1 = time.perf_counter()
+    p_loc = np.zeros((2, F, 3))
+    for k, side in enumerate(SIDES):
+        foot, _ = rig.foot_chain(side)
+        pt = (pose[:, foot] @ np.c_[tg.pin_local[k], np.ones(F)][..., None])[:, :3, 0]  # armature space
+        p_loc[k] = pt
+    # armature space is the body frame turned by the object's yaw: express p_loc in a
+    # frame turned by the body heading's world yaw (the same thing)
+    planted_mask = tg.weight >= 1.0 - 1e-9
+    dp, dpsi = body_offsets(np.asarray(body_pos, float), yaw, p_loc, tg.pin, planted_mask,
+                            alpha=s.ik_alpha, beta=s.ik_beta, iterations=s.ik_iterations)
+    if np.isfinite(dpsi).any():
+        dp, dpsi = smooth_offsets(t, dp, dpsi)
+    else:
+        dp, dpsi = np.zeros((F, 3)), np.zeros(F)
+    body_pos = np.asarray(body_pos, float) + dp
+    yaw = yaw + dpsi
+    world = body_frames(body_pos, yaw)[:, None] @ pose
+    sec["body_offset"] = time.perf_counter() - t1
+
+    # reach: lower the hips (smoothly, ahead of time) where a planted ankle is too far
+    t2 = time.perf_counter()
+    thigh = [rig.role_index(f"thigh_{x}") for x in SIDES]
+    shin = [rig.role_index(f"shin_{x}") for x in SIDES]
+    foot_i = [rig.foot_chain(x)[0] for x in SIDES]
+    L1 = [float(np.linalg.norm(rig.rest[shin[k], :3, 3] - rig.rest[thigh[k], :3, 3])) for k in range(2)]
+    L2 = [float(np.linalg.norm(rig.rest[foot_i[k], :3, 3] - rig.rest[shin[k], :3, 3])) for k in range(2)]
+    need = np.zeros(F)
+    for k in range(2):
+        planted_k = tg.weight[k] >= 1.0
+        v = tg.ankle[k] - world[:, thigh[k], :3, 3]
+        r = MAX_REACH * (L1[k] + L2[k])
+        horiz = np.hypot(v[:, 0], v[:, 1])
+        drop = -v[:, 2] - np.sqrt(np.maximum(r * r - horiz * horiz, 0.0))
+        need = np.maximum(need, np.where(planted_k, np.maximum(drop, 0.0), 0.0))
+    win = max(1, int(round(0.15 * fps)))
+    drop = gaussian_filter1d(maximum_filter1d(need, 2 * win + 1), max(win / 2.0, 0.5))
+    drop = np.maximum(drop, need)
+    body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
+    world[..., 2, 3] -= drop[:, None]
+    # every frame's ankle and foot targets: on the footprint while planted, the clip's own
+    # swing plus a correction easing from one footprint's to the next's in between
+    ankle_t = np.zeros((2, F, 3))
+    rot_t = np.zeros((2, F, 3, 3))
+    for k in range(2):
+        A0 = world[:, foot_i[k], :3, 3]
+        R0 = world[:, foot_i[k], :3, :3]
+        ankle_t[k], rot_t[k] = swing_targets(tg.weight[k] >= 1.0, A0, R0, tg.ankle[k], tg.foot_rot[k],
+                                             ease=int(round(SETTLE * fps)))
+    sec["reach"] = time.perf_counter() - t2
+
+    # 3.8.2 legs, in closed form
+    t3 = time.perf_counter()
+    basis = basis.copy()
+    inv_yaw = body_frames(np.zeros((F, 3)), -yaw)[:, :3, :3]
+    fwd_arm = rig.forward_axis()
+    for k in range(2):
+        planted_k = tg.weight[k] >= 1.0
+        lift = np.zeros(F)
+        if ground_z is not None:
+            # a swinging foot never passes under the surface
+            free = np.flatnonzero(~planted_k)
+            for loc in (heel_local[k, :3], toe_local[k, :3]):
+                pt = ankle_t[k, free] + np.einsum("fij,j->fi", rot_t[k, free], loc)
+                gz = np.asarray(ground_z(pt), float)
+                depth = np.where(np.isfinite(gz), gz + GROUND_MARGIN - pt[:, 2], 0.0)
+                lift[free] = np.maximum(lift[free], depth)
+            lift = np.maximum(lift, 0.0)
+            if lift.any():
+                lift = np.maximum(lift, gaussian_filter1d(lift, 1.0))
+                lift[planted_k] = 0.0  # a planted foot is on its footprint already
+        on = np.arange(F)
+        Wt, Ws, Wf = world[:, thigh[k]], world[:, shin[k]], world[:, foot_i[k]]
+        H, K0, A0 = Wt[:, :3, 3], Ws[:, :3, 3], Wf[:, :3, 3]
+        A = ankle_t[k].copy()
+        A[:, 2] += lift
+        R_foot = rot_t[k]
+        v = A - H
+        d = np.linalg.norm(v, axis=1)
+        reach = MAX_REACH * (L1[k] + L2[k])
+        d_c = np.clip(d, abs(L1[k] - L2[k]) + 1e-4, reach)
+        u = v / np.maximum(d, 1e-9)[:, None]
+        A = H + u * d_c[:, None]
+        # the knee's side: the clip's knee, or the character's forward as the clip's leg
+        # straightens (a nearly straight clip knee gives no reliable side)
+        u0 = (A0 - H) / np.maximum(np.linalg.norm(A0 - H, axis=1, keepdims=True), 1e-9)
+        pole = K0 - H  # the clip's knee, off the clip's own hip-ankle line ...
+        pole -= np.einsum("fi,fi->f", pole, u0)[:, None] * u0
+        m = np.linalg.norm(pole, axis=1)
+        pole -= np.einsum("fi,fi->f", pole, u)[:, None] * u  # ... carried to the new line
+        fb = np.einsum("fij,j->fi", body_frames(np.zeros((F, 3)), yaw)[:, :3, :3], fwd_arm)
+        fb -= np.einsum("fi,fi->f", fb, u)[:, None] * u
+        fb /= np.maximum(np.linalg.norm(fb, axis=1, keepdims=True), 1e-9)
+        firm = 0.15 * L1[k]
+        pole += (firm * np.clip(1.0 - m / firm, 0.0, 1.0))[:, None] * fb
+        pole /= np.maximum(np.linalg.norm(pole, axis=1, keepdims=True), 1e-12)
+        a = (L1[k] ** 2 - L2[k] ** 2 + d_c ** 2) / (2 * d_c)
+        h = np.sqrt(np.maximum(L1[k] ** 2 - a * a, 0.0))
+        K = H + a[:, None] * u + h[:, None] * pole
+        r1 = min_rotation(K0 - H, K - H)
+        shin_dir = np.einsum("fij,fj->fi", r1, A0 - K0)
+        r2 = min_rotation(shin_dir, A - K)
+        R_thigh = r1 @ Wt[:, :3, :3]
+        R_shin = r2 @ r1 @ Ws[:, :3, :3]
+        # back to pose bases: armature-space rotations, relative to parent and rest
+        iy = inv_yaw[on]
+        arm = {thigh[k]: iy @ R_thigh, shin[k]: iy @ R_shin, foot_i[k]: iy @ R_foot}
+        parent_rot = pose[on, rig.parents[thigh[k]], :3, :3] if rig.parents[thigh[k]] >= 0 else np.eye(3)[None]
+        for b in (thigh[k], shin[k], foot_i[k]):
+            rr = rig.rest_rel[b, :3, :3]
+            local = np.einsum("ji,fjk->fik", rr, np.einsum("fji,fjk->fik", parent_rot, arm[b]))
+            basis[on, b, :3, :3] = local
+            parent_rot = arm[b]
+    sec["legs"] = time.perf_counter() - t3
+    sec["total"] = time.perf_counter() - t0
+    return IKResult(body_pos, yaw - spin, basis, tg, drop, (dp, dpsi), sec)

@@ -1,0 +1,259 @@
+"""The whole tool on the sample scenes with the real CMU library: plan, synthesize, IK,
+bake into NLA, and the report measured on the baked armature; the user's animation is
+never touched; the operators, the CLI bake verb (with jobs) and bad input."""
+
+import json
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from conftest import cmu, needs_cmu
+from test_plan_scenes import LIBRARY
+
+pytestmark = needs_cmu
+
+
+def _scene(fp, name, fps=30):
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
+    scene = bpy.context.scene
+    scene.render.fps = fps
+    clips = import_module(fp.__name__ + ".blender.clips")
+    ob, _ = clips.import_bvh_clips([cmu(n) for n in LIBRARY], name="CMU")
+    return scene, ob
+
+
+def _run(fp, scene, ob, **kw):
+    planning = import_module(fp.__name__ + ".blender.planning")
+    return planning.run(scene, ob, np.array(scene.objects["Goal"].location), start_marker=scene.objects["Start"],
+                        **kw)
+
+
+def _user_animation(ob, scene):
+    """Give the character animation of the user's own: an extra action with keys, an NLA
+    track with a strip, and a marker; return a snapshot to compare with later."""
+    import bpy
+
+    ob["transform_before"] = _transform(ob)
+    act = bpy.data.actions.new("UserWave")
+    act.use_fake_user = True
+    slot = act.slots.new(id_type="OBJECT", name=ob.name)
+    cb = act.layers.new("L").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
+    fc = cb.fcurves.new('pose.bones["LeftArm"].rotation_quaternion', index=1)
+    fc.keyframe_points.add(2)
+    fc.keyframe_points.foreach_set("co", [1.0, 0.0, 20.0, 0.5])
+    ad = ob.animation_data_create()
+    tr = ad.nla_tracks.new()
+    tr.name = "User layer"
+    st = tr.strips.new("wave", 1, act)
+    st.action_slot = slot
+    scene.timeline_markers.new("user mark", frame=7)
+    return _snapshot(ob, scene)
+
+
+def _snapshot(ob, scene):
+    import bpy
+
+    ad = ob.animation_data
+    return {
+        "actions": sorted((a.name, tuple(round(k.co[1], 6) for c in _curves(a) for k in c.keyframe_points))
+                          for a in bpy.data.actions if a.get("footstep_bake") is None),
+        "tracks": [(t.name, [(s.name, s.action.name, s.frame_start, s.frame_end) for s in t.strips])
+                   for t in ad.nla_tracks if not t.name.startswith("Footstep: ")] if ad else [],
+        "active": ad.action.name if ad and ad.action else None,
+        "markers": sorted((m.name, m.frame) for m in scene.timeline_markers if not m.name.startswith("FP ")),
+    }
+
+
+def _transform(ob):
+    """The object's own transform (the bake animates it; clear puts it back)."""
+    return np.round(np.array(ob.matrix_basis), 5).tolist()
+
+
+def _curves(act):
+    return [c for layer in act.layers for strip in layer.strips for cb in strip.channelbags for c in cb.fcurves]
+
+
+@pytest.fixture(scope="module")
+def jumps_baked(fp):
+    scene, ob = _scene(fp, "jumps")
+    before = _user_animation(ob, scene)
+    doc = _run(fp, scene, ob, name="leap", frame_start=10, markers=True)
+    return scene, ob, before, doc
+
+
+def test_jumps_baked_with_feet_on_the_footprints(fp, jumps_baked):
+    scene, ob, before, doc = jumps_baked
+    q = doc["quality"]
+    assert q["foot_skate"]["mean_mm"] < 2.0 and q["foot_skate"]["max_mm"] < 10.0
+    assert q["footprint_error"]["max_mm"] < 10.0  # planted foot within 1 cm of its footprint
+    assert q["penetration"]["max_mm"] < 5.0
+    assert q["floating"]["max_mm"] < 5.0
+    assert q["goal"]["distance_m"] < 0.05
+    assert q["pops"]["introduced"]["max_excess_deg"] < 10.0
+    st = doc["stages"]
+    assert st["frames"] == doc["frame_end"] - doc["frame_start"] + 1 and doc["frame_start"] == 10
+    for k in ("search_ms", "smoothing_ms", "refinement_ms", "body_trajectory_ms", "blend_groups_ms", "ik_ms",
+              "bake_ms"):
+        assert st[k] >= 0
+    assert json.loads(json.dumps(doc)) == doc  # JSON as it is
+
+
+def test_the_bake_is_an_nla_track_of_the_planners_own(fp, jumps_baked):
+    scene, ob, before, doc = jumps_baked
+    tracks = [t for t in ob.animation_data.nla_tracks if t.name == "Footstep: leap"]
+    assert len(tracks) == 1 and len(tracks[0].strips) == 1
+    strip = tracks[0].strips[0]
+    assert strip.frame_start == 10 and strip.action.get("footstep_bake") == "CMU"
+    assert strip.action_slot is not None and strip.action_slot.identifier == "OBCMU"
+    assert len([m for m in scene.timeline_markers if m.name.startswith("FP ")]) == len(doc["footprints"])
+    assert _snapshot(ob, scene) == before  # the user's animation, untouched
+
+
+def test_the_baked_character_walks_the_path_when_played(fp, jumps_baked):
+    """Evaluated by Blender's own depsgraph (not the planner's arrays): the armature
+    object follows the body and each planted foot stands on its footprint."""
+    import bpy
+
+    scene, ob, before, doc = jumps_baked
+    ad = ob.animation_data
+    saved, ad.action = ad.action, None  # (the user's own active action would play on top)
+    user = [t for t in ad.nla_tracks if not t.name.startswith("Footstep: ")]
+    for t in user:
+        t.mute = True
+    try:
+        fps_ = doc["footprints"][len(doc["footprints"]) // 2]
+        scene.frame_set(int(fps_["frame"]))
+        bpy.context.view_layer.update()
+        foot = ob.pose.bones["LeftFoot" if fps_["foot"] == "L" else "RightFoot"]
+        ankle = np.array(ob.matrix_world @ foot.head)
+        assert np.linalg.norm(ankle[:2] - np.array(fps_["position"][:2])) < 0.2
+        assert ankle[2] < 0.2  # on the ground, not in the air
+    finally:
+        ad.action = saved
+        for t in user:
+            t.mute = False
+
+
+def test_rebake_replaces_only_the_planners_own_and_clear_removes_it(fp, jumps_baked):
+    import bpy
+
+    scene, ob, before, doc = jumps_baked
+    n_actions = len(bpy.data.actions)
+    _run(fp, scene, ob, name="leap again", frame_start=1)
+    ours = [t.name for t in ob.animation_data.nla_tracks if t.name.startswith("Footstep: ")]
+    assert ours == ["Footstep: leap again"]
+    assert len(bpy.data.actions) == n_actions  # the old bake's action went with its track
+    assert _snapshot(ob, scene) == before
+    bake = import_module(fp.__name__ + ".blender.bake")
+    assert bake.clear(ob, scene) == 1
+    assert not bake.owned_tracks(ob) and _snapshot(ob, scene) == before
+    assert _transform(ob) == [list(r) for r in ob["transform_before"]]  # its own place again
+    assert not [a for a in bpy.data.actions if a.get("footstep_bake") is not None]
+
+
+def test_bake_operator_clear_operator_undo_and_panel(fp):
+    import bpy
+
+    from test_panel_and_operators import Recorder
+
+    scene, ob = _scene(fp, "obstacles")
+    scene.footstep.character = ob
+    scene.footstep.goal = scene.objects["Goal"]
+    scene.footstep.start = scene.objects["Start"]
+    assert bpy.ops.footstep.build_graph() == {"FINISHED"}
+    assert "footsteps" in scene.footstep.last_report
+    bpy.ops.ed.undo_push(message="before bake")
+    assert bpy.ops.footstep.bake() == {"FINISHED"}
+    bpy.ops.ed.undo_push(message="Bake")  # (the UI pushes after an UNDO operator; scripts do it)
+    doc = json.loads(scene.footstep.plan_json)
+    assert doc["quality"]["foot_skate"]["max_mm"] < 10.0
+    ob = bpy.data.objects["CMU"]
+    assert [t.name for t in ob.animation_data.nla_tracks if t.name.startswith("Footstep: ")]
+    panel = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_PT_main
+    stub = Recorder()
+    panel.draw(type("P", (), {"layout": stub})(), bpy.context)
+    ops = {a[0] for name, a, _ in stub.log if name == "operator" and a}
+    assert {"footstep.build_graph", "footstep.plan", "footstep.bake", "footstep.clear"} <= ops
+    labels = [kw.get("text", "") for name, a, kw in stub.log if name == "label"]
+    assert any("skate" in t for t in labels) and any("refinement" in t for t in labels)
+    bpy.ops.ed.undo()  # undo restores the scene before the bake
+    ob = bpy.data.objects["CMU"]
+    assert not [t for t in (ob.animation_data.nla_tracks if ob.animation_data else [])
+                if t.name.startswith("Footstep: ")]
+    assert bpy.ops.footstep.bake() == {"FINISHED"}
+    assert bpy.ops.footstep.clear() == {"FINISHED"}
+    ob = bpy.data.objects["CMU"]
+    assert not [t for t in ob.animation_data.nla_tracks if t.name.startswith("Footstep: ")]
+
+
+def test_bad_input_is_refused_with_a_clear_message_and_nothing_changed(fp):
+    import bpy
+
+    scene, ob = _scene(fp, "jumps")
+    before = _user_animation(ob, scene)
+    n_actions = len(bpy.data.actions)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    errors = import_module(fp.__name__ + ".core.errors")
+    goal = np.array(scene.objects["Goal"].location)
+    start = scene.objects["Start"]
+    cases = []
+    # a goal off every surface
+    cases.append((lambda: planning.run(scene, ob, np.array([60.0, 60.0, 0.0]), start_marker=start),
+                  "off every traversable surface"))
+    # an unreachable goal (across a gap wider than any jump)
+    cases.append((lambda: planning.run(scene, ob, goal + [30.0, 0, 0], start_marker=start), "off every|reached"))
+    # the character scaled in object mode
+    def scaled():
+        ob.scale = (2, 2, 2)
+        try:
+            planning.run(scene, ob, goal, start_marker=start)
+        finally:
+            ob.scale = (1, 1, 1)
+    cases.append((scaled, "'CMU' is scaled"))
+    # no traversable mesh
+    def untagged():
+        bpy.data.collections["Traversable"].footstep.surface = "NONE"
+        try:
+            planning.run(scene, ob, goal, start_marker=start)
+        finally:
+            bpy.data.collections["Traversable"].footstep.surface = "TRAVERSABLE"
+    cases.append((untagged, "no traversable mesh"))
+    for fn, msg in cases:
+        with pytest.raises(errors.FootstepError, match=msg):
+            fn()
+        assert len(bpy.data.actions) == n_actions and _snapshot(ob, scene) == before
+        assert not [t for t in ob.animation_data.nla_tracks if t.name.startswith("Footstep: ")]
+
+
+def test_cli_bake_verb_with_jobs(fp, tmp_path, capsys):
+    import bpy
+
+    scene, ob = _scene(fp, "turns")
+    path = str(tmp_path / "turns.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    jobs = tmp_path / "jobs.json"
+    jobs.write_text(json.dumps([
+        {"character": "CMU", "goal": "Goal", "start": "Start", "name": "to goal", "report": str(tmp_path / "a.json")},
+        {"character": "Nobody", "goal": "Goal"},  # fails: no such character; the others still run
+        {"character": "CMU", "goal": "Start", "start": "Goal", "name": "back", "frame_start": 400,
+         "report": str(tmp_path / "c.json")},
+    ]))
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    capsys.readouterr()
+    out_blend = str(tmp_path / "baked.blend")
+    assert cli(["bake", path, "--job", str(jobs), "--out", out_blend]) == 1  # one job failed
+    captured = capsys.readouterr()
+    assert "job 2 (Nobody to Goal)" in captured.err and "'Nobody'" in captured.err
+    assert "foot skate per stance" in captured.out and "stage times" in captured.out
+    a, c = (json.loads((tmp_path / n).read_text()) for n in ("a.json", "c.json"))
+    assert a["quality"]["goal"]["distance_m"] < 0.05 and c["frame_start"] == 400
+    bpy.ops.wm.open_mainfile(filepath=out_blend)
+    names = [t.name for t in bpy.data.objects["CMU"].animation_data.nla_tracks]
+    assert names.count("Footstep: back") == 1 and "Footstep: to goal" not in names  # one bake a character
+    assert cli(["bake", path, "--character", "CMU", "--goal", "Goal", "--start", "Start",
+                "--report", str(tmp_path / "one.json")]) == 0
+    assert json.loads((tmp_path / "one.json").read_text())["quality"]["foot_skate"]["max_mm"] < 10.0

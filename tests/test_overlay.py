@@ -1,0 +1,44 @@
+"""The overlay's geometry (core/overlay.py): what the viewport draws, as arrays."""
+
+import numpy as np
+
+from footstep_planner.core import overlay as geo
+from footstep_planner.core.surface import FootShape
+
+
+def test_footprint_triangles_cover_each_foot_and_sit_just_above_it():
+    pos = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 0.5]])
+    head = np.array([0.0, np.pi / 2])
+    foot = FootShape(back=0.1, front=0.16, half_width=0.05)
+    tri, col = geo.footprint_triangles(pos, head, np.array([0.0, -1.0]), foot, [0, 1], ["walk", "leap"],
+                                       [False, True])
+    assert tri.shape == (12, 3) and col.shape == (12, 4)
+    for i in range(2):
+        t = tri[6 * i:6 * i + 6].reshape(2, 3, 3)
+        area = sum(0.5 * np.linalg.norm(np.cross(a[1] - a[0], a[2] - a[0])) for a in t)
+        assert area == np.float64(area) and abs(area - 0.26 * 0.1) < 1e-9  # the foot's rectangle
+        np.testing.assert_allclose(tri[6 * i:6 * i + 6, 2], pos[i, 2] + geo.LIFT)
+        centre = tri[6 * i:6 * i + 6, :2].mean(axis=0)
+        assert np.linalg.norm(centre - pos[i, :2]) < 0.1
+    assert np.allclose(col[6:, :3], col[6, :3])  # one colour a footprint
+    assert min(col[6, 0], col[6, 1]) > col[6, 2] + 0.3  # the jump is yellow
+    assert col[0, 2] > col[0, 0]  # a left foot is blue
+
+
+def test_colours_tell_feet_and_clips_apart():
+    c = geo.footprint_colours([0, 1], ["walk", "walk"], [False, False])
+    assert not np.allclose(c[0], c[1])  # left and right differ
+    c = geo.footprint_colours([0, 0, 0], ["walk", "run", "walk_turn@+0.3"], [False] * 3)
+    assert not np.allclose(c[0], c[1])  # clips differ in shade
+    same = geo.footprint_colours([0, 0], ["walk_turn@+0.3", "walk_turn@-0.2"], [False, False])
+    np.testing.assert_allclose(same[0], same[1])  # blends of one group share its shade
+
+
+def test_polyline_and_crosses():
+    seg = geo.polyline_segments(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0.2]], float), lift=0.05)
+    assert seg.shape == (4, 3)
+    np.testing.assert_allclose(seg[1], seg[2])  # joined end to start
+    np.testing.assert_allclose(seg[:, 2], [0.05, 0.05, 0.05, 0.25])
+    assert geo.polyline_segments(np.zeros((1, 3))).shape == (0, 3)
+    c = geo.crosses(np.array([[1.0, 1.0, 0.0]]), size=0.1)
+    assert c.shape == (4, 3) and np.isclose(np.linalg.norm(c[0] - c[1]), 0.2)
