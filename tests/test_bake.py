@@ -142,8 +142,14 @@ def test_rebake_replaces_only_the_planners_own_and_clear_removes_it(fp, jumps_ba
     import bpy
 
     scene, ob, before, doc = jumps_baked
+    character = import_module(fp.__name__ + ".blender.character")
+    clips = character.analyze_character(ob)
+    assert not [a for a in clips.analyses if a.name.startswith("Footstep ")]  # a bake is never a clip
     n_actions = len(bpy.data.actions)
-    _run(fp, scene, ob, name="leap again", frame_start=1)
+    scene.frame_set(200)  # the bake has turned and moved the object here: the plan must not care
+    again = _run(fp, scene, ob, name="leap again", frame_start=1)
+    assert again["quality"]["goal"]["distance_m"] < 0.05
+    assert len(again["footprints"]) == len(doc["footprints"])
     ours = [t.name for t in ob.animation_data.nla_tracks if t.name.startswith("Footstep: ")]
     assert ours == ["Footstep: leap again"]
     assert len(bpy.data.actions) == n_actions  # the old bake's action went with its track

@@ -44,6 +44,19 @@ def owned_tracks(ob) -> list:
             and all(st.action is not None and st.action.get(OWNED_PROP) is not None for st in tr.strips)]
 
 
+def own_matrix_world(ob) -> np.ndarray:
+    """(4, 4) the object's world matrix with its own transform, not the one the
+    planner's bake animates it to."""
+    m = np.array(ob.matrix_world)
+    for tr in owned_tracks(ob):
+        for st in tr.strips:
+            rest = st.action.get(REST_PROP)
+            if rest is not None and len(rest) == 16:
+                basis = np.array([float(v) for v in rest]).reshape(4, 4)
+                return m @ np.linalg.inv(np.array(ob.matrix_basis)) @ basis
+    return m
+
+
 def clear(ob, scene=None) -> int:
     """Remove the planner's tracks, their actions (when nothing else uses them) and its
     markers. Returns how many tracks went."""

@@ -39,8 +39,11 @@ class PlanSetup:
 
 
 def world_forward(ob, analyses) -> np.ndarray:
-    """The character's heading-0 direction in the world, checking its object transform."""
-    m = np.array(ob.matrix_world)
+    """The character's heading-0 direction in the world, checking its object transform
+    (its own one: a bake of the planner's animates the object, and does not count)."""
+    from .bake import own_matrix_world
+
+    m = own_matrix_world(ob)
     scale = np.linalg.norm(m[:3, :3], axis=0)
     if np.abs(scale - 1).max() > 1e-3:
         raise PlanError(f"character {ob.name!r} is scaled ({', '.join(f'{v:.3g}' for v in scale)}) in "

@@ -110,12 +110,15 @@ def armature_actions(ob) -> list:
     props = getattr(ob.data, "footstep", None)
     if props is not None:
         own.update(item.name for item in props.clips)
+    # (the planner's own bakes are results, never clips)
     found = [a for a in bpy.data.actions
-             if a.name in own or a.get(ARMATURE_PROP) == ob.data.name]
+             if (a.name in own or a.get(ARMATURE_PROP) == ob.data.name) and a.get("footstep_bake") is None]
     if found:
         return sorted(found, key=lambda a: a.name)
     names = {pb.name for pb in ob.pose.bones}
     for act in bpy.data.actions:
+        if act.get("footstep_bake") is not None:
+            continue
         for slot in act.slots:
             if slot.target_id_type == "OBJECT" and any(
                     _bone_of(p) in names for p in _action_paths(act, slot)):
