@@ -166,6 +166,8 @@ def test_demo_analyses_plans_draws_and_renders(cli, capsys, tmp_path):
     out = capsys.readouterr().out
     assert "cmu_16_16_walk" in out and "blend groups (proposed)" in out
     assert "plan on 'obstacles'" in out and "footprints" in out
+    assert "baked 'obstacles demo' into NLA track" in out and "foot skate per stance" in out
     for name in ("cmu_16_library.blend", "obstacles_planned.blend", "obstacles_plan_top.png",
-                 "analysis_cmu_16_16_walk.png"):
+                 "analysis_cmu_16_16_walk.png", "obstacles_baked.blend", "obstacles_bake_report.json",
+                 "obstacles_tau.png"):
         assert (tmp_path / name).stat().st_size > 1000, name

@@ -551,7 +551,7 @@ def _demo(args) -> int:
     bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
     print(f"library saved: {path}")
     rc = _demo_plan(args.scene, mocap, out_dir)
-    print("next milestones: motion synthesis, IK and the bake into NLA")
+    print("next milestone: the project's own sample character and clips (no outside data needed)")
     return 1 if result.errors or rc else 0
 
 
@@ -601,7 +601,78 @@ def _demo_plan(scene_name: str, mocap: str, out_dir: str) -> int:
     path = os.path.join(out_dir, f"{scene_name}_planned.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
     print(f"report: {report}\ncurves: {', '.join(pngs)}\ntop view: {png}\nplanned scene: {path}")
+
+    # the whole tool: IK and the bake into NLA (the demo's own character: its active
+    # clip is cleared so the baked track plays)
+    if ob.animation_data is not None:
+        ob.animation_data.action = None
+    bdoc = planning.run(scene, ob, goal, start_marker=scene.objects["Start"], name=f"{scene_name} demo",
+                        frame_start=1)
+    print(format_bake(bdoc))
+    breport = os.path.join(out_dir, f"{scene_name}_bake_report.json")
+    with open(breport, "w") as fh:
+        json.dump(bdoc, fh)
+    _stick_figure(ob)
+    frames = [bdoc["footprints"][i]["frame"] for i in (len(bdoc["footprints"]) // 3, 2 * len(bdoc["footprints"]) // 3)]
+    shots = [_render_character(scene, ob, int(f), os.path.join(out_dir, f"{scene_name}_frame{int(f):04d}.png"))
+             for f in frames]
+    bpath = os.path.join(out_dir, f"{scene_name}_baked.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=bpath, compress=True)
+    print(f"bake report: {breport}\nframes: {', '.join(shots)}\nbaked scene: {bpath}")
     return 0
+
+
+def _stick_figure(ob, radius: float = 0.03):
+    """A cylinder on every bone of the (mesh-less) demo character, parented to the bone,
+    so renders show it (the project's own skinned character is a coming milestone)."""
+    import math
+
+    mat = bpy.data.materials.new("stick_figure")
+    mat.diffuse_color = (0.85, 0.8, 0.7, 1.0)
+    coll = bpy.data.collections.new("Stick figure (demo)")
+    bpy.context.scene.collection.children.link(coll)
+    k = 8
+    ring = [(radius * math.cos(2 * math.pi * i / k), radius * math.sin(2 * math.pi * i / k)) for i in range(k)]
+    for bone in ob.data.bones:
+        if bone.length < 0.02 or "Finger" in bone.name or "Thumb" in bone.name:
+            continue
+        # bone-parented children sit at the bone's tail, in the bone's axes (Y along it)
+        verts = [(x, -bone.length, z) for x, z in ring] + [(x, 0.0, z) for x, z in ring]
+        faces = [(i, (i + 1) % k, k + (i + 1) % k, k + i) for i in range(k)]
+        me = bpy.data.meshes.new(f"stick_{bone.name}")
+        me.from_pydata(verts, [], faces)
+        me.materials.append(mat)
+        child = bpy.data.objects.new(f"stick_{bone.name}", me)
+        coll.objects.link(child)
+        child.parent = ob
+        child.parent_type = "BONE"
+        child.parent_bone = bone.name
+
+
+def _render_character(scene, ob, frame: int, path: str) -> str:
+    """A Workbench render of the character at ``frame``, from the side and a little above."""
+    import math
+
+    scene.frame_set(frame)
+    bpy.context.view_layer.update()
+    hips = np.array(ob.matrix_world @ ob.pose.bones[0].head)
+    cam = scene.objects.get("CharacterCamera")
+    if cam is None:
+        cam = bpy.data.objects.new("CharacterCamera", bpy.data.cameras.new("CharacterCamera"))
+        scene.collection.objects.link(cam)
+    yaw = ob.matrix_world.to_euler("XYZ").z
+    side = np.array([math.cos(yaw), math.sin(yaw), 0.0])  # the rig's +X: the character's side
+    cam.location = tuple(hips + 4.0 * side + [0.0, 0.0, 0.8])
+    from mathutils import Vector
+
+    cam.rotation_euler = (Vector(hips.tolist()) - cam.location).to_track_quat("-Z", "Y").to_euler()
+    scene.camera = cam
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.display.shading.color_type = "MATERIAL"
+    scene.render.resolution_x, scene.render.resolution_y = 640, 480
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    return path
 
 
 def _draw_footprints(scene, result, setup, syn):
