@@ -441,7 +441,8 @@ def format_bake(doc) -> str:
     st, q = doc["stages"], doc["quality"]
     cols = [("footprints", "d"), ("frames", "d"), ("search_ms", ".0f"), ("smoothing_ms", ".1f"),
             ("refinement_ms", ".1f"), ("body_trajectory_ms", ".1f"), ("blend_groups_ms", ".1f"),
-            ("ik_ms", ".1f"), ("bake_ms", ".1f"), ("synthesis_ms", ".1f"), ("per_frame_ms", ".3f")]
+            ("pose_blend_ms", ".1f"), ("ik_ms", ".1f"), ("bake_ms", ".1f"), ("synthesis_ms", ".1f"),
+            ("per_frame_ms", ".3f")]
     head = " ".join(f"{k.replace('_ms', ''):>13s}" for k, _ in cols)
     row = " ".join(f"{format(st[k], f):>13s}" for k, f in cols)
     pops = q["pops"]
@@ -449,7 +450,8 @@ def format_bake(doc) -> str:
     lines = [
         f"{doc['character']}: baked {doc['name']!r} into NLA track {doc['track']!r}, frames "
         f"{doc['frame_start']}-{doc['frame_end']}",
-        "stage times (ms; thesis Table 4.1 layout; 'synthesis' sums smoothing to IK):", head, row,
+        "stage times (ms; thesis Table 4.1 layout; 'pose_blend' plays the clips' bone rotations; "
+        "'synthesis' sums smoothing to IK):", head, row,
         f"foot skate per stance: mean {q['foot_skate']['mean_mm']:.2f} mm, max {q['foot_skate']['max_mm']:.2f} mm; "
         f"planted foot to footprint: mean {q['footprint_error']['mean_mm']:.2f} mm, max "
         f"{q['footprint_error']['max_mm']:.2f} mm",

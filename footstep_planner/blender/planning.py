@@ -257,13 +257,15 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     walk = next((a for a in s.analyses if a.kind == "cycle"), s.analyses[0]).motion
     spin = _spin(s.forward, s.analyses)
     planted = syn.planted()
+
     def ground_z(points):
         hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, 0.3], 0.6)
         return np.where(hit.hit, hit.z, np.nan)
 
+    t_ik0 = time.perf_counter()
     ik = solve_ik(s.rig, basis, sched.t, syn.body_position, syn.body_heading, spin, walk.heel_local,
                   walk.toe_local, sched.feet, planted, pos, head, normal, s.forward, st, ground_z=ground_z)
-    t_ik = time.perf_counter() - t0
+    t_ik = time.perf_counter() - t_ik0
     yield 0.7, "bake"
     t1 = time.perf_counter()
     act, track = baking.bake(ob, scene, s.rig, ik, spin, name, frame_start, result.footsteps, planted, markers)
@@ -298,7 +300,7 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     stages["pose_blend_ms"] = t_pose * 1e3
     stages["bake_ms"] = t_bake * 1e3
     stages["synthesis_ms"] = sum(stages[f"{k}_ms"] for k in ("smoothing", "refinement", "body_trajectory",
-                                                           "blend_groups")) + stages["ik_ms"]
+                                                           "blend_groups", "pose_blend", "ik"))
     stages["per_frame_ms"] = stages["synthesis_ms"] / max(ik.frames, 1)
     doc = result.to_dict()
     doc.update({"character": ob.name, "goal": [round(float(v), 4) for v in goal], "name": name,

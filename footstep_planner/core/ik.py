@@ -103,10 +103,13 @@ def min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         f = np.where(s2 > 1e-18, (1 - c) / np.where(s2 > 1e-18, s2, 1.0), 0.5)
     r = np.eye(3)[None] + k + f[:, None, None] * (k @ k)
     # opposite directions: half a turn about any axis perpendicular to a
-    opp = c < -1 + 1e-9
+    # (nearly) opposite directions: half a turn about an axis perpendicular to a, then
+    # the small rest of the way from -a to b
+    opp = c < -1 + 1e-6
     if opp.any():
         axis = np.cross(a[opp], np.where(np.abs(a[opp, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
-        r[opp] = Rotation.from_rotvec(np.pi * axis / np.linalg.norm(axis, axis=1, keepdims=True)).as_matrix()
+        half = Rotation.from_rotvec(np.pi * axis / np.linalg.norm(axis, axis=1, keepdims=True)).as_matrix()
+        r[opp] = min_rotation(-a[opp], b[opp]) @ half
     return r
 
 
@@ -246,9 +249,19 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     t0 = time.perf_counter()
     F = len(t)
     fps = 1.0 / (t[1] - t[0]) if F > 1 else 30.0
-    pose = forward_kinematics(rig, basis)
+    legs = [rig.foot_chain(x)[0] for x in SIDES]
+    pose = forward_kinematics(rig, basis, bones=legs)  # the legs and what carries them
     yaw = spin + np.asarray(body_heading, float)
-    world = body_frames(body_pos, yaw)[:, None] @ pose
+    chain = sorted({b for x in SIDES for b in (rig.role_index(f"thigh_{x}"), rig.role_index(f"shin_{x}"),
+                                                rig.foot_chain(x)[0])})
+
+    def to_world(pos_, yaw_):
+        """World matrices of the leg bones (the other entries are not used)."""
+        w = np.empty_like(pose)
+        w[:, chain] = body_frames(pos_, yaw_)[:, None] @ pose[:, chain]
+        return w
+
+    world = to_world(body_pos, yaw)
     tg = foot_targets(rig, heel_local, toe_local, world, t, np.asarray(feet), planted, fp_pos,
                       np.asarray(fp_heading, float), fp_normal, forward, s.balance_band)
     sec["targets"] = time.perf_counter() - t0
@@ -271,7 +284,7 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
         dp, dpsi = np.zeros((F, 3)), np.zeros(F)
     body_pos = np.asarray(body_pos, float) + dp
     yaw = yaw + dpsi
-    world = body_frames(body_pos, yaw)[:, None] @ pose
+    world = to_world(body_pos, yaw)
     sec["body_offset"] = time.perf_counter() - t1
 
     # reach: lower the hips (smoothly, ahead of time) where a planted ankle is too far
@@ -293,7 +306,7 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     drop = gaussian_filter1d(maximum_filter1d(need, 2 * win + 1), max(win / 2.0, 0.5))
     drop = np.maximum(drop, need)
     body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
-    world[..., 2, 3] -= drop[:, None]
+    world[:, chain, 2, 3] -= drop[:, None]
     # every frame's ankle and foot targets: on the footprint while planted, the clip's own
     # swing plus a correction easing from one footprint's to the next's in between
     ankle_t = np.zeros((2, F, 3))

@@ -107,16 +107,27 @@ def topological_order(parents: np.ndarray) -> np.ndarray:
     return np.argsort(depth, kind="stable")
 
 
-def forward_kinematics(rig: Rig, basis: np.ndarray) -> np.ndarray:
+def forward_kinematics(rig: Rig, basis: np.ndarray, bones=None) -> np.ndarray:
     """Armature-space pose matrices (F, B, 4, 4) from pose bases (F, B, 4, 4).
 
     Assumes Blender's default inherit flags (inherit rotation and full scale, connected or
-    not) and no constraints. Vectorized over frames; one matrix product per bone.
+    not) and no constraints. Vectorized over frames; one matrix product per bone. With
+    ``bones`` (indices), only those and their ancestors are computed (the other entries
+    are left undefined).
     """
     basis = np.asarray(basis, dtype=np.float64)
-    local = rig.rest_rel[None] @ basis
+    order = rig.order
+    if bones is not None:
+        need = set()
+        for b in bones:
+            while b >= 0 and b not in need:
+                need.add(int(b))
+                b = rig.parents[b]
+        order = [b for b in rig.order if b in need]
+    local = np.empty_like(basis)
+    local[:, order] = rig.rest_rel[None, order] @ basis[:, order]
     pose = np.empty_like(local)
-    for b in rig.order:
+    for b in order:
         p = rig.parents[b]
         pose[:, b] = local[:, b] if p < 0 else pose[:, p] @ local[:, b]
     return pose
