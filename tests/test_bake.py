@@ -263,3 +263,33 @@ def test_cli_bake_verb_with_jobs(fp, tmp_path, capsys):
     assert cli(["bake", path, "--character", "CMU", "--goal", "Goal", "--start", "Start",
                 "--report", str(tmp_path / "one.json")]) == 0
     assert json.loads((tmp_path / "one.json").read_text())["quality"]["foot_skate"]["max_mm"] < 10.0
+
+
+def test_body_on_the_root_bone(fp):
+    """A rig with a root bone above the hips: the body's motion is keyed on the root bone
+    and the armature object stays where it is; without a root bone, a clear refusal."""
+    import bpy
+
+    scene, ob = _scene(fp, "obstacles")
+    bake = import_module(fp.__name__ + ".blender.bake")
+    errors = import_module(fp.__name__ + ".core.errors")
+    with pytest.raises(errors.FootstepError, match="no root bone"):
+        _run(fp, scene, ob, name="no root", body_on="ROOT")
+    assert not bake.owned_tracks(ob)
+    # give the rig a root bone at the origin, carrying the hips
+    bpy.context.view_layer.objects.active = ob
+    bpy.ops.object.mode_set(mode="EDIT")
+    eb = ob.data.edit_bones
+    root = eb.new("root")
+    root.head, root.tail = (0, 0, 0), (0, 0.3, 0)
+    eb["Hips"].parent = root
+    bpy.ops.object.mode_set(mode="OBJECT")
+    before = np.array(ob.matrix_world)
+    doc = _run(fp, scene, ob, name="on root", body_on="ROOT")
+    q = doc["quality"]
+    assert q["foot_skate"]["max_mm"] < 10.0 and q["goal"]["distance_m"] < 0.05
+    act = bake.owned_tracks(ob)[0].strips[0].action
+    paths = {c.data_path for c in _curves(act)}
+    assert 'pose.bones["root"].location' in paths and "location" not in paths  # the object is not keyed
+    scene.frame_set(doc["frame_end"])
+    np.testing.assert_allclose(np.array(ob.matrix_world), before)  # it stays put

@@ -23,6 +23,8 @@ OWNED_PROP = "footstep_bake"
 #: by ``clear``: the bake animates the object, and Blender leaves the last evaluated
 #: transform in it when the animation goes.
 REST_PROP = "footstep_rest_matrix"
+#: Where the bake put the body: "OBJECT" or "ROOT".
+BODY_PROP = "footstep_body_on"
 TRACK_PREFIX = "Footstep: "
 MARKER_PREFIX = "FP "
 
@@ -96,15 +98,48 @@ def _wxyz(q_xyzw: np.ndarray) -> np.ndarray:
     return q
 
 
+BODY_ON = ("OBJECT", "ROOT")
+
+
+def root_bone(ob, rig: Rig) -> int:
+    """Index of the rig's root bone (the 'root' role, an ancestor of the hips)."""
+    bone = rig.roles.roles.get("root")
+    if not bone:
+        raise BakeError(f"armature {ob.name!r} has no root bone to carry the body: map the 'root' role "
+                        "in the Footstep tab, or bake the body onto the object")
+    r = rig.index(bone)
+    b = rig.role_index("hips")
+    while b >= 0 and b != r:
+        b = rig.parents[b]
+    if b != r:
+        raise BakeError(f"armature {ob.name!r}: root bone {bone!r} does not carry the hips "
+                        f"({rig.roles.bone('hips')!r} is not its child)")
+    return r
+
+
 def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start: int,
-         footsteps=None, planted=None, markers: bool = False):
-    """Key ``res`` into a new Action on the armature ``ob`` (object transform for the body,
-    bone rotations, and the hips' location) in a new NLA track of the planner's, starting
-    at ``frame_start``. The planner's earlier bake of this character is replaced."""
+         footsteps=None, planted=None, markers: bool = False, body_on: str = "OBJECT"):
+    """Key ``res`` into a new Action on the armature ``ob`` in a new NLA track of the
+    planner's, starting at ``frame_start``: the body on the object's transform
+    (``body_on="OBJECT"``) or on the rig's root bone (``"ROOT"``, the object stays put),
+    every bone's rotation, and the hips' location. The planner's earlier bake of this
+    character is replaced."""
     names = [pb.name for pb in ob.pose.bones]
     if tuple(names) != tuple(rig.names):
         raise BakeError(f"armature {ob.name!r} changed since it was read (bones differ)")
+    if body_on not in BODY_ON:
+        raise BakeError(f"the body goes on one of {', '.join(BODY_ON)}, not {body_on!r}")
     F = res.frames
+    basis = res.basis
+    if body_on == "ROOT":
+        r = root_bone(ob, rig)
+        # the root carries the body frame relative to the object (which stays where it is):
+        # with the root posed by M = O^-1 Body, every bone under it is where the object
+        # carrying the body would have put it
+        own = own_matrix_world(ob)
+        M = np.linalg.inv(own)[None] @ body_frames(res.body_pos, spin + res.body_heading)
+        basis = basis.copy()
+        basis[:, r] = np.linalg.inv(rig.rest[r])[None] @ M @ rig.rest[r][None]
     # (copied out now: clearing frees the old action, and its property with it)
     old = [[float(v) for v in st.action[REST_PROP]] for tr in owned_tracks(ob) for st in tr.strips
            if st.action.get(REST_PROP) is not None]
@@ -133,13 +168,17 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
             kp.foreach_set("interpolation", np.full(F, lin, np.int32))
             fc.update()
 
+    act[BODY_PROP] = body_on
     # the body: the object's location and yaw (its tilt, if any, is kept)
     yaw = spin + res.body_heading
-    key("location", res.body_pos, "Object Transforms")
-    mode = ob.rotation_mode
-    base = ob.matrix_basis.to_euler("XYZ")
-    qz = Rotation.from_euler("xyz", np.c_[np.full(F, base.x), np.full(F, base.y), yaw]).as_quat()
-    if mode == "QUATERNION":
+    mode = ob.rotation_mode if body_on == "OBJECT" else None
+    if mode is not None:
+        key("location", res.body_pos, "Object Transforms")
+        base = ob.matrix_basis.to_euler("XYZ")
+        qz = Rotation.from_euler("xyz", np.c_[np.full(F, base.x), np.full(F, base.y), yaw]).as_quat()
+    if mode is None:
+        pass
+    elif mode == "QUATERNION":
         key("rotation_quaternion", _wxyz(qz), "Object Transforms")
     elif mode == "AXIS_ANGLE":
         rv = Rotation.from_quat(qz).as_rotvec()
@@ -150,8 +189,8 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
         key("rotation_euler", _euler(qz, mode), "Object Transforms")
 
     # the bones
-    q = Rotation.from_matrix(res.basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, len(names), 4)
-    moved = np.abs(res.basis[..., :3, 3]).max(axis=0).max(axis=1) > 1e-6
+    q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, len(names), 4)
+    moved = np.abs(basis[..., :3, 3]).max(axis=0).max(axis=1) > 1e-6
     for b, pb in enumerate(ob.pose.bones):
         path = f'pose.bones["{bpy.utils.escape_identifier(pb.name)}"]'
         if pb.rotation_mode == "QUATERNION":
@@ -164,7 +203,7 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
         else:
             key(f"{path}.rotation_euler", _euler(q[:, b], pb.rotation_mode), pb.name)
         if moved[b]:
-            key(f"{path}.location", res.basis[:, b, :3, 3], pb.name)
+            key(f"{path}.location", basis[:, b, :3, 3], pb.name)
 
     ad = ob.animation_data_create()
     track = ad.nla_tracks.new()
@@ -206,6 +245,17 @@ def evaluate(ob, rig: Rig, act, frame_start: int, frames: int):
         fc = cbag.fcurves.find(path, index=i)
         return np.array([fc.evaluate(f) for f in fr])
 
+    pose = forward_kinematics(rig, basis)
+    if act.get(BODY_PROP) == "ROOT":
+        # the object stays put; the body is the root bone's frame (its rest put back)
+        r = root_bone(ob, rig)
+        obm = np.tile(own_matrix_world(ob), (frames, 1, 1))
+        body = obm @ pose[:, r] @ np.linalg.inv(rig.rest[r])
+        world = obm[:, None] @ pose
+        loc = body[:, :3, 3]
+        yaw = np.arctan2(body[:, 1, 0], body[:, 0, 0])
+        q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(frames, B, 4)
+        return world, loc, np.unwrap(yaw), q
     loc = np.stack([curve("location", i) for i in range(3)], axis=1)
     mode = ob.rotation_mode
     if mode == "QUATERNION":
@@ -221,7 +271,7 @@ def evaluate(ob, rig: Rig, act, frame_start: int, frames: int):
     obm = np.tile(np.eye(4), (frames, 1, 1))
     obm[:, :3, :3] = rot.as_matrix()
     obm[:, :3, 3] = loc
-    world = obm[:, None] @ forward_kinematics(rig, basis)
+    world = obm[:, None] @ pose
     q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(frames, B, 4)
     return world, loc, np.unwrap(yaw), q
 

@@ -104,6 +104,8 @@ def _parser() -> argparse.ArgumentParser:
     bk.add_argument("--name", help="name of the bake (track and action; default: character to goal)")
     bk.add_argument("--frame-start", type=int, metavar="FRAME")
     bk.add_argument("--markers", action="store_true", help="add a timeline marker at each footstep")
+    bk.add_argument("--body-on", choices=("object", "root"), default="object",
+                    help="key the body on the armature object (default) or on the rig's root bone")
     bk.add_argument("--job", metavar="JOBS.json", help="several jobs, run one after another")
     bk.add_argument("--out", metavar="OUT.blend", help="save the baked scene here")
     bk.add_argument("--report", metavar="REPORT.json", help="write the report here (with --job: "
@@ -419,7 +421,7 @@ def _bake(args) -> int:
                     raise CliError(f"no object named {job['start']!r} to start at")
             doc = planning.run(scene, ob, goal, heading, start, settings, _names(args.traversable),
                                _names(args.obstacles), name=job.get("name"), frame_start=job.get("frame_start"),
-                               markers=args.markers)
+                               markers=args.markers, body_on=str(job.get("body_on", args.body_on)).upper())
         except EXPECTED as ex:
             failed += 1
             print(f"footstep: error: {label}: {ex}", file=sys.stderr)

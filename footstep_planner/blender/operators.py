@@ -214,7 +214,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
         fs = context.scene.footstep
         goal, heading = _goal(context)
         return planning.run_steps(context.scene, character(context), goal, heading, fs.start,
-                                  _settings(context), markers=self.markers)
+                                  _settings(context), markers=self.markers, body_on=fs.body_on)
 
     def _finish(self, context, doc):
         import json

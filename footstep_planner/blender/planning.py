@@ -203,12 +203,12 @@ def source_steps(tracks, schedule, fps: float) -> np.ndarray:
 
 def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
         obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
-        progress=None) -> dict:
+        progress=None, body_on: str = "OBJECT") -> dict:
     """Plan, synthesize, IK and bake ``ob`` walking to ``goal``; returns the report
     (plan, stage times in the layout of thesis Table 4.1, quality of the baked result).
     ``progress(fraction, stage)`` is called between stages."""
     steps = run_steps(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
-                      name, frame_start, markers)
+                      name, frame_start, markers, body_on)
     while True:
         try:
             fraction, stage = next(steps)
@@ -219,7 +219,8 @@ def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, tr
 
 
 def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
-              obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False):
+              obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
+              body_on: str = "OBJECT"):
     """``run`` one stage at a time: a generator yielding (fraction done, next stage) and
     returning the report. Nothing in the scene changes before the last stage (the bake),
     so a caller may stop it at any yield and leave the scene as it was."""
@@ -268,7 +269,8 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     t_ik = time.perf_counter() - t_ik0
     yield 0.7, "bake"
     t1 = time.perf_counter()
-    act, track = baking.bake(ob, scene, s.rig, ik, spin, name, frame_start, result.footsteps, planted, markers)
+    act, track = baking.bake(ob, scene, s.rig, ik, spin, name, frame_start, result.footsteps, planted, markers,
+                             body_on)
     t_bake = time.perf_counter() - t1
     yield 0.85, "quality"
     world, body_pos, body_yaw, bone_rot = baking.evaluate(ob, s.rig, act, frame_start, ik.frames)

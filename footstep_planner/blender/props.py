@@ -79,6 +79,9 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
     plan_json: StringProperty(name="Plan", description="The last plan (JSON)", options={"HIDDEN"})
     settings: PointerProperty(type=FOOTSTEP_PG_settings)
     show_settings: BoolProperty(name="Settings", default=False)
+    body_on: EnumProperty(name="Body on", default="OBJECT", items=[
+        ("OBJECT", "Object", "Key the body's motion on the armature object"),
+        ("ROOT", "Root bone", "Key the body's motion on the rig's root bone; the object stays put")])
     show_overlay: BoolProperty(name="Show footprints", default=True,
                                description="Draw the last plan's footprints (by foot and clip) and the "
                                            "body trajectory in the viewport")
