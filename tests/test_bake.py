@@ -293,3 +293,44 @@ def test_body_on_the_root_bone(fp):
     assert 'pose.bones["root"].location' in paths and "location" not in paths  # the object is not keyed
     scene.frame_set(doc["frame_end"])
     np.testing.assert_allclose(np.array(ob.matrix_world), before)  # it stays put
+
+
+def test_more_bad_input_legs_library_and_frame_rate(fp):
+    """A character without mapped legs and an emptied clip library are refused by name
+    with nothing changed; a scene at another frame rate than the clips (24 fps against
+    the clips' 120) is not an error: the clips are sampled at the scene's rate."""
+    import bpy
+
+    scene, ob = _scene(fp, "obstacles", fps=24)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    errors = import_module(fp.__name__ + ".core.errors")
+    goal = np.array(scene.objects["Goal"].location)
+    start = scene.objects["Start"]
+    n_actions = len(bpy.data.actions)
+    # an armature with no legs
+    arm = bpy.data.armatures.new("Snake")
+    snake = bpy.data.objects.new("Snake", arm)
+    scene.collection.objects.link(snake)
+    bpy.context.view_layer.objects.active = snake
+    bpy.ops.object.mode_set(mode="EDIT")
+    b = arm.edit_bones.new("Body")
+    b.head, b.tail = (0, 0, 0), (0, 1, 0)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    with pytest.raises(errors.FootstepError, match="'Snake'"):
+        planning.run(scene, snake, goal, start_marker=start)
+    # every clip excluded from the library
+    character = import_module(fp.__name__ + ".blender.character")
+    clips = character.analyze_character(ob)
+    character.write_library(ob, character.library_for(ob, clips), clips.analyses)
+    for item in ob.data.footstep.clips:
+        item.usage = "EXCLUDED"
+    with pytest.raises(errors.FootstepError, match="library gives no steps"):
+        planning.run(scene, ob, goal, start_marker=start)
+    assert len(bpy.data.actions) == n_actions
+    assert not (ob.animation_data and [t for t in ob.animation_data.nla_tracks if t.name.startswith("Footstep")])
+    # back to the proposal: at 24 fps the bake keeps the feet on the footprints
+    ob.data.footstep.library_edited = False
+    doc = planning.run(scene, ob, goal, start_marker=start)
+    q = doc["quality"]
+    assert q["foot_skate"]["max_mm"] < 10.0 and q["goal"]["distance_m"] < 0.05
+    assert doc["synthesis"]["fps"] == 24.0
