@@ -1,0 +1,65 @@
+"""The Footstep Mannequin: the project's own sample character (issue 6, first part)."""
+
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+
+@pytest.fixture
+def mannequin(fp, empty_scene):
+    import bpy
+
+    assert bpy.ops.footstep.add_mannequin() == {"FINISHED"}
+    ob = bpy.context.view_layer.objects.active
+    return ob, bpy.data.objects[f"{ob.name} Body"]
+
+
+def test_adult_proportions_metarig_names_and_every_role_mapped(fp, mannequin):
+    ob, body = mannequin
+    names = {b.name for b in ob.data.bones}
+    assert {"spine", "spine.006", "thigh.L", "shin.R", "foot.L", "toe.R", "upper_arm.L"} <= names
+    scene = import_module(fp.__name__ + ".blender.scene")
+    rig = scene.rig_from_armature(ob)
+    rig.require_legs()
+    assert rig.roles.bone("hips") == "spine" and rig.roles.bone("thigh_l") == "thigh.L"
+    assert rig.roles.roles.get("toe_r") == "toe.R"
+    np.testing.assert_allclose(rig.forward_axis(), [0.0, -1.0, 0.0], atol=1e-9)
+    tops = np.array([ob.matrix_world @ b.tail_local for b in ob.data.bones])
+    assert tops[:, 2].max() == pytest.approx(1.75, abs=0.01)
+    leg = np.linalg.norm(np.array(ob.data.bones["thigh.L"].head_local) - np.array(ob.data.bones["foot.L"].head_local))
+    assert 0.8 < leg < 0.9  # about half the height, as in an adult
+
+
+def test_the_body_is_skinned_to_every_deforming_bone(fp, mannequin):
+    ob, body = mannequin
+    assert body.parent == ob and body.modifiers["Armature"].object == ob
+    groups = {g.name for g in body.vertex_groups}
+    deform = {b.name for b in ob.data.bones if b.use_deform}
+    assert groups == deform
+    assert all(len(v.groups) == 1 for v in body.data.vertices)  # rigid: one bone each
+    # a posed knee moves the shin's capsule with it
+    import bpy
+
+    pb = ob.pose.bones["shin.L"]
+    dg = bpy.context.evaluated_depsgraph_get()
+    before = np.array([v.co[:] for v in body.evaluated_get(dg).to_mesh().vertices])
+    pb.rotation_quaternion = (0.7071, 0.7071, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    dg = bpy.context.evaluated_depsgraph_get()
+    after = np.array([v.co[:] for v in body.evaluated_get(dg).to_mesh().vertices])
+    gi = body.vertex_groups["shin.L"].index
+    mine = np.array([any(g.group == gi for g in v.groups) for v in body.data.vertices])
+    assert np.abs(after[mine] - before[mine]).max() > 0.1
+    assert np.abs(after[~mine & (before[:, 2] > 1.0)] - before[~mine & (before[:, 2] > 1.0)]).max() < 1e-6
+
+
+def test_nothing_of_the_users_is_touched(fp, empty_scene):
+    import bpy
+
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.active_object
+    before = {o.name for o in bpy.data.objects}
+    import_module(fp.__name__ + ".blender.mannequin").build()
+    after = {o.name for o in bpy.data.objects}
+    assert before <= after and len(after - before) == 2 and cube.name in after
