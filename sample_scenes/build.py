@@ -1,11 +1,12 @@
 """Build sample scenes and save them, so anyone can regenerate them.
 
-    .venv/bin/python sample_scenes/build.py [jumps turns obstacles] [--out DIR]
+    .venv/bin/python sample_scenes/build.py [jumps turns obstacles] [--mannequin] [--out DIR]
 
 With no names, builds all three into sample_scenes/out/NAME.blend. The scenes are made
 by footstep_planner/blender/sample_scenes.py (Jumps: platforms with bends and two 1 m
 gaps; Turns: bends onto a curved platform; Obstacles: walls, pillars, a doorway, a narrow
-corridor, a 15 cm step and a 15-degree ramp).
+corridor, a 15 cm step and a 15-degree ramp). With --mannequin, each scene also gets the
+Footstep Mannequin (footstep_planner/blender/mannequin.py) standing at its Start.
 """
 
 import argparse
@@ -21,6 +22,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("names", nargs="*", metavar="NAME", help="jumps, turns, obstacles (default: all)")
     ap.add_argument("--out", default=os.path.join(HERE, "out"), metavar="DIR")
+    ap.add_argument("--mannequin", action="store_true", help="put the sample character at Start")
     args = ap.parse_args()
     bad = [n for n in args.names if n not in SCENES]
     if bad:
@@ -28,12 +30,17 @@ def main():
     import bpy
 
     from footstep_planner import register
+    from footstep_planner.blender import mannequin
     from footstep_planner.blender.sample_scenes import build
 
     register()
     os.makedirs(args.out, exist_ok=True)
     for name in args.names or SCENES:
-        build(name)
+        scene = build(name)
+        if args.mannequin:
+            start = scene.objects["Start"]
+            ob, _ = mannequin.build(scene.collection, location=tuple(start.location))
+            ob.rotation_euler.z = start.rotation_euler.z
         path = os.path.join(os.path.abspath(args.out), f"{name}.blend")
         bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
         print(f"saved {path}")
