@@ -107,7 +107,7 @@ def test_plan_report_and_plot_verb(fp, jumps, tmp_path, capsys):
     scene, result, setup, syn = jumps
     cli = import_module(fp.__name__ + ".blender.cli")
     doc = result.to_dict()
-    doc["stages"] = cli.stage_row(result, syn)
+    doc["stages"] = cli.stage_row(len(result.footsteps), result.seconds, syn)
     doc["synthesis"] = syn.to_dict()
     path = tmp_path / "jumps.json"
     path.write_text(json.dumps(doc))

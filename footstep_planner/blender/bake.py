@@ -276,4 +276,4 @@ def evaluate(ob, rig: Rig, act, frame_start: int, frames: int):
     return world, loc, np.unwrap(yaw), q
 
 
-__all__ = ["bake", "clear", "evaluate", "owned_tracks", "BakeError", "body_frames"]
+__all__ = ["bake", "clear", "evaluate", "own_matrix_world", "owned_tracks", "root_bone", "BakeError"]

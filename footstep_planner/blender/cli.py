@@ -17,6 +17,7 @@ import bpy
 import numpy as np
 
 from ..core.errors import FootstepError
+from ..core.pipeline import stage_row
 from ..core.settings import Settings
 
 EXPECTED = (FootstepError, OSError)
@@ -330,7 +331,7 @@ def _plan(args) -> int:
     doc = result.to_dict()
     doc["character"] = ob.name
     doc["goal"] = [round(float(v), 4) for v in goal]
-    doc["stages"] = stage_row(result, syn)
+    doc["stages"] = stage_row(len(result.footsteps), result.seconds, syn)
     doc["synthesis"] = syn.to_dict(frame0=float(scene.frame_current))
     if args.report:
         with open(args.report, "w") as fh:
@@ -354,19 +355,6 @@ def _plan(args) -> int:
         print(f"tau {syn.tau_final.min():+.2f} to {syn.tau_final.max():+.2f} 1/m; running "
               f"(s > 0.5) {np.mean(syn.s_final > 0.5) * 100:.0f} % of the frames")
     return 0
-
-
-def stage_row(result, syn) -> dict:
-    """One row of thesis Table 4.1: footprints, frames and the time of each stage (ms)."""
-    sec = syn.seconds
-    row = {"footprints": len(result.footsteps), "frames": int(len(syn.t)),
-           "search_ms": round(result.seconds * 1e3, 2)}
-    for k in ("smoothing", "refinement", "body_trajectory", "blend_groups"):
-        row[f"{k}_ms"] = round(sec[k] * 1e3, 2)
-    synth = sum(sec[k] for k in ("smoothing", "refinement", "body_trajectory", "blend_groups"))
-    row["synthesis_ms"] = round(synth * 1e3, 2)
-    row["per_frame_ms"] = round(synth * 1e3 / max(len(syn.t), 1), 4)
-    return row
 
 
 def format_stages(rows, names=None) -> str:
@@ -589,10 +577,10 @@ def _demo_plan(scene_name: str, mocap: str, out_dir: str) -> int:
         print(f"  {i:3d} {'LR'[f.foot]} ({pos[i, 0]:6.2f}, {pos[i, 1]:6.2f}, {pos[i, 2]:5.2f}) "
               f"{math.degrees(head[i]):5.0f} deg  frame {1 + planted[i][1] * 30:6.1f}  "
               f"s {np.interp(planted[i][1], syn.t, syn.s_final):.2f}  {f.label}{' (jump)' if f.jump else ''}")
-    print(format_stages([stage_row(result, syn)], [scene_name]))
     report = os.path.join(out_dir, f"{scene_name}_report.json")
     doc = result.to_dict()
-    doc["stages"] = stage_row(result, syn)
+    doc["stages"] = stage_row(len(result.footsteps), result.seconds, syn)
+    print(format_stages([doc["stages"]], [scene_name]))
     doc["synthesis"] = syn.to_dict(frame0=1.0)
     with open(report, "w") as fh:
         json.dump(doc, fh)

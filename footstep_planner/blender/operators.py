@@ -137,11 +137,11 @@ class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
-        from .cli import stage_row
+        from ..core.pipeline import stage_row
 
         doc = result.to_dict()
         doc["character"] = ob.name
-        doc["stages"] = stage_row(result, syn)
+        doc["stages"] = stage_row(len(result.footsteps), result.seconds, syn)
         fs.plan_json = json.dumps(doc)
         st = doc["stages"]
         fs.last_report = (f"{len(result.footsteps)} footprints, {len(syn.t)} frames; search "

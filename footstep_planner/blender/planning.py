@@ -17,7 +17,7 @@ from ..core.analysis import ClipAnalysis
 from ..core.library import Library
 from ..core.rig import Rig
 from ..core.navgraph import FootprintCache, Footstep, PlanError, PlanResult, Planner
-from ..core.pipeline import Synthesis, surface_snap
+from ..core.pipeline import Synthesis, stage_row, surface_snap
 from ..core.pipeline import synthesize as _synthesize
 from ..core.settings import Settings
 from ..core.steps import library_steps
@@ -95,9 +95,7 @@ def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
     cache.update(object_geometry(ground, obst))
     st = settings or Settings()
     planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses), cache=cache,
-                      turn_penalty=st.turn_penalty, jump_penalty=st.jump_penalty,
-                      run_penalty=st.run_penalty, gait_change_penalty=st.gait_change_penalty,
-                      heuristic_weight=st.heuristic_weight, goal_radius=st.goal_radius)
+                      **{k: getattr(st, k) for k in Planner.FROM_SETTINGS})
     return PlanSetup(planner, clips.analyses, library, forward, clips.rig)
 
 
@@ -294,21 +292,12 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
             qual["pops"][key] = s.rig.names[qual["pops"][key]]
     if qual["pops"]["introduced"]["bone"] is not None:
         qual["pops"]["introduced"]["bone"] = s.rig.names[qual["pops"]["introduced"]["bone"]]
-    stages = {"footprints": len(result.footsteps), "frames": ik.frames,
-              "search_ms": result.seconds * 1e3}
-    for k in ("smoothing", "refinement", "body_trajectory", "blend_groups"):
-        stages[f"{k}_ms"] = syn.seconds[k] * 1e3
-    stages["ik_ms"] = t_ik * 1e3
-    stages["pose_blend_ms"] = t_pose * 1e3
-    stages["bake_ms"] = t_bake * 1e3
-    stages["synthesis_ms"] = sum(stages[f"{k}_ms"] for k in ("smoothing", "refinement", "body_trajectory",
-                                                           "blend_groups", "pose_blend", "ik"))
-    stages["per_frame_ms"] = stages["synthesis_ms"] / max(ik.frames, 1)
+    stages = stage_row(len(result.footsteps), result.seconds, syn, pose_blend=t_pose, ik=t_ik, bake=t_bake)
     doc = result.to_dict()
     doc.update({"character": ob.name, "goal": [round(float(v), 4) for v in goal], "name": name,
                 "frame_start": frame_start, "frame_end": frame_start + ik.frames - 1,
                 "action": act.name, "track": track.name,
-                "stages": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in stages.items()},
+                "stages": stages,
                 "quality": qual,
                 "footprints": [{**f, "planted_frames": [frame_start + idx(a), frame_start + idx(b)],
                                 "frame": frame_start + idx(m), "position": [round(float(v), 4) for v in pos[i]],

@@ -137,8 +137,7 @@ def make_track(a: ClipAnalysis, rate: float = 120.0) -> ClipTrack:
     bal = np.stack([np.interp(dense.times, src, a.balance[k]) for k in range(2)])
     con = np.stack([np.interp(dense.times, src, a.contact[k].astype(float)) for k in range(2)])
     cpt = heel + bal[..., None] * (toe - heel)
-    stances = sorted((s.foot, float(s.stance)) for s in a.stances)
-    stances.sort(key=lambda x: x[1])
+    stances = sorted(((s.foot, float(s.stance)) for s in a.stances), key=lambda x: x[1])
     phase = _phase_times(a, stances) if a.kind == "cycle" else None
     return ClipTrack(name=a.name, kind=a.kind, gait=a.gait, entry_gait=a.entry_gait,
                      exit_gait=a.exit_gait, rate=float(dense.fps), duration=dense.duration,

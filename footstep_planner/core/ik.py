@@ -35,16 +35,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d
-from scipy.spatial.transform import Rotation, Slerp  # noqa: F401  (Slerp: see _slerp_mats)
+from scipy.spatial.transform import Rotation
 
 from .offsets import body_offsets, smooth_offsets
 from .rig import Rig, forward_kinematics
 from .settings import Settings
 
-#: s over which a foot would settle onto its footprint (and leave it) by easing towards
-#: the pinned place. Off: easing in world space holds the foot back while the clip's foot
-#: rushes on, and then lets it go faster than any clip (measured: more pops, not fewer).
-SETTLE = 0.0
 #: m a swinging foot keeps above the surface.
 GROUND_MARGIN = 0.002
 #: The leg is never stretched past this share of its length (a straight knee pops).
@@ -131,7 +127,7 @@ def _smoothstep(u: np.ndarray) -> np.ndarray:
 
 
 def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np.ndarray,
-                  rot: np.ndarray, ease: int = 0) -> tuple[np.ndarray, np.ndarray]:
+                  rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Ankle positions (F, 3) and foot rotations (F, 3, 3) for every frame of one foot:
     ``ankle``/``rot`` where ``planted``; elsewhere the clip's own (``A0``, ``R0``) plus a
     correction eased (smoothstep) from the last planted frame's to the next one's, held
@@ -155,15 +151,9 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     tv = (1 - u) * turn[prev_c] + u * turn[nxt_c]
     A = A0 + o
     R = Rotation.from_rotvec(tv).as_matrix() @ R0
-    # the foot settles onto (and leaves) its footprint over ``ease`` frames instead of
-    # stopping dead: the clip's heel still moves a little at the strike
-    if ease > 0:
-        for near, gap in ((nxt, nxt - f), (prev, f - prev)):
-            sel = np.flatnonzero(~planted & (near >= 0) & (near < F) & (gap <= ease))
-            if len(sel):
-                e = _smoothstep(1.0 - gap[sel] / (ease + 1.0))
-                A[sel] = (1 - e)[:, None] * A[sel] + e[:, None] * ankle[near[sel]]
-                R[sel] = _slerp_mats(R[sel], rot[near[sel]], e)
+    # (Easing the foot onto its footprint in world space over the last frames before a
+    # strike, and off it after a liftoff, was tried: it holds the foot back while the
+    # clip's foot rushes on, then lets it go faster than any clip: more pops, not fewer.)
     A[idx], R[idx] = ankle[idx], rot[idx]
     return A, R
 
@@ -314,8 +304,7 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     for k in range(2):
         A0 = world[:, foot_i[k], :3, 3]
         R0 = world[:, foot_i[k], :3, :3]
-        ankle_t[k], rot_t[k] = swing_targets(tg.weight[k] >= 1.0, A0, R0, tg.ankle[k], tg.foot_rot[k],
-                                             ease=int(round(SETTLE * fps)))
+        ankle_t[k], rot_t[k] = swing_targets(tg.weight[k] >= 1.0, A0, R0, tg.ankle[k], tg.foot_rot[k])
     sec["reach"] = time.perf_counter() - t2
 
     # 3.8.2 legs, in closed form

@@ -131,6 +131,11 @@ class Planner:
     cache: FootprintCache = field(default_factory=FootprintCache)
     explored: list = field(default_factory=list, repr=False)
 
+    #: The fields the user sets (Settings of the same names; the defaults here are for
+    #: the core's own use: a bare Planner plans the fastest path, run_penalty 0).
+    FROM_SETTINGS = ("turn_penalty", "jump_penalty", "run_penalty", "gait_change_penalty",
+                     "heuristic_weight", "goal_radius")
+
     def _support(self, pos, heading):
         return footprint_support(self.ground, self.obstacles, pos, heading, self.forward, self.foot,
                                  step_height=self.max_step_height, clearance=self.clearance)

@@ -143,6 +143,23 @@ class Synthesis:
 
 # ----------------------------------------------------------------------------- pieces
 
+def stage_row(footprints: int, search_seconds: float, syn: "Synthesis", **later) -> dict:
+    """One row of thesis Table 4.1, in ms: footprints, frames, the search, the synthesis
+    stages (STAGES) and any later stages given in seconds (``pose_blend=``, ``ik=``,
+    ``bake=``). ``synthesis_ms`` sums everything from smoothing to IK (not the search
+    nor the bake); ``per_frame_ms`` is that over the frames."""
+    frames = int(len(syn.t))
+    row = {"footprints": int(footprints), "frames": frames, "search_ms": round(search_seconds * 1e3, 3)}
+    seconds = {k: syn.seconds[k] for k in STAGES}
+    seconds.update(later)
+    for k, v in seconds.items():
+        row[f"{k}_ms"] = round(v * 1e3, 3)
+    synth = sum(v for k, v in seconds.items() if k != "bake")
+    row["synthesis_ms"] = round(synth * 1e3, 3)
+    row["per_frame_ms"] = round(synth * 1e3 / max(frames, 1), 4)
+    return row
+
+
 def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, foot: FootShape,
                  clearance: float = 0.25, step_height: float = 0.3) -> SnapFn:
     """A snap for the smoothing and refinement stages: the footprint dropped onto the
