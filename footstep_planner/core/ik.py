@@ -282,8 +282,7 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     thigh = [rig.role_index(f"thigh_{x}") for x in SIDES]
     shin = [rig.role_index(f"shin_{x}") for x in SIDES]
     foot_i = [rig.foot_chain(x)[0] for x in SIDES]
-    L1 = [float(np.linalg.norm(rig.rest[shin[k], :3, 3] - rig.rest[thigh[k], :3, 3])) for k in range(2)]
-    L2 = [float(np.linalg.norm(rig.rest[foot_i[k], :3, 3] - rig.rest[shin[k], :3, 3])) for k in range(2)]
+    L1, L2 = zip(*(leg_lengths(rig, x) for x in SIDES))
     need = np.zeros(F)
     for k in range(2):
         planted_k = tg.weight[k] >= 1.0
@@ -327,48 +326,68 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
             if lift.any():
                 lift = np.maximum(lift, gaussian_filter1d(lift, 1.0))
                 lift[planted_k] = 0.0  # a planted foot is on its footprint already
-        on = np.arange(F)
         Wt, Ws, Wf = world[:, thigh[k]], world[:, shin[k]], world[:, foot_i[k]]
-        H, K0, A0 = Wt[:, :3, 3], Ws[:, :3, 3], Wf[:, :3, 3]
         A = ankle_t[k].copy()
         A[:, 2] += lift
-        R_foot = rot_t[k]
-        v = A - H
-        d = np.linalg.norm(v, axis=1)
-        reach = MAX_REACH * (L1[k] + L2[k])
-        d_c = np.clip(d, abs(L1[k] - L2[k]) + 1e-4, reach)
-        u = v / np.maximum(d, 1e-9)[:, None]
-        A = H + u * d_c[:, None]
-        # the knee's side: the clip's knee, or the character's forward as the clip's leg
-        # straightens (a nearly straight clip knee gives no reliable side)
-        u0 = (A0 - H) / np.maximum(np.linalg.norm(A0 - H, axis=1, keepdims=True), 1e-9)
-        pole = K0 - H  # the clip's knee, off the clip's own hip-ankle line ...
-        pole -= np.einsum("fi,fi->f", pole, u0)[:, None] * u0
-        m = np.linalg.norm(pole, axis=1)
-        pole -= np.einsum("fi,fi->f", pole, u)[:, None] * u  # ... carried to the new line
         fb = np.einsum("fij,j->fi", body_frames(np.zeros((F, 3)), yaw)[:, :3, :3], fwd_arm)
-        fb -= np.einsum("fi,fi->f", fb, u)[:, None] * u
-        fb /= np.maximum(np.linalg.norm(fb, axis=1, keepdims=True), 1e-9)
-        firm = 0.15 * L1[k]
-        pole += (firm * np.clip(1.0 - m / firm, 0.0, 1.0))[:, None] * fb
-        pole /= np.maximum(np.linalg.norm(pole, axis=1, keepdims=True), 1e-12)
-        a = (L1[k] ** 2 - L2[k] ** 2 + d_c ** 2) / (2 * d_c)
-        h = np.sqrt(np.maximum(L1[k] ** 2 - a * a, 0.0))
-        K = H + a[:, None] * u + h[:, None] * pole
-        r1 = min_rotation(K0 - H, K - H)
-        shin_dir = np.einsum("fij,fj->fi", r1, A0 - K0)
-        r2 = min_rotation(shin_dir, A - K)
-        R_thigh = r1 @ Wt[:, :3, :3]
-        R_shin = r2 @ r1 @ Ws[:, :3, :3]
-        # back to pose bases: armature-space rotations, relative to parent and rest
-        iy = inv_yaw[on]
-        arm = {thigh[k]: iy @ R_thigh, shin[k]: iy @ R_shin, foot_i[k]: iy @ R_foot}
-        parent_rot = pose[on, rig.parents[thigh[k]], :3, :3] if rig.parents[thigh[k]] >= 0 else np.eye(3)[None]
-        for b in (thigh[k], shin[k], foot_i[k]):
-            rr = rig.rest_rel[b, :3, :3]
-            local = np.einsum("ji,fjk->fik", rr, np.einsum("fji,fjk->fik", parent_rot, arm[b]))
-            basis[on, b, :3, :3] = local
-            parent_rot = arm[b]
+        r1, r2 = two_bone(Wt[:, :3, 3], Ws[:, :3, 3], Wf[:, :3, 3], A, L1[k], L2[k], fb)
+        arm = {thigh[k]: inv_yaw @ r1 @ Wt[:, :3, :3], shin[k]: inv_yaw @ r2 @ r1 @ Ws[:, :3, :3],
+               foot_i[k]: inv_yaw @ rot_t[k]}
+        p = rig.parents[thigh[k]]
+        parent_rot = pose[:, p, :3, :3] if p >= 0 else np.eye(3)[None]
+        chain_bases(rig, [thigh[k], shin[k], foot_i[k]], parent_rot, arm, basis)
     sec["legs"] = time.perf_counter() - t3
     sec["total"] = time.perf_counter() - t0
     return IKResult(body_pos, yaw - spin, basis, tg, drop, (dp, dpsi), sec)
+
+
+def leg_lengths(rig: Rig, side: str) -> tuple[float, float]:
+    """(thigh, shin) rest lengths of one leg: hip to knee and knee to ankle, m."""
+    t, s_, f = rig.role_index(f"thigh_{side}"), rig.role_index(f"shin_{side}"), rig.foot_chain(side)[0]
+    return (float(np.linalg.norm(rig.rest[s_, :3, 3] - rig.rest[t, :3, 3])),
+            float(np.linalg.norm(rig.rest[f, :3, 3] - rig.rest[s_, :3, 3])))
+
+
+def two_bone(H: np.ndarray, K0: np.ndarray, A0: np.ndarray, A: np.ndarray, L1: float, L2: float,
+             forward: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A leg in closed form (thesis 3.8.2), vectorized over frames.
+
+    ``H``, ``K0``, ``A0`` (F, 3): hip, knee and ankle of the leg as posed now; ``A`` (F, 3)
+    the ankle's target (kept within ``MAX_REACH`` of the leg's length); ``forward`` (F, 3)
+    the character's forward. The knee stays in the plane of the posed knee (the swivel
+    closest to it), or bends forward as the posed leg straightens (a straight knee gives no
+    side). Returns (r1, r2) (F, 3, 3): the least world rotation of the thigh, and the one
+    that then takes the shin onto the target (the shin's world rotation is r2 @ r1 @ old).
+    """
+    v = A - H
+    d = np.linalg.norm(v, axis=1)
+    d_c = np.clip(d, abs(L1 - L2) + 1e-4, MAX_REACH * (L1 + L2))
+    u = v / np.maximum(d, 1e-9)[:, None]
+    A = H + u * d_c[:, None]
+    u0 = (A0 - H) / np.maximum(np.linalg.norm(A0 - H, axis=1, keepdims=True), 1e-9)
+    pole = K0 - H  # the posed knee, off the posed hip-ankle line ...
+    pole -= np.einsum("fi,fi->f", pole, u0)[:, None] * u0
+    m = np.linalg.norm(pole, axis=1)
+    pole -= np.einsum("fi,fi->f", pole, u)[:, None] * u  # ... carried to the new line
+    fb = forward - np.einsum("fi,fi->f", forward, u)[:, None] * u
+    fb /= np.maximum(np.linalg.norm(fb, axis=1, keepdims=True), 1e-9)
+    firm = 0.15 * L1
+    pole += (firm * np.clip(1.0 - m / firm, 0.0, 1.0))[:, None] * fb
+    pole /= np.maximum(np.linalg.norm(pole, axis=1, keepdims=True), 1e-12)
+    a = (L1 ** 2 - L2 ** 2 + d_c ** 2) / (2 * d_c)
+    h = np.sqrt(np.maximum(L1 ** 2 - a * a, 0.0))
+    K = H + a[:, None] * u + h[:, None] * pole
+    r1 = min_rotation(K0 - H, K - H)
+    r2 = min_rotation(np.einsum("fij,fj->fi", r1, A0 - K0), A - K)
+    return r1, r2
+
+
+def chain_bases(rig: Rig, chain: list, parent_rot: np.ndarray, arm: dict, basis: np.ndarray) -> None:
+    """Set the rotations of pose bases ``basis`` (F, B, 4, 4), in place, from armature-space
+    rotations: ``arm`` maps each bone of ``chain`` (parents first, each the next one's
+    parent) to its wanted armature-space rotation (F, 3, 3); ``parent_rot`` (F or 1, 3, 3)
+    is the first bone's parent's."""
+    for b in chain:
+        rr = rig.rest_rel[b, :3, :3]
+        basis[:, b, :3, :3] = np.einsum("ji,fjk->fik", rr, np.einsum("fji,fjk->fik", parent_rot, arm[b]))
+        parent_rot = arm[b]
