@@ -63,3 +63,51 @@ def test_nothing_of_the_users_is_touched(fp, empty_scene):
     import_module(fp.__name__ + ".blender.mannequin").build()
     after = {o.name for o in bpy.data.objects}
     assert before <= after and len(after - before) == 2 and cube.name in after
+
+
+def test_the_numpy_rig_is_the_armature_blender_builds(fp, mannequin):
+    ob, _ = mannequin
+    scene = import_module(fp.__name__ + ".blender.scene")
+    core = import_module(fp.__name__ + ".core.mannequin").rig()
+    rig = scene.rig_from_armature(ob)
+    order = [core.names.index(n) for n in rig.names]
+    np.testing.assert_allclose(core.rest[order], rig.rest, atol=1e-4)  # (Blender keeps float32)
+    assert [core.parents[i] for i in order] == [core.names.index(rig.names[p]) if p >= 0 else -1
+                                              for p in rig.parents]
+
+
+def test_generated_clips_are_actions_the_analysis_reads_as_the_core_made_them(fp, mannequin):
+    import bpy
+
+    ob, _ = mannequin
+    bpy.context.scene.render.fps = 30
+    m = import_module(fp.__name__ + ".blender.mannequin")
+    character = import_module(fp.__name__ + ".blender.character")
+    acts = m.generate_clips(ob)
+    assert len(acts) == 12 and all(a.use_fake_user for a in acts)
+    assert acts[0].frame_range[0] == 1.0
+    result = character.analyze_character(ob)
+    assert not result.errors
+    by = {a.name: a for a in result.analyses}
+    assert by["walk"].gait == "walk" and 1.2 <= by["walk"].speed <= 1.5
+    assert by["run"].gait == "run" and by["run_jump"].kind == "jump"
+    assert by["walk_start"].kind == "start" and by["walk_stop"].kind == "stop" and by["idle"].kind == "idle"
+    lib = character.library_for(ob, result)
+    groups = {g.gait: [c.clip for c in g.clips] for g in lib.turn_groups.values()}
+    assert set(groups["walk"]) == {"walk", "walk_turn_left_sharp", "walk_turn_right_sharp",
+                                   "walk_turn_left_wide", "walk_turn_right_wide"}
+    # generating again replaces the generator's own clips, and nothing else
+    mine = bpy.data.actions.new("walk_mine")
+    again = m.generate_clips(ob, names=["walk"])
+    assert [a.name for a in again] == ["walk"] and "walk.001" not in bpy.data.actions
+    assert "walk_mine" in bpy.data.actions and mine.name == "walk_mine"
+    assert len([a for a in bpy.data.actions if a.get(m.GENERATED_PROP)]) == 12
+
+
+def test_the_add_mannequin_operator_makes_the_clips_too(fp, empty_scene):
+    import bpy
+
+    assert bpy.ops.footstep.add_mannequin(clips=True) == {"FINISHED"}
+    ob = bpy.context.view_layer.objects.active
+    scene = import_module(fp.__name__ + ".blender.scene")
+    assert len(scene.armature_actions(ob)) == 12

@@ -17,39 +17,11 @@ import math
 import bpy
 import numpy as np
 
-HEIGHT = 1.75
+from ..core.mannequin import HEIGHT, NAME, bone_table  # noqa: F401 (HEIGHT re-exported)
 
-#: name: (head, tail, parent, connected, capsule radius or 0 for no capsule)
-_SIDE = {
-    "thigh": ((0.09, 0.0, 0.92), (0.09, 0.0, 0.49), "spine", False, 0.075),
-    "shin": ((0.09, 0.0, 0.49), (0.09, 0.01, 0.08), "thigh", True, 0.055),
-    "foot": ((0.09, 0.01, 0.08), (0.09, -0.13, 0.02), "shin", True, 0.045),
-    "toe": ((0.09, -0.13, 0.02), (0.09, -0.2, 0.02), "foot", True, 0.035),
-    "heel.02": ((0.06, 0.05, 0.0), (0.12, 0.05, 0.0), "foot", False, 0.0),
-    "shoulder": ((0.02, 0.0, 1.44), (0.17, 0.02, 1.44), "spine.003", False, 0.045),
-    "upper_arm": ((0.19, 0.02, 1.43), (0.21, 0.04, 1.14), "shoulder", False, 0.05),
-    "forearm": ((0.21, 0.04, 1.14), (0.22, 0.0, 0.88), "upper_arm", True, 0.04),
-    "hand": ((0.22, 0.0, 0.88), (0.22, -0.01, 0.7), "forearm", True, 0.045),
-}
-_SPINE = [
-    ("spine", (0.0, 0.02, 0.95), (0.0, 0.01, 1.07), None, 0.13),
-    ("spine.001", (0.0, 0.01, 1.07), (0.0, 0.01, 1.19), "spine", 0.12),
-    ("spine.002", (0.0, 0.01, 1.19), (0.0, 0.02, 1.31), "spine.001", 0.13),
-    ("spine.003", (0.0, 0.02, 1.31), (0.0, 0.03, 1.47), "spine.002", 0.14),
-    ("spine.004", (0.0, 0.03, 1.47), (0.0, 0.02, 1.53), "spine.003", 0.05),
-    ("spine.005", (0.0, 0.02, 1.53), (0.0, 0.01, 1.58), "spine.004", 0.05),
-    ("spine.006", (0.0, 0.01, 1.58), (0.0, 0.0, 1.75), "spine.005", 0.1),
-]
-
-
-def bone_table() -> list[tuple]:
-    """(name, head, tail, parent, connected, radius) of every bone, parents first."""
-    out = [(n, h, t, p, p is not None, r) for n, h, t, p, r in _SPINE]
-    for side, sx in (("L", 1.0), ("R", -1.0)):
-        for base, (h, t, parent, conn, r) in _SIDE.items():
-            par = parent if parent.startswith("spine") else f"{parent}.{side}"
-            out.append((f"{base}.{side}", (sx * h[0], h[1], h[2]), (sx * t[0], t[1], t[2]), par, conn, r))
-    return out
+#: Custom property on the clips the generator wrote: the armature (data) they were made
+#: for. Only actions carrying it are ever replaced by a new generation.
+GENERATED_PROP = "footstep_generated"
 
 
 def _capsule(head, tail, radius, sides=8, rings=2):
@@ -78,7 +50,7 @@ def _capsule(head, tail, radius, sides=8, rings=2):
     return verts, faces
 
 
-def build(collection=None, name: str = "Footstep Mannequin", location=(0.0, 0.0, 0.0)):
+def build(collection=None, name: str = NAME, location=(0.0, 0.0, 0.0)):
     """Make the mannequin: (armature object, body mesh object), linked into
     ``collection`` (default: the active scene's collection)."""
     coll = collection or bpy.context.scene.collection
@@ -131,6 +103,59 @@ def build(collection=None, name: str = "Footstep Mannequin", location=(0.0, 0.0,
     return ob, body
 
 
+def generate_clips(ob, names=None, fps: float | None = None) -> list:
+    """Synthesize the sample clip library (``core.gait``) for armature ``ob`` and write each
+    clip as an Action of its own (hips location and every bone's rotation, keyed on every
+    frame from frame 1, at the scene's frame rate). Clips this function made earlier for
+    the same armature are replaced; nothing else is touched. ``names`` picks clips of
+    ``gait.library_specs()``. Returns the new actions, in library order.
+
+    Raises RigError (naming the armature and bones) for a rig without legs."""
+    from ..core import gait
+    from .clips import _curve, _write_rotation
+    from .scene import ARMATURE_PROP, SOURCE_FPS_PROP, rig_from_armature, scene_fps
+    from scipy.spatial.transform import Rotation
+
+    rig = rig_from_armature(ob)
+    rig.require_legs()
+    fps = float(fps or scene_fps())
+    specs = gait.library_specs()
+    if names:
+        unknown = sorted(set(names) - {s.name for s in specs})
+        if unknown:
+            raise ValueError(f"no generated clip named {', '.join(unknown)}; the library has "
+                             f"{', '.join(s.name for s in specs)}")
+        specs = [s for s in specs if s.name in names]
+    for act in [a for a in bpy.data.actions if a.get(GENERATED_PROP) == ob.data.name
+                and a.get("footstep_clip") in {s.name for s in specs}]:
+        bpy.data.actions.remove(act)
+    hips = rig.roles.bone("hips")
+    out = []
+    for spec in specs:
+        clip = gait.generate(rig, spec, fps)
+        frames = 1.0 + np.arange(len(clip.basis)) * scene_fps() / fps
+        act = bpy.data.actions.new(spec.name)
+        act[GENERATED_PROP] = ob.data.name
+        act["footstep_clip"] = spec.name
+        act[ARMATURE_PROP] = ob.data.name
+        act[SOURCE_FPS_PROP] = fps
+        act.use_fake_user = True
+        slot = act.slots.new(id_type="OBJECT", name=ob.name)
+        cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
+        for b, bname in enumerate(rig.names):
+            pb = ob.pose.bones[bname]
+            base = f'pose.bones["{bpy.utils.escape_identifier(bname)}"]'
+            rot = clip.basis[:, b, :3, :3]
+            if bname != hips and np.allclose(rot, np.eye(3), atol=1e-7):
+                continue
+            _write_rotation(cbag, base, bname, pb.rotation_mode, Rotation.from_matrix(rot), frames)
+            if bname == hips:
+                for i in range(3):
+                    _curve(cbag, f"{base}.location", i, bname, frames, clip.basis[:, b, i, 3])
+        out.append(act)
+    return out
+
+
 class FOOTSTEP_OT_add_mannequin(bpy.types.Operator):
     """Add the Footstep Mannequin: a 1.75 m humanoid armature (human metarig bone names)
     with a simple skinned body, to try the planner on"""
@@ -139,8 +164,15 @@ class FOOTSTEP_OT_add_mannequin(bpy.types.Operator):
     bl_label = "Footstep Mannequin"
     bl_options = {"REGISTER", "UNDO"}
 
+    clips: bpy.props.BoolProperty(
+        name="Clips", default=True,
+        description="Also generate its clip library (walk, turns, run, jump, start, stop, idle)")
+
     def execute(self, context):
         ob, _ = build(context.collection, location=tuple(context.scene.cursor.location))
+        if self.clips:
+            acts = generate_clips(ob)
+            self.report({"INFO"}, f"{ob.name}: {len(acts)} clips generated")
         for o in context.selected_objects:
             o.select_set(False)
         ob.select_set(True)
