@@ -158,16 +158,38 @@ def test_python_dash_m_runs_the_same_verbs(tmp_path):
     assert bad.returncode == 2 and "Traceback" not in bad.stderr and "missing.bvh" in bad.stderr
 
 
-@needs_cmu
-def test_demo_analyses_plans_draws_and_renders(cli, capsys, tmp_path):
-    from conftest import CMU
-
-    assert cli(["demo", "--mocap", CMU, "--out", str(tmp_path), "--scene", "obstacles"]) == 0
+def test_demo_runs_the_whole_tool_on_built_in_content(cli, capsys, tmp_path):
+    # no outside data: the scene, the character and its clips are generated
+    assert cli(["demo", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "cmu_16_16_walk" in out and "blend groups (proposed)" in out
-    assert "plan on 'obstacles'" in out and "footprints" in out
-    assert "baked 'obstacles demo' into NLA track" in out and "foot skate per stance" in out
-    for name in ("cmu_16_library.blend", "obstacles_planned.blend", "obstacles_plan_top.png",
-                 "analysis_cmu_16_16_walk.png", "obstacles_baked.blend", "obstacles_bake_report.json",
-                 "obstacles_tau.png"):
+    assert "the Footstep Mannequin and its 12 generated clips" in out and "blend groups (proposed)" in out
+    assert "baked 'jumps demo' into NLA track" in out and "foot skate per stance" in out
+    assert "stage times" in out and "per_frame" in out
+    doc = json.load(open(tmp_path / "jumps_report.json"))
+    q = doc["quality"]
+    assert sum(f["jump"] for f in doc["footprints"]) >= 2  # both gaps of the Jumps scene
+    assert q["goal"]["distance_m"] < 0.05 and q["foot_skate"]["max_mm"] < 1.0
+    assert q["footprint_error"]["max_mm"] < 5.0 and q["penetration"]["max_mm"] < 5.0
+    assert {c["name"] for c in doc["clips"]} >= {"walk", "run", "run_jump"}
+    for name in ("jumps_baked.blend", "jumps_review.png", "jumps_top.png", "jumps_tau.png"):
         assert (tmp_path / name).stat().st_size > 1000, name
+    import bpy
+
+    # the renders show something: not one flat colour
+    shots = sorted(tmp_path.glob("jumps_frame*.png"))
+    assert len(shots) >= 3
+    for png in shots + [tmp_path / "jumps_review.png"]:
+        im = bpy.data.images.load(str(png))
+        px = np.empty(im.size[0] * im.size[1] * 4, np.float32)
+        im.pixels.foreach_get(px)
+        assert px.reshape(-1, 4)[:, :3].std() > 0.05, png.name
+    # the saved scene holds the bake, on the mannequin
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "jumps_baked.blend"))
+    ob = bpy.data.objects["Footstep Mannequin"]
+    assert [t.name for t in ob.animation_data.nla_tracks] == ["Footstep: jumps demo"]
+
+
+def test_demo_names_the_sample_scenes_when_given_another(cli, capsys, tmp_path):
+    assert cli(["demo", "--scene", "moon", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "moon" in err and "jumps, turns, obstacles" in err and "Traceback" not in err

@@ -111,3 +111,27 @@ def test_the_add_mannequin_operator_makes_the_clips_too(fp, empty_scene):
     ob = bpy.context.view_layer.objects.active
     scene = import_module(fp.__name__ + ".blender.scene")
     assert len(scene.armature_actions(ob)) == 12
+
+
+def test_generate_clips_operator_on_the_character_and_a_clear_refusal_for_a_legless_rig(fp, empty_scene):
+    import bpy
+
+    assert bpy.ops.footstep.add_mannequin(clips=False) == {"FINISHED"}
+    ob = bpy.context.view_layer.objects.active
+    assert bpy.context.scene.footstep.character == ob
+    assert bpy.ops.footstep.generate_clips() == {"FINISHED"}
+    assert len(ob.data.footstep.clips) == 12  # analysed, the library proposed
+    # an armature without legs: one message naming it, nothing made
+    arm = bpy.data.armatures.new("Stick")
+    stick = bpy.data.objects.new("Stick", arm)
+    bpy.context.scene.collection.objects.link(stick)
+    bpy.context.view_layer.objects.active = stick
+    bpy.ops.object.mode_set(mode="EDIT")
+    eb = arm.edit_bones.new("Bone")
+    eb.head, eb.tail = (0, 0, 0), (0, 0, 1)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.context.scene.footstep.character = stick
+    before = len(bpy.data.actions)
+    with pytest.raises(RuntimeError, match="Stick"):
+        bpy.ops.footstep.generate_clips()
+    assert len(bpy.data.actions) == before

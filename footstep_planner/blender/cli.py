@@ -125,11 +125,12 @@ def _parser() -> argparse.ArgumentParser:
     pt.add_argument("--out", required=True, metavar="DIR", help="folder for the PNG files")
     pt.add_argument("--name", help="file name prefix (default: the report's file name)")
 
-    demo = sub.add_parser("demo", help="the main job on built-in content (clip analysis for now)")
-    demo.add_argument("--scene", default="jumps", help="sample scene name (used once planning exists)")
-    demo.add_argument("--mocap", default=None, metavar="DIR",
-                      help="BVH folder to analyse (default: ../shared/mocap/cmu beside the project)")
-    demo.add_argument("--out", default=None, metavar="DIR", help="output folder")
+    demo = sub.add_parser(
+        "demo", help="the whole tool on built-in content: a sample scene, the sample character "
+                     "and its generated clips, planned, baked, rendered and reported")
+    demo.add_argument("--scene", default="jumps", help="sample scene: jumps, turns or obstacles")
+    demo.add_argument("--out", default=None, metavar="DIR",
+                      help="output folder (default: sample_scenes/out in the project)")
     return p
 
 
@@ -503,142 +504,129 @@ def format_library(lib) -> str:
 
 
 def _demo(args) -> int:
-    from .clips import import_bvh_clips
+    """The whole tool on built-in content: a sample scene, the sample character and its
+    generated clips; plan, bake, review sheet, report."""
+    import time
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    mocap = args.mocap or os.path.join(os.path.dirname(root), "shared", "mocap", "cmu")
-    out_dir = os.path.abspath(args.out or os.path.join(root, "sample_scenes", "out"))
-    import glob
-
-    files = sorted(glob.glob(os.path.join(mocap, "cmu_16_*.bvh")))
-    if not files:
-        raise CliError(
-            f"no clips to show: {mocap} holds no cmu_16_*.bvh. Until the built-in sample "
-            "character exists, the demo analyses the CMU subject-16 clips; pass --mocap DIR")
-    print(f"demo: importing {len(files)} subject-16 clips from {mocap}")
-    empty_scene(_bvh_fps(files[0]))
-    ob, actions = import_bvh_clips(files, name="cmu_16")
-    os.makedirs(out_dir, exist_ok=True)
+    from . import mannequin, planning
     from .character import analyze_character, library_for, write_library
+    from .sample_scenes import SCENES, build
 
-    result = analyze_character(ob)
-    lib = library_for(ob, result)
-    write_library(ob, lib, result.analyses)
-    print(format_table(ob.name, result.analyses))
-    print(format_library(lib))
-    for name, msg in result.errors.items():
-        print(f"footstep: error: {msg}", file=sys.stderr)
-    try:
-        from ..core.plots import plot_clip
-
-        for a in result.analyses:
-            plot_clip(a, os.path.join(out_dir, f"analysis_{a.name}.png"))
-        print(f"contact plots: {out_dir}/analysis_*.png")
-    except ImportError:
-        print("(matplotlib not available: no plots)")
-    path = os.path.join(out_dir, "cmu_16_library.blend")
-    ob.animation_data_create()
-    ob.animation_data.action = actions[0]
-    ob.animation_data.action_slot = actions[0].slots[0]
-    bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
-    print(f"library saved: {path}")
-    rc = _demo_plan(args.scene, mocap, out_dir)
-    print("next milestone: the project's own sample character and clips (no outside data needed)")
-    return 1 if result.errors or rc else 0
-
-
-DEMO_LIBRARY = ["16_16", "16_11", "16_13", "16_17", "16_19", "16_35", "16_37", "16_39", "16_41",
-                "16_43", "49_05"]
-
-
-def _demo_plan(scene_name: str, mocap: str, out_dir: str) -> int:
-    """Plan the sample scene with the CMU library, draw the footprints, render a top view."""
-    import glob
-    import math
-
-    from . import planning
-    from .clips import import_bvh_clips
-    from .sample_scenes import build
-
-    files = [f for n in DEMO_LIBRARY for f in glob.glob(os.path.join(mocap, f"cmu_{n}*.bvh"))]
-    scene = build(scene_name)
+    t0 = time.perf_counter()
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    out_dir = os.path.abspath(args.out or os.path.join(root, "sample_scenes", "out"))
+    name = args.scene.lower()
+    if name not in SCENES:
+        raise CliError(f"no sample scene {args.scene!r}; choose from {', '.join(SCENES)}")
+    os.makedirs(out_dir, exist_ok=True)
+    scene = build(name)
     set_scene_fps(scene, 30)
-    ob, _ = import_bvh_clips(files, name="CMU")
-    goal = np.array(scene.objects["Goal"].location)
-    result, setup = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
-    syn = planning.synthesize(scene, result, setup, goal=goal)
-    print(f"\nplan on {scene_name!r} with {len(files)} CMU clips ({setup.planner.steps.n} steps): "
-          f"{len(result.footsteps)} footprints, {syn.t[-1]:.1f} s of motion ({len(syn.t)} frames), "
-          f"{sum(f.jump for f in result.footsteps)} jumps; search {result.expanded} footprints "
-          f"expanded in {result.seconds * 1e3:.0f} ms")
-    pos, head = syn.footprints
-    planted = syn.planted()
-    for i, f in enumerate(result.footsteps):
-        print(f"  {i:3d} {'LR'[f.foot]} ({pos[i, 0]:6.2f}, {pos[i, 1]:6.2f}, {pos[i, 2]:5.2f}) "
-              f"{math.degrees(head[i]):5.0f} deg  frame {1 + planted[i][1] * 30:6.1f}  "
-              f"s {np.interp(planted[i][1], syn.t, syn.s_final):.2f}  {f.label}{' (jump)' if f.jump else ''}")
-    report = os.path.join(out_dir, f"{scene_name}_report.json")
-    doc = result.to_dict()
-    doc["stages"] = stage_row(len(result.footsteps), result.seconds, syn)
-    print(format_stages([doc["stages"]], [scene_name]))
-    doc["synthesis"] = syn.to_dict(frame0=1.0)
+    start, goal_ob = scene.objects["Start"], scene.objects["Goal"]
+    ob, _ = mannequin.build(scene.collection, location=tuple(start.location))
+    ob.rotation_euler = start.rotation_euler
+    acts = mannequin.generate_clips(ob)
+    clips = analyze_character(ob)
+    lib = library_for(ob, clips)
+    write_library(ob, lib, clips.analyses)
+    t_clips = time.perf_counter() - t0
+    print(f"demo: the {scene.name} scene, the Footstep Mannequin and its {len(acts)} generated clips "
+          f"({t_clips:.1f} s)")
+    print(format_table(ob.name, clips.analyses))
+    print(format_library(lib))
+    for msg in clips.errors.values():
+        print(f"footstep: error: {msg}", file=sys.stderr)
+
+    goal = np.array(goal_ob.location)
+    t1 = time.perf_counter()
+    doc = planning.run(scene, ob, goal, start_marker=start, name=f"{name} demo", frame_start=1)
+    t_run = time.perf_counter() - t1
+    scene.frame_start, scene.frame_end = doc["frame_start"], doc["frame_end"]
+    jumps = sum(1 for f in doc["footprints"] if f.get("jump"))
+    print(f"\nplan: {len(doc['footprints'])} footprints ({jumps} jumps), "
+          f"{doc['frame_end'] - doc['frame_start'] + 1} frames at 30 fps, planned, synthesized, "
+          f"solved and baked in {t_run:.2f} s")
+    print(format_bake(doc))
+    doc["clips"] = [a.to_dict() for a in clips.analyses]
+    report = os.path.join(out_dir, f"{name}_report.json")
     with open(report, "w") as fh:
         json.dump(doc, fh)
-    from ..core.plots import plot_synthesis
+    pngs = []
+    try:
+        from ..core.plots import plot_synthesis
 
-    pngs = plot_synthesis(doc, out_dir, scene_name)
-    _draw_footprints(scene, result, setup, syn)
-    png = os.path.join(out_dir, f"{scene_name}_plan_top.png")
-    _render_top(scene, png)
-    path = os.path.join(out_dir, f"{scene_name}_planned.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
-    print(f"report: {report}\ncurves: {', '.join(pngs)}\ntop view: {png}\nplanned scene: {path}")
-
-    # the whole tool: IK and the bake into NLA (the demo's own character: its active
-    # clip is cleared so the baked track plays)
-    if ob.animation_data is not None:
-        ob.animation_data.action = None
-    bdoc = planning.run(scene, ob, goal, start_marker=scene.objects["Start"], name=f"{scene_name} demo",
-                        frame_start=1)
-    print(format_bake(bdoc))
-    breport = os.path.join(out_dir, f"{scene_name}_bake_report.json")
-    with open(breport, "w") as fh:
-        json.dump(bdoc, fh)
-    _stick_figure(ob)
-    frames = [bdoc["footprints"][i]["frame"] for i in (len(bdoc["footprints"]) // 3, 2 * len(bdoc["footprints"]) // 3)]
-    shots = [_render_character(scene, ob, int(f), os.path.join(out_dir, f"{scene_name}_frame{int(f):04d}.png"))
-             for f in frames]
-    bpath = os.path.join(out_dir, f"{scene_name}_baked.blend")
+        pngs = plot_synthesis(doc, out_dir, name)
+    except ImportError:
+        print("(matplotlib not available: no curves)")
+    sheet, shots = _review_sheet(scene, ob, doc, out_dir, name)
+    bpath = os.path.join(out_dir, f"{name}_baked.blend")
+    scene.frame_set(doc["frame_start"])
     bpy.ops.wm.save_as_mainfile(filepath=bpath, compress=True)
-    print(f"bake report: {breport}\nframes: {', '.join(shots)}\nbaked scene: {bpath}")
-    return 0
+    print(f"\nbaked scene: {bpath}\nreview sheet: {sheet}\n  frames: {', '.join(shots)}\n"
+          f"report: {report}" + (f"\ncurves: {', '.join(pngs)}" if pngs else "") +
+          f"\ndemo done in {time.perf_counter() - t0:.1f} s")
+    return 1 if clips.errors else 0
 
 
-def _stick_figure(ob, radius: float = 0.03):
-    """A cylinder on every bone of the (mesh-less) demo character, parented to the bone,
-    so renders show it (the project's own skinned character is a coming milestone)."""
-    import math
+def _review_sheet(scene, ob, doc, out_dir: str, name: str) -> tuple[str, list[str]]:
+    """Workbench renders of the baked character at a few frames along its path (the
+    middle of a jump among them, if it jumps) and a top view with the footprints, side by
+    side in one PNG. Returns (sheet path, the frame renders' paths)."""
+    fps = doc["footprints"]
+    n = len(fps)
+    picks = [fps[int(i * (n - 1) / 5)]["frame"] for i in (1, 2, 3, 4)]
+    jumps = [i for i, f in enumerate(fps) if f.get("jump")]
+    if jumps:  # the first jump's flight, half way between take-off and landing
+        i = jumps[0]
+        take_off = fps[i - 1]["planted_frames"][1] if i > 0 else fps[i]["frame"]
+        mid = (take_off + fps[i]["planted_frames"][0]) // 2
+        picks[1] = mid
+    picks = sorted(set(int(f) for f in picks))
+    shots = [_render_character(scene, ob, f, os.path.join(out_dir, f"{name}_frame{f:04d}.png")) for f in picks]
+    _draw_footprints(scene, doc)
+    top = os.path.join(out_dir, f"{name}_top.png")
+    scene.frame_set(doc["frame_end"])
+    _render_top(scene, top)
+    sheet = os.path.join(out_dir, f"{name}_review.png")
+    _compose([top] + shots, sheet)
+    return sheet, shots + [top]
 
-    mat = bpy.data.materials.new("stick_figure")
-    mat.diffuse_color = (0.85, 0.8, 0.7, 1.0)
-    coll = bpy.data.collections.new("Stick figure (demo)")
-    bpy.context.scene.collection.children.link(coll)
-    k = 8
-    ring = [(radius * math.cos(2 * math.pi * i / k), radius * math.sin(2 * math.pi * i / k)) for i in range(k)]
-    for bone in ob.data.bones:
-        if bone.length < 0.02 or "Finger" in bone.name or "Thumb" in bone.name:
-            continue
-        # bone-parented children sit at the bone's tail, in the bone's axes (Y along it)
-        verts = [(x, -bone.length, z) for x, z in ring] + [(x, 0.0, z) for x, z in ring]
-        faces = [(i, (i + 1) % k, k + (i + 1) % k, k + i) for i in range(k)]
-        me = bpy.data.meshes.new(f"stick_{bone.name}")
-        me.from_pydata(verts, [], faces)
-        me.materials.append(mat)
-        child = bpy.data.objects.new(f"stick_{bone.name}", me)
-        coll.objects.link(child)
-        child.parent = ob
-        child.parent_type = "BONE"
-        child.parent_bone = bone.name
+
+def _compose(paths: list[str], out: str) -> None:
+    """One PNG: the first image (square) on the left, the others in a 2-column grid of
+    half its height beside it."""
+    imgs = []
+    for p in paths:
+        im = bpy.data.images.load(p)
+        a = np.empty(im.size[0] * im.size[1] * 4, np.float32)
+        im.pixels.foreach_get(a)
+        imgs.append(a.reshape(im.size[1], im.size[0], 4))
+        bpy.data.images.remove(im)
+    big = imgs[0]
+    H = big.shape[0]
+    h = H // 2
+    cells = []
+    for a in imgs[1:]:
+        # nearest-neighbour scale to height h
+        ys = (np.arange(h) * a.shape[0] / h).astype(int)
+        w = int(round(a.shape[1] * h / a.shape[0]))
+        xs = (np.arange(w) * a.shape[1] / w).astype(int)
+        cells.append(a[ys][:, xs])
+    w = max(c.shape[1] for c in cells) if cells else 0
+    cols = 2
+    rows = (len(cells) + cols - 1) // cols
+    sheet = np.ones((max(H, rows * h), big.shape[1] + cols * w, 4), np.float32)
+    sheet[sheet.shape[0] - H:, :big.shape[1]] = big
+    for k, c in enumerate(cells):
+        r, col = divmod(k, cols)
+        y0 = sheet.shape[0] - (r + 1) * h  # Blender's pixels start at the bottom row
+        x0 = big.shape[1] + col * w
+        sheet[y0:y0 + h, x0:x0 + c.shape[1]] = c
+    im = bpy.data.images.new("footstep review sheet", sheet.shape[1], sheet.shape[0], alpha=True)
+    im.pixels.foreach_set(sheet.ravel())
+    im.filepath_raw = out
+    im.file_format = "PNG"
+    im.save()
+    bpy.data.images.remove(im)
 
 
 def _render_character(scene, ob, frame: int, path: str) -> str:
@@ -667,31 +655,36 @@ def _render_character(scene, ob, frame: int, path: str) -> str:
     return path
 
 
-def _draw_footprints(scene, result, setup, syn):
-    """The synthesized footprints as small quads (left blue, right red, jumps yellow) and
-    the body trajectory as a thin orange tube, in a collection of the demo's own."""
+def _draw_footprints(scene, doc):
+    """The baked footprints (report ``doc``) as small quads (left blue, right red, jump
+    landings yellow) and the body trajectory as a thin orange tube, in a collection of the
+    demo's own."""
+    import math
+
     coll = bpy.data.collections.new("Footprints (demo)")
     scene.collection.children.link(coll)
-    foot = setup.planner.foot
     mats = {}
-    for name, rgba in (("L", (0.15, 0.35, 0.95, 1)), ("R", (0.95, 0.2, 0.15, 1)), ("J", (1.0, 0.8, 0.1, 1)),
-                       ("B", (1.0, 0.5, 0.0, 1))):
-        m = bpy.data.materials.new(f"footprint_{name}")
+    for key, rgba in (("L", (0.15, 0.35, 0.95, 1)), ("R", (0.95, 0.2, 0.15, 1)), ("J", (1.0, 0.8, 0.1, 1)),
+                      ("B", (1.0, 0.5, 0.0, 1))):
+        m = bpy.data.materials.new(f"footprint_{key}")
         m.diffuse_color = rgba
-        mats[name] = m
-    pos, head = syn.footprints
-    for i, f in enumerate(result.footsteps):
-        c = foot.corners(pos[i][None], np.array([head[i]]), setup.forward)[0, :4]
-        z = pos[i, 2] + 0.01
+        mats[key] = m
+    fa = math.atan2(doc["forward"][1], doc["forward"][0])
+    for i, f in enumerate(doc["footprints"]):
+        x, y, z = f["position"]
+        a = f["heading"] + fa
+        u = np.array([math.cos(a), math.sin(a)])
+        v = np.array([-u[1], u[0]])
+        quad = [(x, y) + 0.13 * su * u + 0.05 * sv * v for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
         me = bpy.data.meshes.new(f"footprint{i}")
-        me.from_pydata([(x, y, z) for x, y in c[[0, 2, 3, 1]]], [], [(0, 1, 2, 3)])
-        me.materials.append(mats["J" if f.jump else "LR"[f.foot]])
+        me.from_pydata([(float(p[0]), float(p[1]), z + 0.01) for p in quad], [], [(0, 1, 2, 3)])
+        me.materials.append(mats["J" if f.get("jump") else f["foot"]])
         coll.objects.link(bpy.data.objects.new(f"footprint{i:03d}", me))
     cu = bpy.data.curves.new("body_trajectory", "CURVE")
     cu.dimensions = "3D"
     cu.bevel_depth = 0.03
     sp = cu.splines.new("POLY")
-    body = syn.body_position[::2]
+    body = np.asarray(doc["synthesis"]["body"]["position"])[::2]
     sp.points.add(len(body) - 1)
     sp.points.foreach_set("co", np.c_[body[:, :2], body[:, 2] + 0.05, np.ones(len(body))].ravel())
     cu.materials.append(mats["B"])

@@ -172,11 +172,58 @@ class FOOTSTEP_OT_add_mannequin(bpy.types.Operator):
         ob, _ = build(context.collection, location=tuple(context.scene.cursor.location))
         if self.clips:
             acts = generate_clips(ob)
+            _analyze(context, ob)
             self.report({"INFO"}, f"{ob.name}: {len(acts)} clips generated")
+        if context.scene.footstep.character is None:
+            context.scene.footstep.character = ob
         for o in context.selected_objects:
             o.select_set(False)
         ob.select_set(True)
         context.view_layer.objects.active = ob
+        return {"FINISHED"}
+
+
+def _analyze(context, ob):
+    """Analyse the character's clips and store the proposed library (unless edited)."""
+    from .character import analyze_character, library_for, write_library
+    from .props import settings_from_props
+
+    result = analyze_character(ob, settings_from_props(context.scene.footstep.settings))
+    if not ob.data.footstep.library_edited:
+        write_library(ob, library_for(ob, result), result.analyses)
+    return result
+
+
+class FOOTSTEP_OT_generate_clips(bpy.types.Operator):
+    """Generate the sample clip library (walk, turns, run, jump, start, stop, idle) for the
+    planner's character: a rig with the human metarig's bone names and adult proportions,
+    such as the Footstep Mannequin. Replaces only clips generated earlier"""
+
+    bl_idname = "footstep.generate_clips"
+    bl_label = "Generate Sample Clips"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        from .operators import character
+
+        ob = character(context)
+        return ob is not None and ob.type == "ARMATURE"
+
+    def execute(self, context):
+        from ..core.errors import FootstepError
+        from .operators import character
+
+        ob = character(context)
+        try:
+            acts = generate_clips(ob)
+            result = _analyze(context, ob)
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{ob.name}: {len(acts)} clips generated")
+        for msg in result.errors.values():
+            self.report({"WARNING"}, msg)
         return {"FINISHED"}
 
 
@@ -186,9 +233,11 @@ def _menu(self, context):
 
 def register():
     bpy.utils.register_class(FOOTSTEP_OT_add_mannequin)
+    bpy.utils.register_class(FOOTSTEP_OT_generate_clips)
     bpy.types.VIEW3D_MT_armature_add.append(_menu)
 
 
 def unregister():
     bpy.types.VIEW3D_MT_armature_add.remove(_menu)
+    bpy.utils.unregister_class(FOOTSTEP_OT_generate_clips)
     bpy.utils.unregister_class(FOOTSTEP_OT_add_mannequin)

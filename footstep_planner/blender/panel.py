@@ -33,8 +33,9 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
         layout.prop(fs, "character")
         ob = character(context)
         if ob is None:
-            layout.label(text="Pick an armature, or import BVH clips", icon="INFO")
+            layout.label(text="Pick an armature, import BVH clips, or add the mannequin", icon="INFO")
             layout.operator("footstep.import_clips", icon="IMPORT").target = "NEW"
+            layout.operator("footstep.add_mannequin", icon="OUTLINER_OB_ARMATURE")
             return
         _draw_roles(layout, ob)
         _draw_clips(layout, ob)
@@ -141,6 +142,7 @@ def _draw_clips(layout, ob):
     row = box.row()
     row.label(text="Clip library" + (" (edited)" if props.library_edited else ""), icon="NLA")
     row.operator("footstep.import_clips", text="", icon="IMPORT").target = "CHARACTER"
+    row.operator("footstep.generate_clips", text="", icon="ANIM")
     row.operator("footstep.analyze_clips", text="", icon="FILE_REFRESH")
     box.template_list("FOOTSTEP_UL_clips", "", props, "clips", props, "clip_index", rows=4)
     if 0 <= props.clip_index < len(props.clips):

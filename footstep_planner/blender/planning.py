@@ -295,6 +295,7 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     stages = stage_row(len(result.footsteps), result.seconds, syn, pose_blend=t_pose, ik=t_ik, bake=t_bake)
     doc = result.to_dict()
     doc.update({"character": ob.name, "goal": [round(float(v), 4) for v in goal], "name": name,
+                "forward": [round(float(v), 6) for v in s.forward],
                 "frame_start": frame_start, "frame_end": frame_start + ik.frames - 1,
                 "action": act.name, "track": track.name,
                 "stages": stages,
