@@ -678,8 +678,11 @@ def _draw_footprints(scene, doc):
         quad = [(x, y) + 0.13 * su * u + 0.05 * sv * v for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
         me = bpy.data.meshes.new(f"footprint{i}")
         me.from_pydata([(float(p[0]), float(p[1]), z + 0.01) for p in quad], [], [(0, 1, 2, 3)])
-        me.materials.append(mats["J" if f.get("jump") else f["foot"]])
-        coll.objects.link(bpy.data.objects.new(f"footprint{i:03d}", me))
+        key = "J" if f.get("jump") else f["foot"]
+        me.materials.append(mats[key])
+        fob = bpy.data.objects.new(f"footprint{i:03d}", me)
+        fob.color = mats[key].diffuse_color
+        coll.objects.link(fob)
     cu = bpy.data.curves.new("body_trajectory", "CURVE")
     cu.dimensions = "3D"
     cu.bevel_depth = 0.03
@@ -688,10 +691,23 @@ def _draw_footprints(scene, doc):
     sp.points.add(len(body) - 1)
     sp.points.foreach_set("co", np.c_[body[:, :2], body[:, 2] + 0.05, np.ones(len(body))].ravel())
     cu.materials.append(mats["B"])
-    coll.objects.link(bpy.data.objects.new("body_trajectory", cu))
+    bob = bpy.data.objects.new("body_trajectory", cu)
+    bob.color = mats["B"].diffuse_color
+    coll.objects.link(bob)
 
 
 def _render_top(scene, path):
+    """An orthographic top view of the whole scene: traversable surfaces light, obstacles
+    dark, the drawn footprints and trajectory in their colours (object colours: the demo's
+    own scene, so setting them changes nothing of the user's)."""
+    from .surfaces import tagged_objects
+
+    walk, block = tagged_objects(scene)
+    for ob in walk:
+        ob.color = (0.78, 0.78, 0.74, 1.0)
+    for ob in block:
+        ob.color = (0.22, 0.25, 0.3, 1.0)
+    scene.display.shading.color_type = "OBJECT"
     pts = np.array([ob.matrix_world @ v.co for ob in scene.objects if ob.type == "MESH"
                     for v in ob.data.vertices])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
@@ -702,7 +718,6 @@ def _render_top(scene, path):
     cam.location = (float(lo[0] + hi[0]) / 2, float(lo[1] + hi[1]) / 2, float(hi[2]) + 20)
     scene.camera = cam
     scene.render.engine = "BLENDER_WORKBENCH"
-    scene.display.shading.color_type = "MATERIAL"
     scene.render.resolution_x = scene.render.resolution_y = 800
     scene.render.filepath = path
     scene.render.image_settings.file_format = "PNG"
