@@ -6,7 +6,8 @@ With no names, builds all three into sample_scenes/out/NAME.blend. The scenes ar
 by footstep_planner/blender/sample_scenes.py (Jumps: platforms with bends and two 1 m
 gaps; Turns: bends onto a curved platform; Obstacles: walls, pillars, a doorway, a narrow
 corridor, a 15 cm step and a 15-degree ramp). With --mannequin, each scene also gets the
-Footstep Mannequin (footstep_planner/blender/mannequin.py) standing at its Start.
+Footstep Mannequin (footstep_planner/blender/mannequin.py) standing at its Start, with
+its generated clips analysed (the scene at 30 fps), as the planner's character.
 """
 
 import argparse
@@ -22,7 +23,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("names", nargs="*", metavar="NAME", help="jumps, turns, obstacles (default: all)")
     ap.add_argument("--out", default=os.path.join(HERE, "out"), metavar="DIR")
-    ap.add_argument("--mannequin", action="store_true", help="put the sample character at Start")
+    ap.add_argument("--mannequin", action="store_true", help="put the sample character, with its clips, at Start")
     args = ap.parse_args()
     bad = [n for n in args.names if n not in SCENES]
     if bad:
@@ -38,9 +39,8 @@ def main():
     for name in args.names or SCENES:
         scene = build(name)
         if args.mannequin:
-            start = scene.objects["Start"]
-            ob, _ = mannequin.build(scene.collection, location=tuple(start.location))
-            ob.rotation_euler.z = start.rotation_euler.z
+            scene.render.fps = 30
+            mannequin.add_to_scene(scene, "Start")
         path = os.path.join(os.path.abspath(args.out), f"{name}.blend")
         bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
         print(f"saved {path}")

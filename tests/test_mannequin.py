@@ -135,3 +135,19 @@ def test_generate_clips_operator_on_the_character_and_a_clear_refusal_for_a_legl
     with pytest.raises(RuntimeError, match="Stick"):
         bpy.ops.footstep.generate_clips()
     assert len(bpy.data.actions) == before
+
+
+def test_add_to_scene_stands_on_the_marker_as_the_character_and_adds_only_itself(fp, empty_scene):
+    import bpy
+
+    scenes = import_module(fp.__name__ + ".blender.sample_scenes")
+    m = import_module(fp.__name__ + ".blender.mannequin")
+    scene = scenes.build("turns", bpy.context.scene)
+    scene.render.fps = 30
+    before = {o.name for o in bpy.data.objects}
+    ob, result = m.add_to_scene(scene, "Start")
+    assert {o.name for o in bpy.data.objects} - before == {ob.name, f"{ob.name} Body"}
+    start = scene.objects["Start"]
+    np.testing.assert_allclose(ob.location, start.location, atol=1e-6)
+    assert ob.rotation_euler.z == pytest.approx(start.rotation_euler.z)
+    assert scene.footstep.character == ob and len(result.analyses) == 12 and not result.errors

@@ -509,7 +509,7 @@ def _demo(args) -> int:
     import time
 
     from . import mannequin, planning
-    from .character import analyze_character, library_for, write_library
+    from .character import library_for
     from .sample_scenes import SCENES, build
 
     t0 = time.perf_counter()
@@ -522,14 +522,10 @@ def _demo(args) -> int:
     scene = build(name)
     set_scene_fps(scene, 30)
     start, goal_ob = scene.objects["Start"], scene.objects["Goal"]
-    ob, _ = mannequin.build(scene.collection, location=tuple(start.location))
-    ob.rotation_euler = start.rotation_euler
-    acts = mannequin.generate_clips(ob)
-    clips = analyze_character(ob)
+    ob, clips = mannequin.add_to_scene(scene, "Start")
     lib = library_for(ob, clips)
-    write_library(ob, lib, clips.analyses)
     t_clips = time.perf_counter() - t0
-    print(f"demo: the {scene.name} scene, the Footstep Mannequin and its {len(acts)} generated clips "
+    print(f"demo: the {scene.name} scene, the Footstep Mannequin and its {len(clips.analyses)} generated clips "
           f"({t_clips:.1f} s)")
     print(format_table(ob.name, clips.analyses))
     print(format_library(lib))

@@ -183,6 +183,26 @@ class FOOTSTEP_OT_add_mannequin(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def add_to_scene(scene, marker: str = "Start", clips: bool = True, settings=None):
+    """The mannequin standing on ``scene``'s object ``marker`` (its location and Z
+    rotation; the scene's origin when there is no such object), with its generated clips
+    analysed and its library proposed, as the planner's character. Returns (armature,
+    CharacterClips or None)."""
+    from .character import analyze_character, library_for, write_library
+
+    at = scene.objects.get(marker)
+    ob, _ = build(scene.collection, location=tuple(at.location) if at else (0.0, 0.0, 0.0))
+    if at is not None:
+        ob.rotation_euler.z = at.rotation_euler.z
+    result = None
+    if clips:
+        generate_clips(ob)
+        result = analyze_character(ob, settings)
+        write_library(ob, library_for(ob, result), result.analyses)
+    scene.footstep.character = ob
+    return ob, result
+
+
 def _analyze(context, ob):
     """Analyse the character's clips and store the proposed library (unless edited)."""
     from .character import analyze_character, library_for, write_library
