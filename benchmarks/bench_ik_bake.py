@@ -5,6 +5,10 @@ against a conjugate-gradient IK over all the legs' degrees of freedom and the bo
 Choi et al. 2003, with scipy.optimize), on the same synthesized path.
 
     .venv/bin/python benchmarks/bench_ik_bake.py [--scenes jumps,turns,obstacles] [--cg-frames 300]
+        [--library cmu|mannequin]
+
+``--library mannequin`` runs it with the project's own sample character and its generated
+clips (no outside data).
 
 Targets (issue 5): foot skate under 2 mm mean and 10 mm max per stance; planted foot
 within 1 cm of its footprint; no penetration deeper than 5 mm; goal within 5 cm; IK under
@@ -94,6 +98,8 @@ def main():
     ap.add_argument("--mocap", default=os.path.join(os.path.dirname(ROOT), "shared", "mocap", "cmu"))
     ap.add_argument("--scenes", default="jumps,turns,obstacles")
     ap.add_argument("--cg-frames", type=int, default=300, help="frames the CG IK solves (it is slow)")
+    ap.add_argument("--library", choices=("cmu", "mannequin"), default="cmu",
+                    help="the CMU subject-16 clips, or the Footstep Mannequin's generated clips")
     args = ap.parse_args()
     import bpy
 
@@ -108,14 +114,20 @@ def main():
     from footstep_planner.core.rig import forward_kinematics
     from footstep_planner.core.surface import footprint_support
 
+    from footstep_planner.blender import mannequin
+
     register()
-    files = [glob.glob(os.path.join(args.mocap, f"cmu_{n}*.bvh"))[0] for n in LIBRARY]
+    files = ([glob.glob(os.path.join(args.mocap, f"cmu_{n}*.bvh"))[0] for n in LIBRARY]
+             if args.library == "cmu" else [])
     rows, cmp_rows = [], []
     for name in args.scenes.split(","):
         bpy.ops.wm.read_homefile(use_empty=True)
         scene = build(name)
         scene.render.fps = 30
-        ob, _ = import_bvh_clips(files, name="CMU")
+        if args.library == "cmu":
+            ob, _ = import_bvh_clips(files, name="CMU")
+        else:
+            ob, _ = mannequin.add_to_scene(scene, "Start")
         if ob.animation_data:
             ob.animation_data.action = None
         goal = np.array(scene.objects["Goal"].location)
@@ -160,7 +172,7 @@ def main():
         theirs = measure(cg_basis, cg_pos, cg_yaw)
         cmp_rows.append((name, sched.n, t_ours, n_cg, t_cg, ours, theirs))
 
-    print("IK and bake: stage times (ms), thesis Table 4.1 layout")
+    print(f"IK and bake ({args.library} library): stage times (ms), thesis Table 4.1 layout")
     head = (f"{'scene':10s} {'footprints':>10s} {'frames':>7s} {'smooth':>7s} {'refine':>7s} {'body':>7s} "
             f"{'blend':>7s} {'pose':>7s} {'IK':>7s} {'IK/frame':>9s} {'bake':>7s} {'total':>7s}")
     print(head + "\n" + "-" * len(head))
