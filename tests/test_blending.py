@@ -209,3 +209,34 @@ def test_bad_weights_are_refused_naming_the_step():
     with pytest.raises(BlendError, match="step 1"):
         build_schedule([PlanStep(0, None, np.array([1.0])), PlanStep(1, None, np.array([0.5]))],
                        {"walk": tracks()["walk"]}, ["walk"], fps=30.0, transition=0.3)
+
+
+# ----------------------------------------------------------------------------- phase keys
+
+@pytest.mark.parametrize("lead", [0, 1])
+@pytest.mark.parametrize("tau", [0.0, 0.4, -1.25])
+def test_a_cycle_is_keyed_on_whole_stances_whichever_foot_leads(lead, tau):
+    # a clip of two cycles that starts and ends inside a stance of its first foot holds no
+    # whole left-right-left triple when the right foot leads: its phase must not be keyed
+    # on the stance the clip's start cuts (that made steps of 0.1 s and thigh pops)
+    from footstep_planner.core import gait, mannequin
+    from footstep_planner.core.clip import clip_motion
+
+    rig = mannequin.rig()
+    spec = gait.ClipSpec("w", gait.WALK, tau=tau, lead=lead)
+    c = gait.generate(rig, spec, 30.0)
+    import dataclasses
+
+    first = analyze_clip(clip_motion(rig, "w", c.basis, 30.0))
+    whole = [(s.foot, s.stance) for s in first.stances if not (s.open_start or s.open_end)]
+    half = 0.5 * round(gait.WALK.cycle * 30) / 30
+    # whichever cycle the analysis finds best (sampled in Blender, it may start later)
+    for _, start in whole:
+        a = dataclasses.replace(first, best_cycle=(start, start + 2 * half))
+        tr = make_track(a)
+        assert tr.step_duration(0) == pytest.approx(half, abs=0.02)
+        assert tr.step_duration(1) == pytest.approx(half, abs=0.02)
+        t, slope = tr.clip_time_of_phase(np.array([0.0, 0.5]))
+        assert any(f == 0 and abs(t[0] - ts) < 1e-6 for f, ts in whole)  # phase 0: a left stance
+        assert any(f == 1 and abs(t[1] - ts) < 1e-6 for f, ts in whole)  # phase 1/2: a right one
+        assert (slope > 0).all()

@@ -62,7 +62,10 @@ class ClipTrack:
     contact_point: np.ndarray  # (2, n, 3) heel/toe by Johansen's balance, root frame
     contact: np.ndarray  # (2, n) 1.0 while the foot bears weight
     hips_in_root: np.ndarray  # (n, 4, 4)
-    phase_times: np.ndarray | None  # cyclic: (3,) clip times of left, right, left stances
+    # cyclic: clip times keying the phase: (a, b, c), a left, the next right and the next
+    # left stance; or (a, b, b2, c): phases 0 to 1/2 play a..b, phases 1/2 to 1 play b2..c
+    # (a cycle keyed on a right-left-right triple: a = c = the left, b2 one cycle before b)
+    phase_times: np.ndarray | None
     rest_forward: np.ndarray = field(default_factory=lambda: np.array([0.0, -1.0]))  # heading 0
     # the pose, at the clip's own samples (``pose_rate`` Hz): bone rotations as unit
     # quaternions in scipy's (x, y, z, w) order, and the hips' matrix in the root frame
@@ -77,16 +80,20 @@ class ClipTrack:
 
     def step_duration(self, foot: int) -> float:
         """Cyclic clips: seconds from a stance of ``foot`` to the other foot's stance."""
-        a, b, c = self.phase_times
-        return float(b - a if foot == 0 else c - b)
+        a, b, b2, c = self._keys()
+        return float(b - a if foot == 0 else c - b2)
+
+    def _keys(self):
+        k = self.phase_times
+        return (k[0], k[1], k[1], k[2]) if len(k) == 3 else tuple(k)
 
     def clip_time_of_phase(self, phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Cyclic clips: (clip time, d clip time / d phase) at phases (any real)."""
-        a, b, c = self.phase_times
+        a, b, b2, c = self._keys()
         f = np.mod(phase, 1.0)
         first = f < 0.5
-        t = np.where(first, a + (b - a) * 2.0 * f, b + (c - b) * 2.0 * (f - 0.5))
-        slope = np.where(first, 2.0 * (b - a), 2.0 * (c - b))
+        t = np.where(first, a + (b - a) * 2.0 * f, b2 + (c - b2) * 2.0 * (f - 0.5))
+        slope = np.where(first, 2.0 * (b - a), 2.0 * (c - b2))
         return t, slope
 
     def sample(self, t: np.ndarray) -> dict:
@@ -138,7 +145,7 @@ def make_track(a: ClipAnalysis, rate: float = 120.0) -> ClipTrack:
     con = np.stack([np.interp(dense.times, src, a.contact[k].astype(float)) for k in range(2)])
     cpt = heel + bal[..., None] * (toe - heel)
     stances = sorted(((s.foot, float(s.stance)) for s in a.stances), key=lambda x: x[1])
-    phase = _phase_times(a, stances) if a.kind == "cycle" else None
+    phase = _phase_times(a) if a.kind == "cycle" else None
     return ClipTrack(name=a.name, kind=a.kind, gait=a.gait, entry_gait=a.entry_gait,
                      exit_gait=a.exit_gait, rate=float(dense.fps), duration=dense.duration,
                      vel=vel, yaw_rate=yaw_rate, heel=heel, toe=toe, contact_point=cpt,
@@ -159,29 +166,47 @@ def _quats(rot: np.ndarray) -> np.ndarray:
     return q
 
 
-def _phase_times(a: ClipAnalysis, stances) -> np.ndarray:
-    """Clip times of a left stance, the next right stance and the next left stance, the
-    first such triple starting in the clip's best cycle (else anywhere)."""
+def _phase_times(a: ClipAnalysis) -> np.ndarray:
+    """The clip times that key a cyclic clip's phase (``ClipTrack.phase_times``): a left
+    stance, the next right one and the next left one, the first such triple in the
+    clip's best cycle (else anywhere). Only whole stances count (a stance cut by the
+    clip's start or end has a stance time that is merely where the clip begins or ends):
+    a clip that holds no whole left-right-left triple is keyed on a right-left-right one.
+    Cut stances are the last resort."""
     lo = a.best_cycle[0] - 1e-6 if a.best_cycle else 0.0
-    triples = []
+    whole = sorted(((s.foot, float(s.stance)) for s in a.stances if not (s.open_start or s.open_end)),
+                   key=lambda x: x[1])
+    every = sorted(((s.foot, float(s.stance)) for s in a.stances), key=lambda x: x[1])
+    for stances in (whole, every):
+        for first in (0, 1):
+            triples = _triples(stances, first)
+            if triples:
+                good = [t for t in triples if t[0] >= lo]
+                t0, t1, t2 = (good or triples)[0]
+                if first == 0:
+                    return np.array((t0, t1, t2), dtype=np.float64)
+                # right r0, left l1, right r2: phase 0 at l1, 1/2 at r2 (one cycle on from r0)
+                return np.array((t1, t2, t0, t1), dtype=np.float64)
+    raise BlendError(f"clip {a.name!r} has no left-right-left footstep sequence to loop")
+
+
+def _triples(stances, first: int) -> list:
+    """(t0, t1, t2): stances of feet first, other, first, alternating, in time order."""
+    out = []
     for i, (f0, t0) in enumerate(stances):
-        if f0 != 0:
+        if f0 != first:
             continue
         rest = stances[i + 1:]
-        r = next(((f, t) for f, t in rest if f == 1), None)
+        r = next(((f, t) for f, t in rest if f != first), None)
         if r is None:
             continue
-        left2 = next(((f, t) for f, t in rest if f == 0 and t > r[1]), None)
-        if left2 is None:
+        again = next(((f, t) for f, t in rest if f == first and t > r[1]), None)
+        if again is None:
             continue
-        # the triple alternates: no other left stance between t0 and the right one
-        if any(f == 0 and t0 < t < r[1] for f, t in rest):
+        if any(f == first and t0 < t < r[1] for f, t in rest):
             continue
-        triples.append((t0, r[1], left2[1]))
-    if not triples:
-        raise BlendError(f"clip {a.name!r} has no left-right-left footstep sequence to loop")
-    good = [t for t in triples if t[0] >= lo]
-    return np.array((good or triples)[0], dtype=np.float64)
+        out.append((t0, r[1], again[1]))
+    return out
 
 
 # ----------------------------------------------------------------------------- schedule

@@ -102,6 +102,7 @@ class ClipSpec:
     cycles: int = 2  # length of a cycle clip (it loops)
     jump_flight: float = 0.3  # jump: time in the air, s
     speed: float | None = None  # overrides the gait's
+    lead: int = 0  # the foot whose stance comes first in the cycle (0 left, 1 right)
 
     @property
     def v(self) -> float:
@@ -184,7 +185,8 @@ def _timeline(spec: ClipSpec, fps: float):
     t = np.arange(round(dur * fps) + 1) / fps
     dur = t[-1]
     # steady stances: left centred at T/4 + jT, right at 3T/4 + jT
-    centers = [(k, 0.25 * T + 0.5 * k * T + j * T) for j in range(-3, int(dur / T) + 4) for k in (0, 1)]
+    centers = [(k ^ spec.lead, 0.25 * T + 0.5 * k * T + j * T) for j in range(-3, int(dur / T) + 4)
+               for k in (0, 1)]
     centers.sort(key=lambda kc: kc[1])
     v = np.full(len(t), spec.v)
     # the hips pass over the ankle early in the stance: the foot lands a little ahead of
