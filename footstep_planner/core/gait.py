@@ -112,16 +112,17 @@ class ClipSpec:
 def library_specs() -> list[ClipSpec]:
     """The sample character's library: walk forward and turning left and right at radii of
     0.8 m and 2.5 m, run forward and turning at 4 m, a running jump over 1.2 m, start from
-    standing, stop to standing, idle."""
+    standing, stop to standing, idle. A right turn is the left turn's mirror image: it
+    leads with the right foot."""
     out = [ClipSpec("walk", WALK)]
     for r, tag in ((2.5, "wide"), (0.8, "sharp")):
         for sign, side in ((1, "left"), (-1, "right")):
             # a sharp turn is walked a little slower
             out.append(ClipSpec(f"walk_turn_{side}_{tag}", WALK, tau=sign / r,
-                                speed=WALK.speed * (0.93 if r < 1 else 1.0)))
+                                speed=WALK.speed * (0.93 if r < 1 else 1.0), lead=int(sign < 0)))
     out.append(ClipSpec("run", RUN, cycles=3))
     for sign, side in ((1, "left"), (-1, "right")):
-        out.append(ClipSpec(f"run_turn_{side}", RUN, tau=sign / 4.0, cycles=3, speed=3.0))
+        out.append(ClipSpec(f"run_turn_{side}", RUN, tau=sign / 4.0, cycles=3, speed=3.0, lead=int(sign < 0)))
     out += [ClipSpec("run_jump", RUN, kind="jump"), ClipSpec("walk_start", WALK, kind="start"),
             ClipSpec("walk_stop", WALK, kind="stop"), ClipSpec("idle", WALK, kind="idle")]
     return out
