@@ -96,10 +96,16 @@ def test_generated_clips_are_actions_the_analysis_reads_as_the_core_made_them(fp
     groups = {g.gait: [c.clip for c in g.clips] for g in lib.turn_groups.values()}
     assert set(groups["walk"]) == {"walk", "walk_turn_left_sharp", "walk_turn_right_sharp",
                                    "walk_turn_left_wide", "walk_turn_right_wide"}
-    # generating again replaces the generator's own clips, and nothing else
+    # generating again rewrites the generator's own clips in place, and nothing else
     mine = bpy.data.actions.new("walk_mine")
+    walk = bpy.data.actions["walk"]
+    tr = ob.animation_data_create().nla_tracks.new()
+    strip = tr.strips.new("walk", 1, walk)
+    keys = len(walk.layers[0].strips[0].channelbag(walk.slots[0]).fcurves)
     again = m.generate_clips(ob, names=["walk"])
-    assert [a.name for a in again] == ["walk"] and "walk.001" not in bpy.data.actions
+    assert again == [walk] and "walk.001" not in bpy.data.actions
+    assert strip.action == walk and strip.action_slot == walk.slots[0]  # the strip still plays it
+    assert len(walk.layers) == 1 and len(walk.layers[0].strips[0].channelbag(walk.slots[0]).fcurves) == keys
     assert "walk_mine" in bpy.data.actions and mine.name == "walk_mine"
     assert len([a for a in bpy.data.actions if a.get(m.GENERATED_PROP)]) == 12
 

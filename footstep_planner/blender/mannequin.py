@@ -106,9 +106,11 @@ def build(collection=None, name: str = NAME, location=(0.0, 0.0, 0.0)):
 def generate_clips(ob, names=None, fps: float | None = None) -> list:
     """Synthesize the sample clip library (``core.gait``) for armature ``ob`` and write each
     clip as an Action of its own (hips location and every bone's rotation, keyed on every
-    frame from frame 1, at the scene's frame rate). Clips this function made earlier for
-    the same armature are replaced; nothing else is touched. ``names`` picks clips of
-    ``gait.library_specs()``. Returns the new actions, in library order.
+    frame from frame 1, at the scene's frame rate). Nothing but the generator's own clips
+    for this armature is touched. ``names`` picks clips of
+    ``gait.library_specs()``. Clips generated earlier are rewritten in place (strips that
+    play them keep playing them; keys edited by hand in them are replaced). Returns the
+    actions, in library order.
 
     Raises RigError (naming the armature and bones) for a rig without legs."""
     from ..core import gait
@@ -126,21 +128,28 @@ def generate_clips(ob, names=None, fps: float | None = None) -> list:
             raise ValueError(f"no generated clip named {', '.join(unknown)}; the library has "
                              f"{', '.join(s.name for s in specs)}")
         specs = [s for s in specs if s.name in names]
-    for act in [a for a in bpy.data.actions if a.get(GENERATED_PROP) == ob.data.name
-                and a.get("footstep_clip") in {s.name for s in specs}]:
-        bpy.data.actions.remove(act)
+    # clips generated earlier are rewritten in place: NLA strips and assignments that
+    # play them keep playing them
+    earlier = {a.get("footstep_clip"): a for a in bpy.data.actions
+               if a.get(GENERATED_PROP) == ob.data.name}
     hips = rig.roles.bone("hips")
     out = []
     for spec in specs:
         clip = gait.generate(rig, spec, fps)
         frames = 1.0 + np.arange(len(clip.basis)) * scene_fps() / fps
-        act = bpy.data.actions.new(spec.name)
+        act = earlier.get(spec.name)
+        if act is None:
+            act = bpy.data.actions.new(spec.name)
+            slot = act.slots.new(id_type="OBJECT", name=ob.name)
+        else:
+            for layer in list(act.layers):
+                act.layers.remove(layer)
+            slot = act.slots[0] if len(act.slots) else act.slots.new(id_type="OBJECT", name=ob.name)
         act[GENERATED_PROP] = ob.data.name
         act["footstep_clip"] = spec.name
         act[ARMATURE_PROP] = ob.data.name
         act[SOURCE_FPS_PROP] = fps
         act.use_fake_user = True
-        slot = act.slots.new(id_type="OBJECT", name=ob.name)
         cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
         for b, bname in enumerate(rig.names):
             pb = ob.pose.bones[bname]
