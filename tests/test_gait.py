@@ -154,3 +154,55 @@ def test_the_numpy_rig_matches_blenders_bone_matrices():
         r = mannequin.bone_matrix(row[1], row[2])[:3, :3]
         np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-9)
         assert np.linalg.det(r) == pytest.approx(1.0)
+
+
+def _scaled_rig(s: float):
+    """The mannequin's skeleton scaled by s (a child, a tall adult)."""
+    from footstep_planner.core.rig import Rig
+
+    rest = RIG.rest.copy()
+    rest[:, :3, 3] *= s
+    return Rig.build("scaled", RIG.names, RIG.parents, rest, RIG.tails * s)
+
+
+@pytest.mark.parametrize("s", [0.75, 1.15])
+@pytest.mark.parametrize("name", ["walk", "run", "walk_turn_left_sharp"])
+def test_a_rig_of_other_proportions_gets_the_gait_scaled_to_its_legs(s, name):
+    rig = _scaled_rig(s)
+    spec = SPECS[name]
+    c = gait.generate(rig, spec, FPS)
+    m = clip_motion(rig, name, c.basis, FPS)
+    a = analyze_clip(m)
+    ref = analyze_clip(clip_motion(RIG, name, gait.generate(RIG, spec, FPS).basis, FPS))
+    # equal Froude numbers: speed by sqrt(s), stride and radius by s
+    assert a.gait == ref.gait
+    assert a.speed == pytest.approx(ref.speed * np.sqrt(s), rel=0.05)
+    assert a.stride == pytest.approx(ref.stride * s, rel=0.05)
+    assert a.tau == pytest.approx(ref.tau / s, rel=0.05, abs=0.005)
+    assert stance_drift(m) < 0.002
+    assert m.heel[:, :, 2].min() > -0.001 and m.toe[:, :, 2].min() > -0.001
+    pose = forward_kinematics(rig, c.basis)
+    for side in "LR":
+        d = np.linalg.norm(pose[:, rig.index(f"foot.{side}"), :3, 3] - pose[:, rig.index(f"thigh.{side}"), :3, 3], axis=1)
+        assert d.max() < 0.99 * 0.84 * s
+
+
+def test_a_rig_without_the_metarig_legs_or_with_feet_off_the_ground_is_refused_by_name():
+    from footstep_planner.core.rig import Rig
+
+    names = [n.replace("thigh", "UpLeg") for n in RIG.names]
+    other = Rig.build("Hero", names, RIG.parents, RIG.rest, RIG.tails)
+    with pytest.raises(gait.GaitError, match=r"'Hero'.*no thigh\.L, thigh\.R"):
+        gait.generate(other, SPECS["walk"])
+    rest = RIG.rest.copy()
+    rest[:, 2, 3] += 0.3  # standing 30 cm above its ground
+    high = Rig.build("Floating", RIG.names, RIG.parents, rest, RIG.tails + [0, 0, 0.3])
+    with pytest.raises(gait.GaitError, match=r"'Floating': foot\.L does not stand flat"):
+        gait.generate(high, SPECS["walk"])
+
+
+def test_the_reference_proportions_are_the_mannequins():
+    from footstep_planner.core.ik import leg_lengths
+
+    assert sum(leg_lengths(RIG, "l")) == pytest.approx(gait.REF_LEG, abs=1e-9)
+    assert RIG.rest[RIG.role_index("hips"), 2, 3] == pytest.approx(gait.REF_HIPS, abs=1e-9)

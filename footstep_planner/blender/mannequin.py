@@ -112,7 +112,8 @@ def generate_clips(ob, names=None, fps: float | None = None) -> list:
     play them keep playing them; keys edited by hand in them are replaced). Returns the
     actions, in library order.
 
-    Raises RigError (naming the armature and bones) for a rig without legs."""
+    Raises RigError or GaitError (naming the armature and bones) for a rig without legs
+    or without the human metarig's leg bones."""
     from ..core import gait
     from .clips import _curve, _write_rotation
     from .scene import ARMATURE_PROP, SOURCE_FPS_PROP, rig_from_armature, scene_fps
@@ -120,6 +121,7 @@ def generate_clips(ob, names=None, fps: float | None = None) -> list:
 
     rig = rig_from_armature(ob)
     rig.require_legs()
+    gait.require_metarig(rig)
     fps = float(fps or scene_fps())
     specs = gait.library_specs()
     if names:
@@ -225,8 +227,9 @@ def _analyze(context, ob):
 
 class FOOTSTEP_OT_generate_clips(bpy.types.Operator):
     """Generate the sample clip library (walk, turns, run, jump, start, stop, idle) for the
-    planner's character: a rig with the human metarig's bone names and adult proportions,
-    such as the Footstep Mannequin. Replaces only clips generated earlier"""
+    planner's character, a rig with the human metarig's bone names (the Footstep
+    Mannequin, Rigify's metarig): the mannequin's gait scaled to its legs. Replaces only
+    clips generated earlier"""
 
     bl_idname = "footstep.generate_clips"
     bl_label = "Generate Sample Clips"

@@ -34,8 +34,43 @@ from scipy.interpolate import CubicSpline
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 from scipy.spatial.transform import Rotation
 
+from .errors import FootstepError
 from .ik import chain_bases, leg_lengths, two_bone
 from .rig import Rig, forward_kinematics
+
+
+class GaitError(FootstepError):
+    """A rig the gait cannot be made for; the message names the armature and bones."""
+
+
+#: The bones the gait poses by name (Blender's human metarig, Rigify's metarig): legs
+#: and hips are required, spine and arms optional.
+LEG_BONES = ("spine", "thigh.L", "shin.L", "foot.L", "toe.L", "thigh.R", "shin.R", "foot.R", "toe.R")
+
+
+def require_metarig(rig: Rig) -> None:
+    """Raise GaitError unless ``rig`` has the human metarig's hips and leg bones in those
+    roles, with the feet flat on the ground in the rest pose (the gait's feet roll from
+    there)."""
+    missing = [b for b in LEG_BONES if b not in rig.names]
+    roles = {"hips": "spine", "thigh_l": "thigh.L", "shin_l": "shin.L", "foot_l": "foot.L",
+             "thigh_r": "thigh.R", "shin_r": "shin.R", "foot_r": "foot.R"}
+    wrong = [f"{r} is {rig.roles.roles.get(r)!r}" for r, b in roles.items()
+             if b in rig.names and rig.roles.roles.get(r) != b]
+    if missing or wrong:
+        raise GaitError(
+            f"armature {rig.name!r}: the sample clips are made for rigs with the human metarig's "
+            f"bone names (the Footstep Mannequin, Rigify's metarig); "
+            + (f"it has no {', '.join(missing)}" if missing else f"its roles differ: {', '.join(wrong)}"))
+    leg = sum(leg_lengths(rig, "l"))
+    for side in "LR":
+        foot, toe = rig.rest[rig.index(f"foot.{side}")], rig.rest[rig.index(f"toe.{side}")]
+        ankle, ball = foot[2, 3], toe[2, 3]
+        if not (abs(ball) < 0.07 * leg and ball < ankle) or abs(toe[2, 1]) > 0.5:
+            raise GaitError(f"armature {rig.name!r}: foot.{side} does not stand flat in the rest pose "
+                            f"(ankle at {ankle:.3f} m, ball at {ball:.3f} m, toe pointing "
+                            f"{np.degrees(np.arcsin(np.clip(toe[2, 1], -1, 1))):+.0f} deg): the "
+                            "sample clips need the feet on the ground at z = 0")
 
 G = 9.81
 SIDES = ("l", "r")
@@ -167,7 +202,7 @@ def _smoothstep(u):
     return u * u * (3.0 - 2.0 * u)
 
 
-def _timeline(spec: ClipSpec, fps: float):
+def _timeline(spec: ClipSpec, fps: float, size: float = 1.0):
     """Duration, speed profile v(t) on the frame times, and the stances (unplaced)."""
     g = spec.gait
     T = round(g.cycle * fps) / fps  # a whole number of frames, so a cycle clip loops
@@ -210,7 +245,7 @@ def _timeline(spec: ClipSpec, fps: float):
         shift = spec.jump_flight - (T / 2 - D)  # (the steady flight is T/2 - D)
         for s in stances[j0 + 1:]:
             s.strike, s.liftoff, s.center = s.strike + shift, s.liftoff + shift, s.center + shift
-        stances[j0 + 1].clearance = stances[j0 + 2].clearance = 0.3
+        stances[j0 + 1].clearance = stances[j0 + 2].clearance = 0.3 * size
     # every stance that touches the clip, and the one before and after it for each foot
     # (the swings at the clip's ends run between them)
     stances = [s for s in stances if s.liftoff > -T and s.strike < dur + T]
@@ -281,11 +316,30 @@ def _left(h):
     return np.c_[np.cos(h), np.sin(h)]
 
 
+#: The mannequin's leg (hip joint to knee to ankle, 0.84) and hips-head height, m: the
+#: gaits' lengths and heights are the mannequin's, and scale with a rig's legs.
+REF_LEG = 0.43 + float(np.hypot(0.41, 0.01))
+REF_HIPS = 0.95
+
+
 def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
-    """Generate one clip for ``rig`` (the mannequin, or any rig with the human metarig's
-    leg, spine and arm names) at ``fps``."""
+    """Generate one clip for ``rig`` at ``fps``: the mannequin, or a rig with the human
+    metarig's hips and leg bones (``require_metarig``; spine and arm bones are posed
+    where they have the metarig's names too). A rig of other proportions gets the gait scaled to its legs: lengths by the
+    ratio of leg lengths s, speeds and times by sqrt(s) (equal Froude numbers), heights
+    measured down from its hips' rest height."""
+    require_metarig(rig)
+    size = sum(leg_lengths(rig, "l")) / REF_LEG
+    hips0 = float(rig.rest[rig.role_index("hips"), 2, 3])
+    stand_height = hips0 - (REF_HIPS - STAND_HEIGHT) * size
+    if abs(size - 1.0) > 1e-4 or abs(hips0 - REF_HIPS) > 1e-4:
+        r, k = np.sqrt(size), size
+        g0 = spec.gait
+        g = replace(g0, speed=g0.speed * r, cycle=g0.cycle * r, width=g0.width * k, clearance=g0.clearance * k,
+                    height=hips0 - (REF_HIPS - g0.height) * k, bob=g0.bob * k, sway=g0.sway * k)
+        spec = replace(spec, gait=g, speed=None if spec.speed is None else spec.speed * r, tau=spec.tau / k)
     g = spec.gait
-    t, v, stances, T = _timeline(spec, fps)
+    t, v, stances, T = _timeline(spec, fps, size)
     F = len(t)
     dur = t[-1]
     root, heading = _path_at(t, t, v, spec.tau)
@@ -302,8 +356,8 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
         side = 1.0 if s.foot == 0 else -1.0
         s.heading = h + side * (np.radians(8) if standing else g.toe_out)
         # leaning into a turn, the body is inside its feet by leg height x tan(lean)
-        inward = 0.0 if standing else LEG_HEIGHT * np.tan(_lean(spec, spec.v))
-        s.pos = p + (side * (0.1 if standing else g.width) - inward) * _left(h)[0]
+        inward = 0.0 if standing else LEG_HEIGHT * size * np.tan(_lean(spec, spec.v))
+        s.pos = p + (side * (0.1 * size if standing else g.width) - inward) * _left(h)[0]
 
     # feet
     heel_g = np.zeros((2, 3))
@@ -315,10 +369,10 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
         ball_g[k, 2] = 0.0  # (the ball joint is ball_j: above it)
     foot_m = np.zeros((2, F, 4, 4))
     toe_bend = np.zeros((2, F))
-    for k in range(2):
-        ball_j = rig.ball_local(side)[:3] @ rig.rest[feet[k], :3, :3].T + rig.rest[feet[k], :3, 3]
-        foot_m[k], toe_bend[k] = _foot_track(t, [s for s in stances if s.foot == k], rig.rest[feet[k]],
-                                             heel_g[k], ball_g[k], ball_j, g, T)
+    for i, side in enumerate(SIDES):
+        ball_j = rig.ball_local(side)[:3] @ rig.rest[feet[i], :3, :3].T + rig.rest[feet[i], :3, 3]
+        foot_m[i], toe_bend[i] = _foot_track(t, [s for s in stances if s.foot == i], rig.rest[feet[i]],
+                                             heel_g[i], ball_g[i], ball_j, g, T, HEEL_BACK * size)
 
     # body: height, sway, rotation
     sigma = _sway_signal(t, stances)
@@ -327,11 +381,11 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
         sigma = 0.6 * np.sin(2 * np.pi * t / dur)
     run = g.name == "run"
     bob = (-1.0 if run else 1.0) * g.bob * (2 * sigma ** 2 - 1)
-    height = STAND_HEIGHT + (g.height - STAND_HEIGHT + bob) * ramp
+    height = stand_height + (g.height - stand_height + bob) * ramp
     if spec.kind == "idle":
-        height = STAND_HEIGHT - 0.004 * (1 - np.cos(4 * np.pi * t / dur))
+        height = stand_height - 0.004 * size * (1 - np.cos(4 * np.pi * t / dur))
     if spec.kind == "jump":
-        flying = _ballistic(t, height, stances)
+        flying = _ballistic(t, height, stances, dip=0.06 * size)
         # the swinging feet rise with the body
         rise = np.maximum(flying - height, 0.0)
         for k in range(2):
@@ -340,7 +394,7 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
                 down |= (s.foot == k) & (t >= s.strike) & (t <= s.liftoff)
             foot_m[k, ~down, 2, 3] += rise[~down]
         height = flying
-    sway = (g.sway if spec.kind != "idle" else 0.03) * sigma * np.maximum(ramp, spec.kind == "idle")
+    sway = (g.sway if spec.kind != "idle" else 0.03 * size) * sigma * np.maximum(ramp, spec.kind == "idle")
     pos = np.c_[root + sway[:, None] * _left(heading), height]
     # lean: forward with speed, into turns (centripetal), pelvic list and rotation
     accel_lean = np.gradient(gaussian_filter1d(v, 0.15 * fps, mode="nearest"), t) * 0.03
@@ -407,7 +461,7 @@ def _lean(spec: ClipSpec, v):
     return spec.gait.turn_lean * np.arctan(np.asarray(v) ** 2 * spec.tau / G)
 
 
-def _foot_track(t, stances, rest_foot, heel_g, ball_g, ball_j, g: Gait, T: float):
+def _foot_track(t, stances, rest_foot, heel_g, ball_g, ball_j, g: Gait, T: float, heel_back_m: float = HEEL_BACK):
     """(F, 4, 4) armature-space matrices of one foot bone: planted and rolling during its
     stances, swinging in between; and (F,) how far the toes bend up (radians) to stay flat
     on the ground while the heel is up (easing back early in the swing)."""
@@ -417,7 +471,7 @@ def _foot_track(t, stances, rest_foot, heel_g, ball_g, ball_j, g: Gait, T: float
     nominal = g.duty * T
     # the heel rocker pivots on the back of the heel, behind the ankle: the ankle rises as
     # the toes do (it is lowest with the foot flat, where the analysis finds its stance)
-    heel_back = heel_g + HEEL_BACK * (heel_g - ball_g) / np.linalg.norm(heel_g - ball_g)
+    heel_back = heel_g + heel_back_m * (heel_g - ball_g) / np.linalg.norm(heel_g - ball_g)
 
     def planted(s, tq):
         """Foot matrices at times tq inside stance s."""
@@ -525,7 +579,7 @@ def _leg_forward(foot_m, root, heading, g, spec) -> np.ndarray:
     return np.clip((ahead[0] - ahead[1]) / (2 * half), -1.5, 1.5)
 
 
-def _ballistic(t, height, stances) -> np.ndarray:
+def _ballistic(t, height, stances, dip: float = 0.06) -> np.ndarray:
     """Replace the hips' height in the longest flight by a ballistic arc (gravity) that
     meets the height profile at take-off and landing with its slope."""
     down = np.zeros(len(t), bool)
@@ -545,7 +599,6 @@ def _ballistic(t, height, stances) -> np.ndarray:
     out[a:b + 1] = za + vz * tt - 0.5 * G * tt ** 2
     # ease the stances either side into the arc's take-off and landing speeds: a crouch
     # before the take-off and after the landing
-    dip = 0.06
     w = 0.25
     pre = (t > ta - w) & (t <= ta)
     post = (t >= tb) & (t < tb + w)
