@@ -583,8 +583,46 @@ def _review_sheet(scene, ob, doc, out_dir: str, name: str) -> tuple[str, list[st
     scene.frame_set(doc["frame_end"])
     _render_top(scene, top)
     sheet = os.path.join(out_dir, f"{name}_review.png")
-    _compose([top] + shots, sheet)
+    captions = []
+    for f in picks:
+        near = min(fps, key=lambda fp: abs(fp["frame"] - f))
+        what = ("in the air over a gap" if jumps and f == picks[1] and picks[1] not in [x["frame"] for x in fps]
+                else f"{near.get('gait', 'walk')}ing ({near.get('clip', '')})".replace("runing", "running"))
+        captions.append(f"frame {f}: {what}")
+    q = doc["quality"]
+    title = (f"{scene.name}: {n} footprints ({len(jumps)} jumps), frames {doc['frame_start']}-{doc['frame_end']}; "
+             f"goal {q['goal']['distance_m'] * 100:.1f} cm, foot skate max {q['foot_skate']['max_mm']:.2f} mm")
+    try:
+        _compose_labelled(top, shots, captions, title, sheet)
+    except ImportError:  # (no matplotlib, as inside Blender: the same sheet without words)
+        _compose([top] + shots, sheet)
     return sheet, shots + [top]
+
+
+def _compose_labelled(top: str, shots: list[str], captions: list[str], title: str, out: str) -> None:
+    """The review sheet with a title and captions (matplotlib): the top view on the left,
+    the frames in two columns beside it."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = (len(shots) + 1) // 2
+    fig = plt.figure(figsize=(18, 8.4), dpi=100)
+    grid = fig.add_gridspec(rows, 4, width_ratios=[1.15, 1.15, 1, 1], wspace=0.02, hspace=0.12)
+    ax = fig.add_subplot(grid[:, :2])
+    ax.imshow(plt.imread(top))
+    ax.set_title("top view: footprints (left blue, right red, jump landings yellow), body path (orange)",
+                 fontsize=10)
+    ax.axis("off")
+    for k, (png, cap) in enumerate(zip(shots, captions)):
+        a = fig.add_subplot(grid[k // 2, 2 + k % 2])
+        a.imshow(plt.imread(png))
+        a.set_title(cap, fontsize=10)
+        a.axis("off")
+    fig.suptitle(title, fontsize=12)
+    fig.savefig(out, bbox_inches="tight")
+    plt.close(fig)
 
 
 def _compose(paths: list[str], out: str) -> None:
