@@ -36,6 +36,14 @@ def analyze_character(ob, settings: Settings | None = None, fps: float | None = 
     return result
 
 
+def analyze_and_propose(ob, settings: Settings | None = None) -> CharacterClips:
+    """Analyse ``ob``'s clips and store the proposed library, unless a user edited it."""
+    result = analyze_character(ob, settings)
+    if not ob.data.footstep.library_edited:
+        write_library(ob, library_for(ob, result), result.analyses)
+    return result
+
+
 _USAGE_OF_KIND = {"jump": "JUMP", "start": "START", "stop": "STOP", "idle": "IDLE"}
 
 
@@ -105,5 +113,5 @@ def library_for(ob, clips: CharacterClips) -> Library:
     return propose_library(clips.analyses)
 
 
-__all__ = ["CharacterClips", "analyze_character", "library_for", "read_library", "write_library",
+__all__ = ["CharacterClips", "analyze_and_propose", "analyze_character", "library_for", "read_library", "write_library",
            "summary", "LibraryError"]

@@ -509,7 +509,7 @@ def _demo(args) -> int:
     import time
 
     from . import mannequin, planning
-    from .character import library_for
+    from .character import read_library
     from .sample_scenes import SCENES, build
 
     t0 = time.perf_counter()
@@ -523,7 +523,7 @@ def _demo(args) -> int:
     set_scene_fps(scene, 30)
     start, goal_ob = scene.objects["Start"], scene.objects["Goal"]
     ob, clips = mannequin.add_to_scene(scene, "Start")
-    lib = library_for(ob, clips)
+    lib = read_library(ob)  # (as add_to_scene proposed and stored it)
     t_clips = time.perf_counter() - t0
     print(f"demo: the {scene.name} scene, the Footstep Mannequin and its {len(clips.analyses)} generated clips "
           f"({t_clips:.1f} s)")
@@ -571,11 +571,12 @@ def _review_sheet(scene, ob, doc, out_dir: str, name: str) -> tuple[str, list[st
     n = len(fps)
     picks = [fps[int(i * (n - 1) / 5)]["frame"] for i in (1, 2, 3, 4)]
     jumps = [i for i, f in enumerate(fps) if f.get("jump")]
+    airborne = None
     if jumps:  # the first jump's flight, half way between take-off and landing
         i = jumps[0]
         take_off = fps[i - 1]["planted_frames"][1] if i > 0 else fps[i]["frame"]
-        mid = (take_off + fps[i]["planted_frames"][0]) // 2
-        picks[1] = mid
+        airborne = int((take_off + fps[i]["planted_frames"][0]) // 2)
+        picks[1] = airborne
     picks = sorted(set(int(f) for f in picks))
     shots = [_render_character(scene, ob, f, os.path.join(out_dir, f"{name}_frame{f:04d}.png")) for f in picks]
     _draw_footprints(scene, doc)
@@ -584,10 +585,11 @@ def _review_sheet(scene, ob, doc, out_dir: str, name: str) -> tuple[str, list[st
     _render_top(scene, top)
     sheet = os.path.join(out_dir, f"{name}_review.png")
     captions = []
+    doing = {"walk": "walking", "run": "running"}
     for f in picks:
         near = min(fps, key=lambda fp: abs(fp["frame"] - f))
-        what = ("in the air over a gap" if jumps and f == picks[1] and picks[1] not in [x["frame"] for x in fps]
-                else f"{near.get('gait', 'walk')}ing ({near.get('clip', '')})".replace("runing", "running"))
+        what = ("in the air over a gap" if f == airborne
+                else f"{doing.get(near.get('gait'), near.get('gait'))} ({near.get('clip', '')})")
         captions.append(f"frame {f}: {what}")
     q = doc["quality"]
     title = (f"{scene.name}: {n} footprints ({len(jumps)} jumps), frames {doc['frame_start']}-{doc['frame_end']}; "

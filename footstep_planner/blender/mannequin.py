@@ -199,7 +199,7 @@ def add_to_scene(scene, marker: str = "Start", clips: bool = True, settings=None
     rotation; the scene's origin when there is no such object), with its generated clips
     analysed and its library proposed, as the planner's character. Returns (armature,
     CharacterClips or None)."""
-    from .character import analyze_character, library_for, write_library
+    from .character import analyze_and_propose
 
     at = scene.objects.get(marker)
     ob, _ = build(scene.collection, location=tuple(at.location) if at else (0.0, 0.0, 0.0))
@@ -208,21 +208,17 @@ def add_to_scene(scene, marker: str = "Start", clips: bool = True, settings=None
     result = None
     if clips:
         generate_clips(ob)
-        result = analyze_character(ob, settings)
-        write_library(ob, library_for(ob, result), result.analyses)
+        result = analyze_and_propose(ob, settings)
     scene.footstep.character = ob
     return ob, result
 
 
 def _analyze(context, ob):
     """Analyse the character's clips and store the proposed library (unless edited)."""
-    from .character import analyze_character, library_for, write_library
+    from .character import analyze_and_propose
     from .props import settings_from_props
 
-    result = analyze_character(ob, settings_from_props(context.scene.footstep.settings))
-    if not ob.data.footstep.library_edited:
-        write_library(ob, library_for(ob, result), result.analyses)
-    return result
+    return analyze_and_propose(ob, settings_from_props(context.scene.footstep.settings))
 
 
 class FOOTSTEP_OT_generate_clips(bpy.types.Operator):

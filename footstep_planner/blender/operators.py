@@ -46,7 +46,7 @@ class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
         ("NEW", "New Armature", "Make a new armature from the first file's skeleton")])
 
     def execute(self, context):
-        from .character import analyze_character, library_for, write_library
+        from .character import analyze_and_propose
         from .clips import import_bvh_clips
 
         paths = [os.path.join(self.directory, f.name) for f in self.files if f.name] or [self.filepath]
@@ -55,9 +55,7 @@ class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
             ob, actions = import_bvh_clips(paths, target=target)
             if context.scene.footstep.character is None:
                 context.scene.footstep.character = ob
-            result = analyze_character(ob, _settings(context))
-            if not ob.data.footstep.library_edited:
-                write_library(ob, library_for(ob, result), result.analyses)
+            result = analyze_and_propose(ob, _settings(context))
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}

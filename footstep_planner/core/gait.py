@@ -30,12 +30,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.ndimage import gaussian_filter1d, maximum_filter1d
+from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
+from .clip import root_frames
 from .errors import FootstepError
-from .ik import chain_bases, leg_lengths, two_bone
+from .ik import chain_bases, leg_lengths, lower_smoothly, reach_need, smoothstep, two_bone
 from .rig import Rig, forward_kinematics
 
 
@@ -80,7 +80,6 @@ STAND_HEIGHT = 0.935
 LEG_HEIGHT = 0.8
 #: The legs are kept within this share of their length (the knee never locks).
 REACH = 0.975
-DEBUG = None
 #: The back of the heel is this far behind the ankle, m.
 HEEL_BACK = 0.045
 
@@ -182,25 +181,10 @@ class GaitClip:
     fps: float
     basis: np.ndarray  # (F, B, 4, 4)
     stances: list[Stance]
-    root: np.ndarray  # (F, 2) path position
-    heading: np.ndarray  # (F,)
     hips_drop: np.ndarray  # (F,) m lowered to keep the legs in reach
-
-    @property
-    def name(self) -> str:
-        return self.spec.name
-
-    @property
-    def times(self) -> np.ndarray:
-        return np.arange(len(self.basis)) / self.fps
 
 
 # ---------------------------------------------------------------------------- timing
-
-def _smoothstep(u):
-    u = np.clip(u, 0.0, 1.0)
-    return u * u * (3.0 - 2.0 * u)
-
 
 def _timeline(spec: ClipSpec, fps: float, size: float = 1.0):
     """Duration, speed profile v(t) on the frame times, and the stances (unplaced)."""
@@ -231,11 +215,11 @@ def _timeline(spec: ClipSpec, fps: float, size: float = 1.0):
     stances = [Stance(k, c - P, c - P + D, c, clearance=g.clearance) for k, c in centers]
     if spec.kind == "start":
         go = 0.5  # standing until then, then 1.4 s to full speed
-        v = spec.v * _smoothstep((t - go) / 1.4)
+        v = spec.v * smoothstep((t - go) / 1.4)
         stances = _stand_ends(stances, go + 0.45 * T, start=True)
     elif spec.kind == "stop":
         halt = dur - 0.5  # full speed until 1.4 s before, standing after
-        v = spec.v * (1.0 - _smoothstep((t - (halt - 1.4)) / 1.4))
+        v = spec.v * (1.0 - smoothstep((t - (halt - 1.4)) / 1.4))
         stances = _stand_ends(stances, halt - 0.55 * T, start=False)
     elif spec.kind == "jump":
         # take off from the left foot at about 1.3 cycles, fly, land on the right
@@ -308,7 +292,7 @@ def _path_at(tq, t, v, tau):
 def _yaw(h):
     """(N, 3, 3) rotations about +Z by the angles h."""
     h = np.atleast_1d(np.asarray(h, float))
-    return Rotation.from_rotvec(np.c_[np.zeros_like(h), np.zeros_like(h), h]).as_matrix()
+    return root_frames(np.zeros((len(h), 3)), h)[:, :3, :3]
 
 
 def _left(h):
@@ -347,12 +331,12 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
 
     # footprints: beside the path where the hips are at mid-stance; standing feet side by
     # side where the hips are at the clip's start (or end)
-    for s in stances:
-        standing = not (np.isfinite(s.strike) and np.isfinite(s.liftoff))
-        tc = s.center
-        if standing:
-            tc = 0.0 if not np.isfinite(s.strike) else dur
-        p, h = _path_at(tc, t, v, spec.tau)
+    standing_at = [None if np.isfinite(s.strike) and np.isfinite(s.liftoff)
+                   else (0.0 if not np.isfinite(s.strike) else dur) for s in stances]
+    where, facing = _path_at(np.array([s.center if at is None else at for s, at in zip(stances, standing_at)]),
+                             t, v, spec.tau)
+    for s, at, p, h in zip(stances, standing_at, where, facing):
+        standing = at is not None
         side = 1.0 if s.foot == 0 else -1.0
         s.heading = h + side * (np.radians(8) if standing else g.toe_out)
         # leaning into a turn, the body is inside its feet by leg height x tan(lean)
@@ -360,19 +344,16 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
         s.pos = p + (side * (0.1 * size if standing else g.width) - inward) * _left(h)[0]
 
     # feet
-    heel_g = np.zeros((2, 3))
-    ball_g = np.zeros((2, 3))
     feet = [rig.foot_chain(x)[0] for x in SIDES]
-    for k, side in enumerate(SIDES):
-        heel_g[k] = rig.rest[feet[k], :3, 3] * [1, 1, 0]
-        ball_g[k] = rig.ball_local(side)[:3] @ rig.rest[feet[k], :3, :3].T + rig.rest[feet[k], :3, 3]
-        ball_g[k, 2] = 0.0  # (the ball joint is ball_j: above it)
     foot_m = np.zeros((2, F, 4, 4))
     toe_bend = np.zeros((2, F))
     for i, side in enumerate(SIDES):
-        ball_j = rig.ball_local(side)[:3] @ rig.rest[feet[i], :3, :3].T + rig.rest[feet[i], :3, 3]
-        foot_m[i], toe_bend[i] = _foot_track(t, [s for s in stances if s.foot == i], rig.rest[feet[i]],
-                                             heel_g[i], ball_g[i], ball_j, g, T, HEEL_BACK * size)
+        rest_foot = rig.rest[feet[i]]
+        heel_g = rest_foot[:3, 3] * [1, 1, 0]  # the ground under the ankle
+        ball_j = rig.ball_local(side)[:3] @ rest_foot[:3, :3].T + rest_foot[:3, 3]  # the ball joint
+        ball_g = ball_j * [1, 1, 0]  # the ground under it
+        foot_m[i], toe_bend[i] = _foot_track(t, [s for s in stances if s.foot == i], rest_foot,
+                                             heel_g, ball_g, ball_j, g, T, HEEL_BACK * size)
 
     # body: height, sway, rotation
     sigma = _sway_signal(t, stances)
@@ -406,7 +387,6 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
     basis = np.tile(np.eye(4), (F, len(rig.names), 1, 1))
     hips = rig.role_index("hips")
     rest_h = rig.rest[hips]
-    basis_h = np.tile(np.eye(4), (F, 1, 1))
     arm_h = np.tile(np.eye(4), (F, 1, 1))
     arm_h[:, :3, :3] = R_body @ rest_h[:3, :3]
     arm_h[:, :3, 3] = pos
@@ -414,26 +394,17 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
     thigh = [rig.role_index(f"thigh_{x}") for x in SIDES]
     need = np.zeros(F)
     for k in range(2):
-        L = sum(leg_lengths(rig, SIDES[k]))
         H = pos + np.einsum("fij,j->fi", R_body, rig.rest[thigh[k], :3, 3] - rest_h[:3, 3])
-        d = foot_m[k, :, :3, 3] - H
-        horiz = np.hypot(d[:, 0], d[:, 1])
-        drop = -d[:, 2] - np.sqrt(np.maximum((REACH * L) ** 2 - horiz ** 2, 0.0))
-        need = np.maximum(need, drop)
+        need = np.maximum(need, reach_need(H, foot_m[k, :, :3, 3], REACH * sum(leg_lengths(rig, SIDES[k]))))
     win = max(1, int(round(0.12 * fps)))
     if spec.kind == "cycle":  # a loop: its last frame is its first
-        wrap = np.maximum(need[:-1], 0.0)
-        drop = gaussian_filter1d(maximum_filter1d(wrap, 2 * win + 1, mode="wrap"), win / 2.0, mode="wrap")
-        drop = np.r_[drop, drop[:1]]
+        drop = lower_smoothly(np.maximum(need[:-1], 0.0), win, mode="wrap", edge="wrap")
+        drop = np.maximum(np.r_[drop, drop[:1]], need)
     else:
-        drop = gaussian_filter1d(maximum_filter1d(np.maximum(need, 0.0), 2 * win + 1), win / 2.0,
-                                 mode="nearest")
-    drop = np.maximum(drop, need)
-    if DEBUG is not None:
-        DEBUG["need"] = need
+        drop = lower_smoothly(np.maximum(need, 0.0), win, edge="nearest")
+        drop = np.maximum(drop, need)
     arm_h[:, 2, 3] -= drop
-    basis_h = np.linalg.inv(rest_h)[None] @ arm_h
-    basis[:, hips] = basis_h
+    basis[:, hips] = np.linalg.inv(rest_h)[None] @ arm_h
 
     _upper_body(rig, basis, lift, sigma, ramp, g, spec, t)
 
@@ -452,7 +423,7 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
             R = rig.rest[toe, :3, :3]
             D = Rotation.from_rotvec(np.c_[-toe_bend[k], np.zeros(F), np.zeros(F)]).as_matrix()
             basis[:, toe, :3, :3] = R.T @ D @ R
-    return GaitClip(spec, float(fps), basis, stances, root, heading, drop)
+    return GaitClip(spec, float(fps), basis, stances, drop)
 
 
 def _lean(spec: ClipSpec, v):
@@ -483,7 +454,7 @@ def _foot_track(t, stances, rest_foot, heel_g, ball_g, ball_j, g: Gait, T: float
         pivot[:] = heel_back
         if a_start is not None:
             u = (tq - a_start) / (g.heel_rocker * dur)
-            pitch -= np.where(u < 1, g.strike_pitch * (1 - _smoothstep(u)), 0.0)
+            pitch -= np.where(u < 1, g.strike_pitch * (1 - smoothstep(u)), 0.0)
         if a_end is not None:
             u = (tq - (a_end - g.toe_rocker * dur)) / (g.toe_rocker * dur)
             toe = u > 0
@@ -510,7 +481,7 @@ def _foot_track(t, stances, rest_foot, heel_g, ball_g, ball_j, g: Gait, T: float
         u = (t[m] - a.liftoff) / (b.strike - a.liftoff)
         # (a smoothstep, not a minimum-jerk profile: its peak speed is 20 % lower, which
         # spares the thigh a whip through mid swing)
-        w = _smoothstep(u)
+        w = smoothstep(u)
         p = (1 - w)[:, None] * m0[:3, 3] + w[:, None] * m1[:3, 3]
         # the lift peaks early (the foot leaves briskly, and lands softly)
         p[:, 2] += b.clearance * (6.75 * u * (1 - u) ** 2)
@@ -526,7 +497,7 @@ def _foot_track(t, stances, rest_foot, heel_g, ball_g, ball_j, g: Gait, T: float
             z = np.einsum("fij,j->fi", out[m], local)[:, 2]
             lift = np.maximum(lift, -z)
         out[m, 2, 3] += lift
-        bend[m] = g.toeoff_pitch * (1.0 - _smoothstep(u / 0.6))
+        bend[m] = g.toeoff_pitch * (1.0 - smoothstep(u / 0.6))
     return out, bend
 
 
@@ -554,8 +525,7 @@ def _placed(s: Stance, pitch, pivot, rest_foot, heel_g) -> np.ndarray:
 def _sway_signal(t, stances) -> np.ndarray:
     """+1 at the left foot's mid-stances, -1 at the right's, cosine in between (0 where
     both feet stand)."""
-    knots = sorted((s.center if np.isfinite(s.strike) and np.isfinite(s.liftoff) else None, s.foot)
-                   for s in stances if np.isfinite(s.strike) and np.isfinite(s.liftoff))
+    knots = sorted((s.center, s.foot) for s in stances if np.isfinite(s.strike) and np.isfinite(s.liftoff))
     if len(knots) < 2:
         return np.zeros(len(t))
     tk = np.array([k[0] for k in knots])
@@ -565,8 +535,8 @@ def _sway_signal(t, stances) -> np.ndarray:
     w = 0.5 - 0.5 * np.cos(np.pi * u)
     out = (1 - w) * val[i] + w * val[i + 1]
     # outside the knots (standing), fade to 0
-    out = np.where(t < tk[0], val[0] * _smoothstep(1 - (tk[0] - t) / 0.5), out)
-    out = np.where(t > tk[-1], val[-1] * _smoothstep(1 - (t - tk[-1]) / 0.5), out)
+    out = np.where(t < tk[0], val[0] * smoothstep(1 - (tk[0] - t) / 0.5), out)
+    out = np.where(t > tk[-1], val[-1] * smoothstep(1 - (t - tk[-1]) / 0.5), out)
     return out
 
 

@@ -121,7 +121,7 @@ def _tilt(normal: np.ndarray) -> np.ndarray:
     return min_rotation(up, np.asarray(normal, float))
 
 
-def _smoothstep(u: np.ndarray) -> np.ndarray:
+def smoothstep(u: np.ndarray) -> np.ndarray:
     u = np.clip(u, 0.0, 1.0)
     return u * u * (3.0 - 2.0 * u)
 
@@ -146,7 +146,7 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     prev_c = np.where(prev < 0, nxt, prev)
     nxt_c = np.where(nxt >= F, prev, nxt)
     span = np.maximum(nxt_c - prev_c, 1)
-    u = _smoothstep((f - prev_c) / span)[:, None]
+    u = smoothstep((f - prev_c) / span)[:, None]
     o = (1 - u) * off[prev_c] + u * off[nxt_c]
     tv = (1 - u) * turn[prev_c] + u * turn[nxt_c]
     A = A0 + o
@@ -285,15 +285,9 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     L1, L2 = zip(*(leg_lengths(rig, x) for x in SIDES))
     need = np.zeros(F)
     for k in range(2):
-        planted_k = tg.weight[k] >= 1.0
-        v = tg.ankle[k] - world[:, thigh[k], :3, 3]
-        r = MAX_REACH * (L1[k] + L2[k])
-        horiz = np.hypot(v[:, 0], v[:, 1])
-        drop = -v[:, 2] - np.sqrt(np.maximum(r * r - horiz * horiz, 0.0))
-        need = np.maximum(need, np.where(planted_k, np.maximum(drop, 0.0), 0.0))
-    win = max(1, int(round(0.15 * fps)))
-    drop = gaussian_filter1d(maximum_filter1d(need, 2 * win + 1), max(win / 2.0, 0.5))
-    drop = np.maximum(drop, need)
+        drop = reach_need(world[:, thigh[k], :3, 3], tg.ankle[k], MAX_REACH * (L1[k] + L2[k]))
+        need = np.maximum(need, np.where(tg.weight[k] >= 1.0, np.maximum(drop, 0.0), 0.0))
+    drop = lower_smoothly(need, max(1, int(round(0.15 * fps))))
     body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
     world[:, chain, 2, 3] -= drop[:, None]
     # every frame's ankle and foot targets: on the footprint while planted, the clip's own
@@ -339,6 +333,23 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     sec["legs"] = time.perf_counter() - t3
     sec["total"] = time.perf_counter() - t0
     return IKResult(body_pos, yaw - spin, basis, tg, drop, (dp, dpsi), sec)
+
+
+def reach_need(hip: np.ndarray, ankle: np.ndarray, reach: float) -> np.ndarray:
+    """(F,) m the hip (F, 3) must come down for the ankle (F, 3) to lie within ``reach``
+    of it (negative: it could rise that much)."""
+    v = ankle - hip
+    horiz = np.hypot(v[:, 0], v[:, 1])
+    return -v[:, 2] - np.sqrt(np.maximum(reach * reach - horiz * horiz, 0.0))
+
+
+def lower_smoothly(need: np.ndarray, win: int, mode: str = "reflect", edge: str = "reflect") -> np.ndarray:
+    """(F,) a drop of the hips that covers ``need`` (F,) (m, >= 0) and comes and goes
+    smoothly: the largest need within ``win`` frames either side, Gaussian-smoothed
+    (sigma win / 2), never under the need itself. ``mode`` and ``edge`` are the maximum
+    and the Gaussian filters' boundary modes ("wrap" for a loop)."""
+    drop = gaussian_filter1d(maximum_filter1d(need, 2 * win + 1, mode=mode), max(win / 2.0, 0.5), mode=edge)
+    return np.maximum(drop, need)
 
 
 def leg_lengths(rig: Rig, side: str) -> tuple[float, float]:
