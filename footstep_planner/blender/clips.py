@@ -38,16 +38,29 @@ def import_bvh_clips(paths, target=None, name: str | None = None, scale: float |
     paths = [os.path.abspath(p) for p in paths]
     if not paths:
         raise ClipImportError("no BVH files given")
-    skeletons = []
-    for p in paths:
-        try:
-            sk = read_skeleton(p)
-        except BvhError as ex:
-            raise ClipImportError(str(ex)) from None
-        roles = map_roles(sk.names, sk.parents, sk.heads_z_up(), sk.tails_z_up())
-        if not roles.ok:
-            raise ClipImportError(f"{p}: skeleton has no usable legs: {roles.describe()}")
-        skeletons.append(sk)
+    skeletons = [_legged_skeleton(p) for p in paths]
+    _check_one_skeleton(skeletons, target)
+    with _selection_kept():
+        return _import_all(skeletons, target, name, scale)
+
+
+def _legged_skeleton(path: str):
+    """The file's BvhSkeleton; ClipImportError naming the file when it cannot be read or
+    its legs cannot be mapped to roles."""
+    try:
+        sk = read_skeleton(path)
+    except BvhError as ex:
+        raise ClipImportError(str(ex)) from None
+    roles = map_roles(sk.names, sk.parents, sk.heads_z_up(), sk.tails_z_up())
+    if not roles.ok:
+        raise ClipImportError(f"{path}: skeleton has no usable legs: {roles.describe()}")
+    return sk
+
+
+def _check_one_skeleton(skeletons, target) -> None:
+    """ClipImportError unless the clips share one skeleton: every joint is a bone of
+    armature ``target``, or (no target) every file has the first file's joints and
+    parents."""
     if target is not None:
         if target.type != "ARMATURE":
             raise ClipImportError(f"{target.name!r} is not an armature")
@@ -58,51 +71,24 @@ def import_bvh_clips(paths, target=None, name: str | None = None, scale: float |
                 raise ClipImportError(
                     f"{sk.path}: joints {', '.join(missing[:6])} are not bones of armature "
                     f"{target.name!r}; clips of one library must share one skeleton")
-    else:
-        first = skeletons[0]
-        for sk in skeletons[1:]:
-            if sk.names != first.names or sk.parents != first.parents:
-                raise ClipImportError(f"{sk.path}: its skeleton differs from {first.path}'s; "
-                                      "clips of one library must share one skeleton")
+        return
+    first = skeletons[0]
+    for sk in skeletons[1:]:
+        if sk.names != first.names or sk.parents != first.parents:
+            raise ClipImportError(f"{sk.path}: its skeleton differs from {first.path}'s; "
+                                  "clips of one library must share one skeleton")
 
-    ctx = bpy.context
-    view_layer = ctx.view_layer
-    selected = list(ctx.selected_objects)
+
+@contextlib.contextmanager
+def _selection_kept():
+    """Put the user's selection and active object back afterwards, whatever happens (the
+    importer selects what it makes)."""
+    view_layer = bpy.context.view_layer
+    selected = list(bpy.context.selected_objects)
     active = view_layer.objects.active
-    created_objects, created_actions = [], []
     try:
-        actions = []
-        for sk in skeletons:
-            ob, act = _blender_import(sk, scale)
-            created_objects.append(ob)
-            created_actions.append(act)
-            if target is None:
-                target = ob
-                target.name = name or os.path.splitext(os.path.basename(sk.path))[0]
-                created_objects.remove(ob)
-                _tag_source(act, sk, target)
-                actions.append(act)
-            else:
-                new = _retarget(ob, act, target, sk)
-                created_actions.append(new)
-                actions.append(new)
-        # the retargeted sources are scratch data of ours
-        for act in created_actions:
-            if act not in actions:
-                bpy.data.actions.remove(act)
-        for ob in created_objects:
-            _remove_object(ob)
-        created_actions, created_objects = [], []
-        return target, actions
-    except BaseException:
-        for act in created_actions:
-            if act.name in bpy.data.actions:
-                bpy.data.actions.remove(act)
-        for ob in created_objects:
-            _remove_object(ob)
-        raise
+        yield
     finally:
-        # put the user's selection back (the importer selects what it makes)
         names = {o.name for o in selected}
         for o in bpy.data.objects:
             if o.name in view_layer.objects:
@@ -111,7 +97,53 @@ def import_bvh_clips(paths, target=None, name: str | None = None, scale: float |
             view_layer.objects.active = active
 
 
+def _import_all(skeletons, target, name, scale):
+    """(armature, [one action per skeleton]): each file imported by Blender, the first
+    becoming the armature when ``target`` is None, the others retargeted onto it. The
+    importer's scratch objects and actions are removed; on error, everything made."""
+    created_objects, created_actions = [], []
+    try:
+        actions = []
+        for sk in skeletons:
+            target, act = _import_one(sk, target, name, scale, created_objects, created_actions)
+            actions.append(act)
+        # the retargeted sources are scratch data of ours
+        for act in created_actions:
+            if act not in actions:
+                bpy.data.actions.remove(act)
+        for ob in created_objects:
+            _remove_object(ob)
+        return target, actions
+    except BaseException:
+        for act in created_actions:
+            if act.name in bpy.data.actions:
+                bpy.data.actions.remove(act)
+        for ob in created_objects:
+            _remove_object(ob)
+        raise
+
+
+def _import_one(sk, target, name, scale, created_objects: list, created_actions: list):
+    """(target, the clip's action) for one file. Without a ``target`` the imported
+    armature becomes it (named ``name`` or after the file); else the import is
+    retargeted onto it. What is made is appended to ``created_objects`` and
+    ``created_actions``, the new target excepted."""
+    ob, act = _blender_import(sk, scale)
+    created_objects.append(ob)
+    created_actions.append(act)
+    if target is None:
+        target = ob
+        target.name = name or os.path.splitext(os.path.basename(sk.path))[0]
+        created_objects.remove(ob)
+        _tag_source(act, sk, target)
+        return target, act
+    new = _retarget(ob, act, target, sk)
+    created_actions.append(new)
+    return target, new
+
+
 def _remove_object(ob):
+    """Delete object ``ob``, and its armature data when nothing else uses it."""
     data = ob.data
     bpy.data.objects.remove(ob)
     if data is not None and data.users == 0:
@@ -128,6 +160,10 @@ def _tag_source(act, sk, target):
 
 
 def _blender_import(sk, scale):
+    """(armature object, action) made by Blender's BVH importer from ``sk``'s file
+    (``scale`` metres per file unit, default guessed; Y up, -Z forward; quaternions;
+    keyed from frame 1 at the scene's rate), the action named after the file.
+    ClipImportError when the importer fails or makes anything but one of each."""
     before = set(bpy.data.objects)
     before_actions = set(bpy.data.actions)
     try:
@@ -153,6 +189,7 @@ def _blender_import(sk, scale):
 
 
 def _key_frames(act) -> np.ndarray:
+    """Sorted distinct frames (rounded to 1e-6) keyed on any F-curve of ``act``."""
     frames = set()
     for layer in act.layers:
         for strip in layer.strips:
@@ -209,10 +246,15 @@ def _retarget(src_ob, src_act, target, sk):
 
 
 def _hip_height(names, rest, hips):
+    """Height of bone ``hips``' rest head above the lowest rest head (``rest`` (B, 4, 4)
+    armature-space matrices in ``names`` order), at least 1 mm."""
     return max(float(rest[names.index(hips), 2, 3] - rest[:, 2, 3].min()), 1e-3)
 
 
 def _write_rotation(cbag, base, group, mode, rot, frames):
+    """Key ``rot`` (F rotations) at ``frames`` (F,) on the rotation channels of the pose
+    bone at data path ``base`` in rotation mode ``mode``: quaternions (w first, signs
+    kept continuous), axis-angle, or Euler angles (unwrapped) of that order."""
     if mode == "QUATERNION":
         q = rot.as_quat()[:, [3, 0, 1, 2]]
         flip = np.cumsum(np.r_[False, np.einsum("ij,ij->i", q[1:], q[:-1]) < 0]) % 2 == 1
@@ -241,6 +283,8 @@ _LINEAR = None
 
 
 def _curve(cbag, path, index, group, frames, values):
+    """A new F-curve ``path[index]`` in channel group ``group`` of ``cbag``, keyed
+    ``values`` (F,) at ``frames`` (F,) with linear interpolation."""
     global _LINEAR
     if _LINEAR is None:
         _LINEAR = bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items["LINEAR"].value

@@ -115,56 +115,87 @@ def generate_clips(ob, names=None, fps: float | None = None) -> list:
     Raises RigError or GaitError (naming the armature and bones) for a rig without legs
     or without the human metarig's leg bones."""
     from ..core import gait
-    from .clips import _curve, _write_rotation
-    from .scene import ARMATURE_PROP, SOURCE_FPS_PROP, rig_from_armature, scene_fps
-    from scipy.spatial.transform import Rotation
+    from .scene import rig_from_armature, scene_fps
 
     rig = rig_from_armature(ob)
     rig.require_legs()
     gait.require_metarig(rig)
     fps = float(fps or scene_fps())
-    specs = gait.library_specs()
-    if names:
-        unknown = sorted(set(names) - {s.name for s in specs})
-        if unknown:
-            raise ValueError(f"no generated clip named {', '.join(unknown)}; the library has "
-                             f"{', '.join(s.name for s in specs)}")
-        specs = [s for s in specs if s.name in names]
-    # clips generated earlier are rewritten in place: NLA strips and assignments that
-    # play them keep playing them
-    earlier = {a.get("footstep_clip"): a for a in bpy.data.actions
-               if a.get(GENERATED_PROP) == ob.data.name}
+    specs = _chosen_specs(gait.library_specs(), names)
+    earlier = _earlier_clips(ob)
     hips = rig.roles.bone("hips")
     out = []
     for spec in specs:
         clip = gait.generate(rig, spec, fps)
         frames = 1.0 + np.arange(len(clip.basis)) * scene_fps() / fps
-        act = earlier.get(spec.name)
-        if act is None:
-            act = bpy.data.actions.new(spec.name)
-            slot = act.slots.new(id_type="OBJECT", name=ob.name)
-        else:
-            for layer in list(act.layers):
-                act.layers.remove(layer)
-            slot = act.slots[0] if len(act.slots) else act.slots.new(id_type="OBJECT", name=ob.name)
-        act[GENERATED_PROP] = ob.data.name
-        act["footstep_clip"] = spec.name
-        act[ARMATURE_PROP] = ob.data.name
-        act[SOURCE_FPS_PROP] = fps
-        act.use_fake_user = True
-        cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
-        for b, bname in enumerate(rig.names):
-            pb = ob.pose.bones[bname]
-            base = f'pose.bones["{bpy.utils.escape_identifier(bname)}"]'
-            rot = clip.basis[:, b, :3, :3]
-            if bname != hips and np.allclose(rot, np.eye(3), atol=1e-7):
-                continue
-            _write_rotation(cbag, base, bname, pb.rotation_mode, Rotation.from_matrix(rot), frames)
-            if bname == hips:
-                for i in range(3):
-                    _curve(cbag, f"{base}.location", i, bname, frames, clip.basis[:, b, i, 3])
+        act, slot = _clip_action(ob, spec.name, earlier.get(spec.name), fps)
+        _write_clip(act, slot, ob, rig.names, hips, clip.basis, frames)
         out.append(act)
     return out
+
+
+def _chosen_specs(specs: list, names) -> list:
+    """The specs named in ``names`` (all when empty), in library order; ValueError
+    naming the names that are not in the library."""
+    if not names:
+        return specs
+    unknown = sorted(set(names) - {spec.name for spec in specs})
+    if unknown:
+        raise ValueError(f"no generated clip named {', '.join(unknown)}; the library has "
+                         f"{', '.join(spec.name for spec in specs)}")
+    return [spec for spec in specs if spec.name in names]
+
+
+def _earlier_clips(ob) -> dict:
+    """Clip name -> action of the clips generated earlier for ``ob``'s armature data:
+    they are rewritten in place, so NLA strips and assignments that play them keep
+    playing them."""
+    return {a.get("footstep_clip"): a for a in bpy.data.actions
+            if a.get(GENERATED_PROP) == ob.data.name}
+
+
+def _clip_action(ob, clip_name: str, act, fps: float):
+    """(action, slot) for generated clip ``clip_name`` of ``ob``: ``act`` emptied of its
+    layers (keeping its first slot), or a new action when ``act`` is None; tagged as
+    generated for ``ob``'s armature at ``fps`` frames per second, with a fake user."""
+    from .scene import ARMATURE_PROP, SOURCE_FPS_PROP
+
+    if act is None:
+        act = bpy.data.actions.new(clip_name)
+        slot = act.slots.new(id_type="OBJECT", name=ob.name)
+    else:
+        for layer in list(act.layers):
+            act.layers.remove(layer)
+        slot = act.slots[0] if len(act.slots) else act.slots.new(id_type="OBJECT", name=ob.name)
+    act[GENERATED_PROP] = ob.data.name
+    act["footstep_clip"] = clip_name
+    act[ARMATURE_PROP] = ob.data.name
+    act[SOURCE_FPS_PROP] = fps
+    act.use_fake_user = True
+    return act, slot
+
+
+def _write_clip(act, slot, ob, bone_names, hips: str, basis: np.ndarray, frames: np.ndarray
+                ) -> None:
+    """Key a new layer of ``act`` for ``slot``: the rotation of each of ``ob``'s bones
+    from ``basis`` (F, B, 4, 4) pose-basis matrices in ``bone_names`` order, at scene
+    ``frames`` (F,), in the pose bone's rotation mode; bones that never turn are
+    skipped, and bone ``hips`` also gets its location (metres, its rest axes)."""
+    from scipy.spatial.transform import Rotation
+
+    from .clips import _curve, _write_rotation
+
+    cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
+    for b, bname in enumerate(bone_names):
+        pb = ob.pose.bones[bname]
+        base = f'pose.bones["{bpy.utils.escape_identifier(bname)}"]'
+        rot = basis[:, b, :3, :3]
+        if bname != hips and np.allclose(rot, np.eye(3), atol=1e-7):
+            continue
+        _write_rotation(cbag, base, bname, pb.rotation_mode, Rotation.from_matrix(rot), frames)
+        if bname == hips:
+            for i in range(3):
+                _curve(cbag, f"{base}.location", i, bname, frames, basis[:, b, i, 3])
 
 
 class FOOTSTEP_OT_add_mannequin(bpy.types.Operator):

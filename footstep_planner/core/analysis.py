@@ -20,6 +20,7 @@ The foot bears weight ("contact") from strike to liftoff.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -94,10 +95,10 @@ class ClipAnalysis:
     motion: ClipMotion = field(repr=False, default=None)
 
     def footprints(self) -> list[Footprint]:
-        return [s.footprint for s in sorted(self.stances, key=lambda s: s.stance)]
+        return [st.footprint for st in sorted(self.stances, key=lambda st: st.stance)]
 
     def contact_intervals(self, foot: int) -> list[tuple[float, float]]:
-        return [(s.strike, s.liftoff) for s in self.stances if s.foot == foot]
+        return [(st.strike, st.liftoff) for st in self.stances if st.foot == foot]
 
     def to_dict(self) -> dict:
         m = self.motion
@@ -105,12 +106,12 @@ class ClipAnalysis:
         feet = {}
         for k, foot in enumerate(FOOT_NAMES):
             feet[foot] = {
-                "contacts": [[fr(s.strike), fr(s.liftoff)] for s in self.stances if s.foot == k],
-                "events": [{"strike": fr(s.strike), "land": fr(s.land), "stance": fr(s.stance),
-                            "lift": fr(s.lift), "liftoff": fr(s.liftoff)}
-                           for s in self.stances if s.foot == k],
-                "stance_time": _r(float(np.mean([s.liftoff - s.strike for s in self.stances
-                                                 if s.foot == k and not (s.open_start or s.open_end)]
+                "contacts": [[fr(st.strike), fr(st.liftoff)] for st in self.stances if st.foot == k],
+                "events": [{"strike": fr(st.strike), "land": fr(st.land), "stance": fr(st.stance),
+                            "lift": fr(st.lift), "liftoff": fr(st.liftoff)}
+                           for st in self.stances if st.foot == k],
+                "stance_time": _r(float(np.mean([st.liftoff - st.strike for st in self.stances
+                                                 if st.foot == k and not (st.open_start or st.open_end)]
                                                 or [np.nan]))),
             }
         return {
@@ -131,6 +132,7 @@ class ClipAnalysis:
 
 
 def _r(v, nd=4):
+    """``v`` rounded to ``nd`` decimals for a report; None for None or not finite."""
     if v is None:
         return None
     v = float(v)
@@ -148,6 +150,8 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def _clean_runs(mask: np.ndarray, max_gap: int, min_len: int) -> list[tuple[int, int]]:
+    """The True runs of ``mask`` (``_runs``) with gaps of at most ``max_gap`` samples
+    closed, then runs shorter than ``min_len`` samples dropped."""
     runs = _runs(mask)
     merged: list[list[int]] = []
     for a, b in runs:
@@ -203,104 +207,211 @@ def _crossing(y: np.ndarray, i: int, toward: int, thr: float) -> float:
 
 
 def _flip(x: float | None, n: int) -> float | None:
+    """Sample position ``x`` of a signal of ``n`` samples run backward, as a position in
+    the forward signal (None stays None)."""
     return None if x is None else (n - 1) - x
 
 
 # ----------------------------------------------------------------------------------
+# the clip
+
+@dataclass
+class _Dense:
+    """The clip resampled to the analysis rate, and its body's speed."""
+
+    motion: ClipMotion  # the resampled clip: times (n,) s, 0 to (n - 1) * dt
+    rate: float  # samples per second: the analysis rate, or the clip's own if higher
+    dt: float  # 1 / rate, s
+    n: int  # samples
+    body_speed: np.ndarray  # (n,) m/s of the root in the ground plane (XY)
+    body_speed_s: np.ndarray  # (n,) m/s, the same as a 0.1 s moving average
+
+
+class _Window(NamedTuple):
+    """A gait cycle candidate: two consecutive strikes (or liftoffs) of one foot."""
+
+    foot: int  # 0 left, 1 right
+    event: str  # "strike" or "liftoff"
+    start: float  # s
+    end: float  # s
+
+
+class _Cycle(NamedTuple):
+    """What the clip's best gait cycle says (all None or 0 but ``speed`` without one)."""
+
+    best: tuple[float, float] | None  # (start, end) s of the best window
+    cycle: float | None  # s, mean length of all windows
+    stride: float | None  # m, same-foot footprint to footprint
+    cadence: float | None  # steps per minute
+    speed: float  # m/s along the best window's arc (mean body speed without a cycle)
+    tau: float  # 1/m, signed curvature over the best window, positive turning left
+    loop_error: float | None  # radians, pose mismatch between the window's ends
+
 
 def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAnalysis:
     """Analyse one clip. Raises AnalysisError (naming the clip) when no foot ever touches
     the ground, or a locomotion clip is too short to hold one gait cycle."""
     s = settings or Settings()
-    name = motion.name
+    _check_analysable(motion)
+    d = _resample(motion, s)
+    feet = [_foot_stances(d.motion, k, d.body_speed_s, s) for k in range(2)]
+    stances = _all_stances(feet, motion.name)
+    contact = _contact_mask(d, feet)
+    flights, jumps = _flights_and_jumps(stances, d, s)
+    starts_at_rest, ends_at_rest, moving = _rest_at_ends(d, contact, s)
+    loco = moving & ~_jump_mask(d, jumps)
+    kind = _kind(d, jumps, starts_at_rest, ends_at_rest)
+    gait, entry_gait, exit_gait = _gaits(d, loco, stances, flights, jumps,
+                                         starts_at_rest, ends_at_rest, s)
+    windows = _cycle_windows(stances, loco, d.dt)
+    cyc = _cycle_figures(motion, d, stances, windows, loco, kind)
+    idx = _clip_samples(motion, d)
+    return ClipAnalysis(
+        name=motion.name, fps=motion.fps, frames=motion.n, duration=motion.duration,
+        gait=gait, kind=kind, starts_at_rest=starts_at_rest, ends_at_rest=ends_at_rest,
+        entry_gait=entry_gait, exit_gait=exit_gait, speed=cyc.speed, stride=cyc.stride,
+        cycle=cyc.cycle, cadence=cyc.cadence, tau=cyc.tau, best_cycle=cyc.best,
+        loop_error=cyc.loop_error, is_loop=_is_loop(motion, d, windows), stances=stances,
+        flights=flights, jump_flights=jumps,
+        balance=np.stack([f.balance for f in feet])[:, idx], contact=contact[:, idx],
+        motion=motion)
+
+
+def _check_analysable(motion: ClipMotion) -> None:
+    """AnalysisError for a clip of fewer than 4 samples or no duration."""
     if motion.n < 4 or motion.duration <= 0:
-        raise AnalysisError(f"clip {name!r} is too short to analyse ({motion.n} frames)")
+        raise AnalysisError(f"clip {motion.name!r} is too short to analyse ({motion.n} frames)")
+
+
+def _resample(motion: ClipMotion, s: Settings) -> _Dense:
+    """The clip at ``s.analysis_rate`` samples per second (cubic; kept as it is when its
+    own rate is that or higher), with its root's horizontal speed, raw and smoothed."""
     rate = max(float(s.analysis_rate), motion.fps)
     dense = motion if abs(rate - motion.fps) < 1e-9 else motion.resample(rate)
-    t = dense.times
-    n = len(t)
     dt = 1.0 / rate
-
     root_v = np.gradient(dense.root_pos[:, :2], dt, axis=0)
     body_speed = np.linalg.norm(root_v, axis=1)
-    body_speed_s = _smooth(body_speed, int(round(0.1 / dt)))
+    return _Dense(dense, rate, dt, len(dense.times), body_speed,
+                  _smooth(body_speed, int(round(0.1 / dt))))
 
-    contact = np.zeros((2, n), bool)
-    balance = np.zeros((2, n))
-    stances: list[Stance] = []
-    lowest = []
-    for k in range(2):
-        foot = _foot_stances(dense, k, body_speed_s, s)
-        balance[k] = foot.balance
-        lowest.append(foot.lowest)
-        for st in foot.stances:
-            contact[k] |= (t >= st.strike - 1e-9) & (t <= st.liftoff + 1e-9)
-        stances += foot.stances
+
+def _all_stances(feet: list[_Foot], name: str) -> list[Stance]:
+    """Both feet's stances by stance time (left before right at equal times);
+    AnalysisError naming clip ``name`` when there are none."""
+    stances = feet[0].stances + feet[1].stances
     if not stances:
         raise AnalysisError(
             f"clip {name!r}: no foot ever touches the ground (the lowest heel or toe is "
-            f"{min(lowest):.3f} m above the clip's ground at z = 0, or never stands still)")
+            f"{min(f.lowest for f in feet):.3f} m above the clip's ground at z = 0, or never "
+            f"stands still)")
     stances.sort(key=lambda st: st.stance)
+    return stances
 
-    # flights: inside the clip, neither foot bears weight
-    flights = _gaps([(st.strike, st.liftoff) for st in stances], 0.0, (n - 1) * dt)
+
+def _contact_mask(d: _Dense, feet: list[_Foot]) -> np.ndarray:
+    """(2, n) bool per dense sample: the foot bears weight (strike to liftoff, both
+    inclusive within 1e-9 s)."""
+    t = d.motion.times
+    contact = np.zeros((2, d.n), bool)
+    for k, foot in enumerate(feet):
+        for st in foot.stances:
+            contact[k] |= (t >= st.strike - 1e-9) & (t <= st.liftoff + 1e-9)
+    return contact
+
+
+def _flights_and_jumps(stances: list[Stance], d: _Dense, s: Settings
+                       ) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    """(flights, jumps) as (start, end) s. A flight: inside the clip, neither foot bears
+    weight, for 0.02 s or more. A jump: a flight of ``s.jump_min_flight`` or more that
+    lasts twice the median flight (or any such flight when there are at most two)."""
+    flights = _gaps([(st.strike, st.liftoff) for st in stances], 0.0, (d.n - 1) * d.dt)
     flights = [f for f in flights if f[1] - f[0] >= 0.02]
     durations = np.array([b - a for a, b in flights])
     typical = float(np.median(durations)) if len(durations) else 0.0
     jumps = [f for f in flights
              if f[1] - f[0] >= s.jump_min_flight and (f[1] - f[0] >= 2.0 * typical or len(flights) <= 2)]
-    # rest at the ends: slow body, both feet down
-    rest_n = max(1, int(round(s.rest_time / dt)))
+    return flights, jumps
+
+
+def _rest_at_ends(d: _Dense, contact: np.ndarray, s: Settings) -> tuple[bool, bool, np.ndarray]:
+    """(starts_at_rest, ends_at_rest, moving): at rest is the body slower than
+    ``s.rest_speed`` with both feet down, for ``s.rest_time`` at the clip's start or end;
+    ``moving`` (n,) bool is every sample but the runs of rest touching either end."""
+    rest_n = max(1, int(round(s.rest_time / d.dt)))
     both = contact[0] & contact[1]
-    at_rest = (body_speed_s < s.rest_speed) & both
-    starts_at_rest = bool(n > rest_n and at_rest[:rest_n].all())
-    ends_at_rest = bool(n > rest_n and at_rest[-rest_n:].all())
+    at_rest = (d.body_speed_s < s.rest_speed) & both
+    starts_at_rest = bool(d.n > rest_n and at_rest[:rest_n].all())
+    ends_at_rest = bool(d.n > rest_n and at_rest[-rest_n:].all())
     moving = ~(at_rest & _edge_runs(at_rest))
-    travel = float(np.linalg.norm(dense.root_pos[-1, :2] - dense.root_pos[0, :2]))
+    return starts_at_rest, ends_at_rest, moving
 
-    in_jump = np.zeros(n, bool)
+
+def _jump_mask(d: _Dense, jumps: list[tuple[float, float]]) -> np.ndarray:
+    """(n,) bool: the dense samples inside a jump's flight (ends rounded, included)."""
+    in_jump = np.zeros(d.n, bool)
     for a, b in jumps:
-        in_jump[int(round(a / dt)):int(round(b / dt)) + 1] = True
-    loco = moving & ~in_jump
+        in_jump[int(round(a / d.dt)):int(round(b / d.dt)) + 1] = True
+    return in_jump
 
-    def gait_of(mask):
-        """Walk: a foot is always down; run: the steps have flight phases. Decided by the
-        share of the steps inside ``mask`` that are followed by a flight."""
-        if mask.sum() * dt < 0.15:
-            return None
-        if np.mean(body_speed_s[mask]) < 2 * s.rest_speed:
-            return "stand"
-        inside = lambda t_: mask[min(int(round(t_ / dt)), n - 1)]  # noqa: E731
-        steps = sum(1 for st in stances if inside(st.stance))
-        air = sum(1 for a, b in flights if inside(0.5 * (a + b)) and (a, b) not in jumps)
-        if steps < 2:
-            return "run" if air else "walk"
-        return "run" if air >= s.run_flight_share * (steps - 1) else "walk"
 
+def _kind(d: _Dense, jumps: list, starts_at_rest: bool, ends_at_rest: bool) -> str:
+    """"jump" with a jump; "idle" at rest at both ends travelling under 0.5 m, else
+    "start" / "stop" at rest at the start / end; "cycle" otherwise."""
     if jumps:
-        kind = "jump"
-    elif starts_at_rest and ends_at_rest:
-        kind = "idle" if travel < 0.5 else "start"
-    elif starts_at_rest:
-        kind = "start"
-    elif ends_at_rest:
-        kind = "stop"
-    else:
-        kind = "cycle"
-    gait = gait_of(loco) or "stand"
-    if jumps:
-        ja, jb = int(round(jumps[0][0] / dt)), int(round(jumps[-1][1] / dt))
-        pre = loco.copy()
-        pre[ja:] = False
-        post = loco.copy()
-        post[:jb + 1] = False
-        entry_gait = "stand" if starts_at_rest else (gait_of(pre) or gait)
-        exit_gait = "stand" if ends_at_rest else (gait_of(post) or gait)
-    else:
-        entry_gait = "stand" if starts_at_rest else gait
-        exit_gait = "stand" if ends_at_rest else gait
+        return "jump"
+    if starts_at_rest and ends_at_rest:
+        pos = d.motion.root_pos
+        travel = float(np.linalg.norm(pos[-1, :2] - pos[0, :2]))
+        return "idle" if travel < 0.5 else "start"
+    if starts_at_rest:
+        return "start"
+    if ends_at_rest:
+        return "stop"
+    return "cycle"
 
-    # cycles: consecutive strikes (or liftoffs) of one foot inside the locomotion
+
+def _gait_of(d: _Dense, mask: np.ndarray, stances: list[Stance], flights: list,
+             jumps: list, s: Settings) -> str | None:
+    """The gait of the dense samples in ``mask`` (n,) bool: None under 0.15 s; "stand"
+    when the body is slow; "walk" when a foot is always down, "run" when the steps have
+    flight phases: decided by the share of the steps inside ``mask`` followed by a
+    flight that is not a jump."""
+    dt, n = d.dt, d.n
+    if mask.sum() * dt < 0.15:
+        return None
+    if np.mean(d.body_speed_s[mask]) < 2 * s.rest_speed:
+        return "stand"
+    inside = lambda t_: mask[min(int(round(t_ / dt)), n - 1)]  # noqa: E731
+    steps = sum(1 for st in stances if inside(st.stance))
+    air = sum(1 for a, b in flights if inside(0.5 * (a + b)) and (a, b) not in jumps)
+    if steps < 2:
+        return "run" if air else "walk"
+    return "run" if air >= s.run_flight_share * (steps - 1) else "walk"
+
+
+def _gaits(d: _Dense, loco: np.ndarray, stances: list[Stance], flights: list, jumps: list,
+           starts_at_rest: bool, ends_at_rest: bool, s: Settings) -> tuple[str, str, str]:
+    """(gait, entry_gait, exit_gait). The gait is that of the locomotion ``loco`` (n,)
+    bool ("stand" when too short to tell); the clip is entered and left in it, or in the
+    gaits before the first and after the last jump, or "stand" from and to rest."""
+    gait = _gait_of(d, loco, stances, flights, jumps, s) or "stand"
+    if not jumps:
+        return (gait, "stand" if starts_at_rest else gait,
+                "stand" if ends_at_rest else gait)
+    ja, jb = int(round(jumps[0][0] / d.dt)), int(round(jumps[-1][1] / d.dt))
+    pre = loco.copy()
+    pre[ja:] = False
+    post = loco.copy()
+    post[:jb + 1] = False
+    entry_gait = "stand" if starts_at_rest else (_gait_of(d, pre, stances, flights, jumps, s) or gait)
+    exit_gait = "stand" if ends_at_rest else (_gait_of(d, post, stances, flights, jumps, s) or gait)
+    return gait, entry_gait, exit_gait
+
+
+def _cycle_windows(stances: list[Stance], loco: np.ndarray, dt: float) -> list[_Window]:
+    """Every pair of consecutive strikes (or liftoffs) of one foot, both real (not the
+    clip's ends), with the locomotion ``loco`` (n,) bool all the way between them; left
+    foot first, strikes before liftoffs, in time order."""
     windows = []
     for k in range(2):
         mine = [st for st in stances if st.foot == k]
@@ -310,98 +421,179 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
             for a, b in zip(ev[:-1], ev[1:]):
                 ia, ib = int(round(a / dt)), int(round(b / dt))
                 if loco[ia:ib + 1].all():
-                    windows.append((k, key, a, b))
+                    windows.append(_Window(k, key, a, b))
+    return windows
+
+
+def _cycle_figures(motion: ClipMotion, d: _Dense, stances: list[Stance],
+                   windows: list[_Window], loco: np.ndarray, kind: str) -> _Cycle:
+    """Speed, stride, cycle, cadence and curvature from the best cycle window. Without
+    a window: the mean body speed over the locomotion, AnalysisError for a "cycle"."""
     if not windows:
         if kind == "cycle":
             raise AnalysisError(
-                f"clip {name!r} is too short for a gait cycle: no foot steps twice in its "
-                f"{motion.duration:.2f} s")
-        best = None
-        cycle = stride = cadence = None
-        speed = float(np.mean(body_speed[loco])) if loco.any() else 0.0
-        tau = 0.0
-        loop_error = None
-    else:
-        cycle = float(np.mean([b - a for _, _, a, b in windows]))
-        total_turn = abs(dense.root_heading[loco][-1] - dense.root_heading[loco][0]) if loco.any() else 0.0
-        turns = np.array([_heading_at(dense, b) - _heading_at(dense, a) for _, _, a, b in windows])
-        errs = np.array([_pose_error(motion, a, b) for _, _, a, b in windows])
-        cand = np.arange(len(windows))
-        if total_turn > np.radians(20):
-            cand = cand[np.abs(turns) >= 0.6 * np.abs(turns).max()]
-        bi = int(cand[np.argmin(errs[cand])])
-        _, _, a, b = windows[bi]
-        best = (a, b)
-        loop_error = float(errs[bi])
-        dpsi = turns[bi]
-        chord = float(np.linalg.norm(_pos_at(dense, b) - _pos_at(dense, a)))
-        arc = chord if abs(dpsi) < 1e-6 else chord * (0.5 * dpsi) / np.sin(0.5 * dpsi)
-        speed = arc / (b - a)
-        tau = 0.0 if chord < 1e-6 else float(2.0 * np.sin(0.5 * dpsi) / chord)
-        cadence = 120.0 / cycle
-        strides = []
-        for k in range(2):
-            fps_ = [st.footprint for st in stances if st.foot == k]
-            for f0, f1 in zip(fps_[:-1], fps_[1:]):
-                ia, ib = int(round(f0.time / dt)), int(round(f1.time / dt))
-                if loco[ia:ib + 1].all():
-                    strides.append(np.linalg.norm(f1.position[:2] - f0.position[:2]))
-        stride = float(np.median(strides)) if strides else speed * cycle
-    is_loop = bool(bool(windows) and _pose_error(motion, 0.0, motion.duration) < np.radians(4) and
-        abs(_heading_rate_gap(dense)) < 0.2)
+                f"clip {motion.name!r} is too short for a gait cycle: no foot steps twice in "
+                f"its {motion.duration:.2f} s")
+        speed = float(np.mean(d.body_speed[loco])) if loco.any() else 0.0
+        return _Cycle(None, None, None, None, speed, 0.0, None)
+    cycle = float(np.mean([b - a for _, _, a, b in windows]))
+    bi, turn, loop_error = _best_window(motion, d.motion, windows, loco)
+    _, _, a, b = windows[bi]
+    speed, tau = _arc_speed_and_tau(d.motion, a, b, turn)
+    stride = _median_stride(stances, loco, d.dt)
+    return _Cycle((a, b), cycle, speed * cycle if stride is None else stride, 120.0 / cycle,
+                  speed, tau, loop_error)
 
-    # back to the clip's own samples
-    idx = np.clip(np.rint(motion.times * rate).astype(int), 0, n - 1)
-    return ClipAnalysis(
-        name=name, fps=motion.fps, frames=motion.n, duration=motion.duration, gait=gait,
-        kind=kind, starts_at_rest=starts_at_rest, ends_at_rest=ends_at_rest,
-        entry_gait=entry_gait, exit_gait=exit_gait, speed=speed, stride=stride, cycle=cycle,
-        cadence=cadence, tau=tau, best_cycle=best, loop_error=loop_error, is_loop=is_loop,
-        stances=stances, flights=flights, jump_flights=jumps, balance=balance[:, idx],
-        contact=contact[:, idx], motion=motion)
 
+def _best_window(motion: ClipMotion, dense: ClipMotion, windows: list[_Window],
+                 loco: np.ndarray) -> tuple[int, float, float]:
+    """(index into ``windows``, its heading change (radians, positive left), its pose
+    error (radians)): the window whose end pose best matches its start pose; when the
+    locomotion turns more than 20 degrees, among the windows turning at least 0.6 times
+    the most any turns."""
+    total_turn = abs(dense.root_heading[loco][-1] - dense.root_heading[loco][0]) if loco.any() else 0.0
+    turns = np.array([_heading_at(dense, b) - _heading_at(dense, a) for _, _, a, b in windows])
+    errs = np.array([_pose_error(motion, a, b) for _, _, a, b in windows])
+    cand = np.arange(len(windows))
+    if total_turn > np.radians(20):
+        cand = cand[np.abs(turns) >= 0.6 * np.abs(turns).max()]
+    bi = int(cand[np.argmin(errs[cand])])
+    return bi, turns[bi], float(errs[bi])
+
+
+def _arc_speed_and_tau(dense: ClipMotion, a: float, b: float, dpsi: float) -> tuple[float, float]:
+    """(speed m/s, tau 1/m) of the root from time ``a`` to ``b`` s, taken as a circular
+    arc turning ``dpsi`` radians through its end points (a straight line below 1e-6)."""
+    chord = float(np.linalg.norm(_pos_at(dense, b) - _pos_at(dense, a)))
+    arc = chord if abs(dpsi) < 1e-6 else chord * (0.5 * dpsi) / np.sin(0.5 * dpsi)
+    speed = arc / (b - a)
+    tau = 0.0 if chord < 1e-6 else float(2.0 * np.sin(0.5 * dpsi) / chord)
+    return speed, tau
+
+
+def _median_stride(stances: list[Stance], loco: np.ndarray, dt: float) -> float | None:
+    """Median ground distance (m) between consecutive footprints of one foot with the
+    locomotion ``loco`` (n,) bool all the way between them; None without any."""
+    strides = []
+    for k in range(2):
+        prints = [st.footprint for st in stances if st.foot == k]
+        for f0, f1 in zip(prints[:-1], prints[1:]):
+            ia, ib = int(round(f0.time / dt)), int(round(f1.time / dt))
+            if loco[ia:ib + 1].all():
+                strides.append(np.linalg.norm(f1.position[:2] - f0.position[:2]))
+    return float(np.median(strides)) if strides else None
+
+
+def _is_loop(motion: ClipMotion, d: _Dense, windows: list[_Window]) -> bool:
+    """A clip with a cycle loops when its last pose is within 4 degrees of its first and
+    its turning rate at the end within 0.2 rad/s of that at the start."""
+    return bool(bool(windows) and _pose_error(motion, 0.0, motion.duration) < np.radians(4) and
+                abs(_heading_rate_gap(d.motion)) < 0.2)
+
+
+def _clip_samples(motion: ClipMotion, d: _Dense) -> np.ndarray:
+    """(N,) index of the dense sample nearest each of the clip's own samples."""
+    return np.clip(np.rint(motion.times * d.rate).astype(int), 0, d.n - 1)
+
+
+# ----------------------------------------------------------------------------------
+# one foot
 
 @dataclass
 class _Foot:
+    """What the analysis of one foot gives."""
+
     stances: list[Stance]
     balance: np.ndarray  # (N,) toe weight
     lowest: float  # lowest of heel and toe, m
 
 
+@dataclass
+class _FootSignals:
+    """One foot's curves on the dense clip: N samples ``dt`` s apart, metres, m/s."""
+
+    heel: np.ndarray  # (N, 3) heel point
+    toe: np.ndarray  # (N, 3) toe (ball) point
+    heel_z: np.ndarray  # (N,) heel height
+    toe_z: np.ndarray  # (N,) toe height
+    balance: np.ndarray  # (N,) toe weight in [0, 1]: 0.5 + (heel_z - toe_z) / balance band
+    lower_z: np.ndarray  # (N,) the lower of heel and toe
+    upper_z: np.ndarray  # (N,) the higher of heel and toe: low only with both down
+    velocity: np.ndarray  # (N, 2) horizontal velocity of the part that is down
+    speed: np.ndarray  # (N,) its norm
+    sigma: float  # derivative smoothing, samples
+    dt: float  # s between samples
+
+
+@dataclass
+class _Events:
+    """One stance's contact events, in dense samples (fractional but ``stance``)."""
+
+    stance: int  # the foot stands most firmly
+    strike: float  # first touch (0 with open_start)
+    land: float  # fully landed
+    lift: float  # begins to lift
+    liftoff: float  # has left the ground (N - 1 with open_end)
+    open_start: bool  # no strike found: already down when the clip starts
+    open_end: bool  # no liftoff found: still down when the clip ends
+
+
 def _foot_stances(dense: ClipMotion, k: int, body_speed: np.ndarray, s: Settings) -> _Foot:
-    """The stances of foot ``k`` on the densely resampled clip (Johansen's rules)."""
+    """The stances of foot ``k`` on the densely resampled clip (Johansen's rules);
+    ``body_speed`` (N,) m/s is the smoothed body speed."""
+    sig = _foot_signals(dense, k, s)
+    out = _Foot([], sig.balance, float(sig.lower_z.min()))
+    runs = _seed_runs(sig, s)
+    if not runs:
+        return out
+    firm, ts = _firm_parts(sig, runs, s)
+    heights = _height_curves(sig)
+    events = [_stance_events(sig, heights, firm, j, i0, body_speed, s) for j, i0 in enumerate(ts)]
+    for ev in _merge_standing(events):
+        out.stances.append(_stance_of(dense, k, sig, ev))
+    return out
+
+
+def _foot_signals(dense: ClipMotion, k: int, s: Settings) -> _FootSignals:
+    """Heights, balance and the planted part's velocity of foot ``k``."""
     t = dense.times
-    n = len(t)
     dt = t[1] - t[0]
     heel, toe = dense.heel[k], dense.toe[k]
     hh, ht = heel[:, 2], toe[:, 2]
     # Johansen's balance: the toe's weight grows as the heel rises above the toe
     b = np.clip(0.5 + (hh - ht) / s.balance_band, 0.0, 1.0)
-    hc = np.minimum(hh, ht)
     # velocity of the part that is down: the heel's and toe's velocities blended by the
     # balance (differentiating the blended point would add the roll-off itself)
-    sig = s.derivative_smoothing / dt
-    v_heel = gaussian_filter1d(heel[:, :2], sig, axis=0, order=1, mode="nearest") / dt
-    v_toe = gaussian_filter1d(toe[:, :2], sig, axis=0, order=1, mode="nearest") / dt
+    sigma = s.derivative_smoothing / dt
+    v_heel = gaussian_filter1d(heel[:, :2], sigma, axis=0, order=1, mode="nearest") / dt
+    v_toe = gaussian_filter1d(toe[:, :2], sigma, axis=0, order=1, mode="nearest") / dt
     vc = v_heel + b[:, None] * (v_toe - v_heel)
-    sc = np.linalg.norm(vc, axis=1)
-    out = _Foot([], b, float(hc.min()))
+    return _FootSignals(heel, toe, hh, ht, b, np.minimum(hh, ht), np.maximum(hh, ht), vc,
+                        np.linalg.norm(vc, axis=1), sigma, dt)
 
-    # seeds: near the clip's ground (or the foot's lowest level, for feet that sink
-    # below it) and slow
-    ground = min(float(np.percentile(hc, 2)), 0.0)
-    down = (hc < ground + s.contact_height) & (sc < s.contact_speed)
-    runs = _clean_runs(down, int(round(0.06 / dt)), max(2, int(round(0.04 / dt))))
-    if not runs:
-        return out
-    # the firm part of each stance: heel and toe both near their lowest, the foot slow.
-    # Johansen's searches start from its edges, so a heel wobbling while the foot pivots
-    # on its ball (sharp turns) does not end the stance; the stance time lies inside it.
-    low = np.maximum(hh, ht)
+
+def _seed_runs(sig: _FootSignals, s: Settings) -> list[tuple[int, int]]:
+    """(start, stop) sample runs where the foot is near the clip's ground (or the foot's
+    lowest level, for feet that sink below it) and slow: gaps up to 0.06 s closed, runs
+    under 0.04 s (2 samples) dropped."""
+    dt = sig.dt
+    ground = min(float(np.percentile(sig.lower_z, 2)), 0.0)
+    down = (sig.lower_z < ground + s.contact_height) & (sig.speed < s.contact_speed)
+    return _clean_runs(down, int(round(0.06 / dt)), max(2, int(round(0.04 / dt))))
+
+
+def _firm_parts(sig: _FootSignals, runs: list[tuple[int, int]], s: Settings
+                ) -> tuple[list[tuple[int, int]], list[int]]:
+    """(firm, ts) per seed run: ``firm`` the (first, last) sample (inclusive) of the
+    firm part of the stance (heel and toe both near their lowest, the foot slow), ``ts``
+    the stance sample inside it. Johansen's searches start from the firm part's edges,
+    so a heel wobbling while the foot pivots on its ball (sharp turns) does not end the
+    stance."""
+    low = sig.upper_z
     firm, ts = [], []
     for a, e in runs:
         i0 = a + int(np.argmin(low[a:e]))
-        ok = (low[a:e] <= low[i0] + s.firm_height) & (sc[a:e] < s.firm_speed)
+        ok = (low[a:e] <= low[i0] + s.firm_height) & (sig.speed[a:e] < s.firm_speed)
         idx = np.flatnonzero(ok) + a
         if len(idx):
             firm.append((int(idx[0]), int(idx[-1])))
@@ -409,59 +601,112 @@ def _foot_stances(dense: ClipMotion, k: int, body_speed: np.ndarray, s: Settings
         else:
             firm.append((i0, i0))
         ts.append(i0)
+    return firm, ts
 
-    curves = [(y, gaussian_filter1d(y, sig, order=1, mode="nearest"),
-               gaussian_filter1d(y, sig, order=2, mode="nearest")) for y in (hh, ht)]
+
+def _height_curves(sig: _FootSignals) -> tuple[list, list]:
+    """(forward, backward): for the heel and the toe height, (y, dy, d2y) per sample
+    (Gaussian derivatives, ``sig.sigma``), and the same curves run backward in time."""
+    curves = [(y, gaussian_filter1d(y, sig.sigma, order=1, mode="nearest"),
+               gaussian_filter1d(y, sig.sigma, order=2, mode="nearest"))
+              for y in (sig.heel_z, sig.toe_z)]
     reverse = [(y[::-1], -d[::-1], dd[::-1]) for y, d, dd in curves]
-    found = []  # [stance, strike, land, lift, liftoff, open_start, open_end], in samples
-    for j, i0 in enumerate(ts):
-        fa, fb = firm[j]
-        nxt = firm[j + 1][0] if j + 1 < len(ts) else n
-        prv = firm[j - 1][1] if j > 0 else -1
-        rises = [x for x in (_rise_index(*c, fb, nxt, s) for c in curves) if x is not None]
-        touches = [x for x in (_flip(_rise_index(*c, n - 1 - fa, n - 1 - prv, s), n)
-                               for c in reverse) if x is not None]
-        # Johansen's horizontal check: the foot has left (not yet reached) the ground
-        # where its speed departs from its speed while firmly planted
-        thr = max(s.slip_tolerance * body_speed[i0], s.slip_min_speed)
-        dev = np.linalg.norm(vc - np.median(vc[fa:fb + 1], axis=0), axis=1)
-        fwd = np.flatnonzero(dev[fb:nxt] > thr)
-        bwd = np.flatnonzero(dev[prv + 1:fa + 1] > thr)
-        slip_f = _crossing(dev, fb + fwd[0], -1, thr) if len(fwd) else None
-        slip_b = _crossing(dev, prv + 1 + bwd[-1], +1, thr) if len(bwd) else None
-        lift, liftoff = (min(rises), max(rises)) if rises else (None, None)
-        if slip_f is not None and (liftoff is None or slip_f < liftoff):
-            liftoff = slip_f
-            lift = slip_f if lift is None else min(lift, slip_f)
-        strike, land = (min(touches), max(touches)) if touches else (None, None)
-        if slip_b is not None and (strike is None or slip_b > strike):
-            strike = slip_b
-            land = slip_b if land is None else max(land, slip_b)
-        found.append([i0, 0.0 if strike is None else strike, 0.0 if land is None else land,
-                      float(n - 1) if lift is None else lift,
-                      float(n - 1) if liftoff is None else liftoff,
-                      strike is None, liftoff is None])
-    # a foot that never left the ground between two stances stood all along: merge
-    merged = []
-    for st in found:
-        if merged and (merged[-1][6] or st[1] <= merged[-1][4]):
-            merged[-1][3], merged[-1][4], merged[-1][6] = st[3], st[4], st[6]
-        else:
-            merged.append(st)
+    return curves, reverse
 
+
+def _stance_events(sig: _FootSignals, heights: tuple[list, list], firm: list[tuple[int, int]],
+                   j: int, i0: int, body_speed: np.ndarray, s: Settings) -> _Events:
+    """The events of the ``j``-th stance (stance sample ``i0``): Johansen's vertical
+    rules searched from its firm part's edges up to the neighbouring firm parts, cut
+    short where the foot slips (``_slips``)."""
+    n = len(sig.heel_z)
+    fa, fb = firm[j]
+    nxt = firm[j + 1][0] if j + 1 < len(firm) else n
+    prv = firm[j - 1][1] if j > 0 else -1
+    forward, backward = heights
+    slip_b, slip_f = _slips(sig, body_speed[i0], fa, fb, prv, nxt, s)
+    lift, liftoff = _leaving(forward, fb, nxt, slip_f, s)
+    strike, land = _arriving(backward, fa, prv, n, slip_b, s)
+    return _Events(i0, 0.0 if strike is None else strike, 0.0 if land is None else land,
+                   float(n - 1) if lift is None else lift,
+                   float(n - 1) if liftoff is None else liftoff, strike is None, liftoff is None)
+
+
+def _slips(sig: _FootSignals, body_speed: float, fa: int, fb: int, prv: int, nxt: int,
+           s: Settings) -> tuple[float | None, float | None]:
+    """(before, after): Johansen's horizontal check. The foot has not yet reached
+    (``before``, searched back from ``fa`` to ``prv``) or has left (``after``, from
+    ``fb`` to ``nxt``) the ground where its velocity departs from its median velocity
+    over the firm part [fa, fb] by more than ``s.slip_tolerance`` times the body speed
+    (m/s), at least ``s.slip_min_speed``. Fractional samples; None: no such point."""
+    vc = sig.velocity
+    thr = max(s.slip_tolerance * body_speed, s.slip_min_speed)
+    dev = np.linalg.norm(vc - np.median(vc[fa:fb + 1], axis=0), axis=1)
+    fwd = np.flatnonzero(dev[fb:nxt] > thr)
+    bwd = np.flatnonzero(dev[prv + 1:fa + 1] > thr)
+    slip_f = _crossing(dev, fb + fwd[0], -1, thr) if len(fwd) else None
+    slip_b = _crossing(dev, prv + 1 + bwd[-1], +1, thr) if len(bwd) else None
+    return slip_b, slip_f
+
+
+def _leaving(curves: list, fb: int, nxt: int, slip: float | None, s: Settings
+             ) -> tuple[float | None, float | None]:
+    """(lift, liftoff) in fractional samples: the first and last of heel and toe to rise
+    after ``fb`` (before ``nxt``), liftoff no later than ``slip``. None: the foot does
+    not leave."""
+    rises = [x for x in (_rise_index(*c, fb, nxt, s) for c in curves) if x is not None]
+    lift, liftoff = (min(rises), max(rises)) if rises else (None, None)
+    if slip is not None and (liftoff is None or slip < liftoff):
+        liftoff = slip
+        lift = slip if lift is None else min(lift, slip)
+    return lift, liftoff
+
+
+def _arriving(reverse: list, fa: int, prv: int, n: int, slip: float | None, s: Settings
+              ) -> tuple[float | None, float | None]:
+    """(strike, land) in fractional samples: the first and last of heel and toe to come
+    down before ``fa`` (after ``prv``; the rise rules run backward in time), strike no
+    earlier than ``slip``. None: the foot was down all along."""
+    touches = [x for x in (_flip(_rise_index(*c, n - 1 - fa, n - 1 - prv, s), n)
+                           for c in reverse) if x is not None]
+    strike, land = (min(touches), max(touches)) if touches else (None, None)
+    if slip is not None and (strike is None or slip > strike):
+        strike = slip
+        land = slip if land is None else max(land, slip)
+    return strike, land
+
+
+def _merge_standing(events: list[_Events]) -> list[_Events]:
+    """A foot that never left the ground between two stances stood all along: such
+    stances become one (the first's stance, strike and land; the last's lift and
+    liftoff). Modifies the merged records in place."""
+    merged: list[_Events] = []
+    for ev in events:
+        if merged and (merged[-1].open_end or ev.strike <= merged[-1].liftoff):
+            merged[-1].lift, merged[-1].liftoff, merged[-1].open_end = ev.lift, ev.liftoff, ev.open_end
+        else:
+            merged.append(ev)
+    return merged
+
+
+def _stance_of(dense: ClipMotion, k: int, sig: _FootSignals, ev: _Events) -> Stance:
+    """The Stance of foot ``k`` with events ``ev`` (samples converted to seconds) and its
+    footprint: heel and toe at their medians from landing (or the stance, if earlier)
+    to lifting (or the stance, if later)."""
+    t = dense.times
+    n = len(t)
+    lo, hi = int(np.ceil(min(ev.land, ev.stance))), int(np.floor(max(ev.lift, ev.stance)))
+    heel_p = np.median(sig.heel[lo:hi + 1], axis=0)
+    toe_p = np.median(sig.toe[lo:hi + 1], axis=0)
+    d = toe_p - heel_p
     fwd_angle = np.arctan2(dense.rest_forward[1], dense.rest_forward[0])
-    for i0, strike, land, lift, liftoff, o_s, o_e in merged:
-        lo, hi = int(np.ceil(min(land, i0))), int(np.floor(max(lift, i0)))
-        heel_p = np.median(heel[lo:hi + 1], axis=0)
-        toe_p = np.median(toe[lo:hi + 1], axis=0)
-        d = toe_p - heel_p
-        heading = float((np.arctan2(d[1], d[0]) - fwd_angle + np.pi) % (2 * np.pi) - np.pi)
-        si = int(np.clip(round(strike), 0, n - 1))
-        part = None if o_s else ("heel" if hh[si] <= ht[si] else "toe")
-        fp = Footprint(k, float(t[i0]), 0.5 * (heel_p + toe_p), heading, heel_p, toe_p, part)
-        out.stances.append(Stance(k, float(t[i0]), strike * dt, land * dt, lift * dt,
-                                  liftoff * dt, o_s, o_e, fp))
-    return out
+    heading = float((np.arctan2(d[1], d[0]) - fwd_angle + np.pi) % (2 * np.pi) - np.pi)
+    si = int(np.clip(round(ev.strike), 0, n - 1))
+    part = None if ev.open_start else ("heel" if sig.heel_z[si] <= sig.toe_z[si] else "toe")
+    fp = Footprint(k, float(t[ev.stance]), 0.5 * (heel_p + toe_p), heading, heel_p, toe_p, part)
+    dt = sig.dt
+    return Stance(k, float(t[ev.stance]), ev.strike * dt, ev.land * dt, ev.lift * dt,
+                  ev.liftoff * dt, ev.open_start, ev.open_end, fp)
 
 
 def _gaps(intervals, lo, hi):
@@ -475,6 +720,8 @@ def _gaps(intervals, lo, hi):
 
 
 def _smooth(x: np.ndarray, width: int) -> np.ndarray:
+    """Moving average of ``x`` (N,) over ``width`` samples, edges padded by repetition;
+    ``x`` itself for a width of 1 or less."""
     if width <= 1:
         return x
     k = np.ones(width) / width
@@ -491,10 +738,12 @@ def _edge_runs(mask: np.ndarray) -> np.ndarray:
 
 
 def _heading_at(m: ClipMotion, t: float) -> float:
+    """The root's unwrapped heading (radians) at time ``t`` s, linearly interpolated."""
     return float(np.interp(t, m.times, m.root_heading))
 
 
 def _pos_at(m: ClipMotion, t: float) -> np.ndarray:
+    """(2,) the root's ground position (x, y) m at time ``t`` s, linearly interpolated."""
     return np.array([np.interp(t, m.times, m.root_pos[:, i]) for i in range(2)])
 
 
@@ -511,5 +760,6 @@ def _pose_error(m: ClipMotion, a: float, b: float) -> float:
 
 
 def _heading_rate_gap(m: ClipMotion) -> float:
+    """Turning rate (rad/s) at the clip's last sample minus that at its first."""
     v = np.gradient(m.root_heading, m.times)
     return float(v[-1] - v[0])

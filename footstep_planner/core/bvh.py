@@ -9,7 +9,7 @@ frame rate, and the length unit.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from .errors import FootstepError
@@ -50,6 +50,8 @@ class BvhSkeleton:
         return np.stack([h[:, 0], -h[:, 2], h[:, 1]], axis=1)
 
     def tails_z_up(self) -> np.ndarray:
+        """Rest tails in Blender's axes: the mean head of a joint's children, or for a
+        joint without children its head plus its end-site offset."""
         heads = self.heads()
         tails = heads.copy()
         for j in range(len(self.names)):
@@ -76,92 +78,167 @@ class BvhSkeleton:
 
 def read_skeleton(path: str) -> BvhSkeleton:
     """Parse and check a BVH file. Raises BvhError naming the file and line at fault."""
+    lines = _read_lines(path)
+    i = _hierarchy_start(lines, path)
+    joints, i = _parse_hierarchy(lines, i, path)
+    frames, frame_time, i = _motion_header(lines, i, path)
+    _check_motion(lines[i:], frames, sum(len(c) for c in joints.channels), path)
+    return BvhSkeleton(path, tuple(joints.names), tuple(joints.parents), np.array(joints.offsets),
+                       tuple(joints.channels), np.array(joints.ends), frames, frame_time)
+
+
+@dataclass
+class _Joints:
+    """The hierarchy as parsed so far, one entry per joint in file order."""
+
+    names: list[str] = field(default_factory=list)
+    parents: list[int] = field(default_factory=list)  # index of the parent joint, -1 for the root
+    offsets: list[np.ndarray] = field(default_factory=list)  # (3,) file units, file axes
+    channels: list[tuple[str, ...]] = field(default_factory=list)  # upper case
+    ends: list[np.ndarray] = field(default_factory=list)  # (3,) end-site offset, zeros if none
+
+
+# Markers on the stack of open blocks besides joint indices (>= 0).
+_END_SITE = -2  # an "End Site" block
+
+
+def _read_lines(path: str) -> list[str]:
+    """The file's lines (undecodable bytes replaced); BvhError when it cannot be read."""
     if not os.path.isfile(path):
         raise BvhError(f"{path}: no such file")
     try:
         with open(path, "r", encoding="utf-8", errors="replace") as fh:
-            lines = fh.read().splitlines()
+            return fh.read().splitlines()
     except OSError as ex:
         raise BvhError(f"{path}: cannot read ({ex.strerror})") from None
 
-    def fail(i, msg):
-        raise BvhError(f"{path}, line {i + 1}: {msg}")
 
-    i = 0
+def _skip_blank(lines: list[str], i: int) -> int:
+    """Index of the first non-blank line at or after ``i`` (len(lines) if none)."""
     while i < len(lines) and not lines[i].strip():
         i += 1
+    return i
+
+
+def _hierarchy_start(lines: list[str], path: str) -> int:
+    """Index of the line after the leading HIERARCHY keyword; BvhError without it."""
+    i = _skip_blank(lines, 0)
     if i >= len(lines) or lines[i].strip().upper() != "HIERARCHY":
         raise BvhError(f"{path}: not a BVH file (it does not start with HIERARCHY)")
-    names, parents, offsets, channels, ends = [], [], [], [], []
-    stack: list[int] = []
-    pending: int | None = None  # joint whose "{" is expected
-    i += 1
+    return i + 1
+
+
+def _parse_hierarchy(lines: list[str], i: int, path: str) -> tuple[_Joints, int]:
+    """The joints from line ``i`` up to MOTION, and the index of the line after MOTION.
+    BvhError naming the 1-based line of the first fault."""
+    joints = _Joints()
+    stack: list[int] = []  # open blocks: joint indices, or _END_SITE
+    pending: int | None = None  # the joint (or _END_SITE) whose "{" is expected
     while i < len(lines):
         tok = lines[i].split()
         i += 1
         if not tok:
             continue
-        key = tok[0].upper()
-        if key in ("ROOT", "JOINT"):
-            if (key == "ROOT") != (not stack):
-                fail(i - 1, f"{key} in the wrong place")
-            if len(tok) < 2:
-                fail(i - 1, f"{key} without a name")
-            names.append(" ".join(tok[1:]))
-            parents.append(stack[-1] if stack else -1)
-            offsets.append(np.zeros(3))
-            channels.append(())
-            ends.append(np.zeros(3))
-            pending = len(names) - 1
-        elif key == "END":
-            pending = -2
-        elif key == "{":
-            if pending is None:
-                fail(i - 1, "unexpected '{'")
-            stack.append(pending)
-            pending = None
-        elif key == "}":
-            if not stack:
-                fail(i - 1, "unbalanced '}'")
-            stack.pop()
-        elif key == "OFFSET":
-            try:
-                vec = np.array([float(v) for v in tok[1:4]])
-            except ValueError:
-                fail(i - 1, "OFFSET needs three numbers")
-            if len(vec) != 3 or not np.all(np.isfinite(vec)):
-                fail(i - 1, "OFFSET needs three numbers")
-            if stack and stack[-1] == -2:
-                ends[[s for s in stack if s >= 0][-1]] = vec
-            elif stack:
-                offsets[stack[-1]] = vec
-            else:
-                fail(i - 1, "OFFSET outside a joint")
-        elif key == "CHANNELS":
-            if not stack or stack[-1] < 0:
-                fail(i - 1, "CHANNELS outside a joint")
-            try:
-                n = int(tok[1])
-            except (IndexError, ValueError):
-                fail(i - 1, "CHANNELS needs a count")
-            if len(tok) != n + 2:
-                fail(i - 1, f"CHANNELS says {n} channels but lists {len(tok) - 2}")
-            channels[stack[-1]] = tuple(t.upper() for t in tok[2:])
-        elif key == "MOTION":
+        if tok[0].upper() == "MOTION":
             break
-        else:
-            fail(i - 1, f"unexpected {tok[0]!r} in the hierarchy")
+        try:
+            pending = _hierarchy_line(tok, joints, stack, pending)
+        except _LineError as ex:
+            raise BvhError(f"{path}, line {i}: {ex}") from None
     else:
         raise BvhError(f"{path}: no MOTION section")
     if stack:
         raise BvhError(f"{path}: the hierarchy is not closed (missing '}}')")
-    if not names:
+    if not joints.names:
         raise BvhError(f"{path}: the hierarchy has no joints")
+    return joints, i
+
+
+class _LineError(Exception):
+    """A fault in one line of the hierarchy (the caller adds file and line)."""
+
+
+def _hierarchy_line(tok: list[str], joints: _Joints, stack: list[int], pending: int | None
+                    ) -> int | None:
+    """Apply one hierarchy line, split into tokens ``tok``, to ``joints`` and the block
+    ``stack`` (both changed in place); returns the new ``pending``. _LineError on a
+    fault."""
+    key = tok[0].upper()
+    if key in ("ROOT", "JOINT"):
+        return _new_joint(key, tok, joints, stack)
+    if key == "END":
+        return _END_SITE
+    if key == "{":
+        if pending is None:
+            raise _LineError("unexpected '{'")
+        stack.append(pending)
+        return None
+    if key == "}":
+        if not stack:
+            raise _LineError("unbalanced '}'")
+        stack.pop()
+    elif key == "OFFSET":
+        _set_offset(tok, joints, stack)
+    elif key == "CHANNELS":
+        _set_channels(tok, joints, stack)
+    else:
+        raise _LineError(f"unexpected {tok[0]!r} in the hierarchy")
+    return pending
+
+
+def _new_joint(key: str, tok: list[str], joints: _Joints, stack: list[int]) -> int:
+    """Add the joint a ROOT or JOINT line names, child of the innermost open joint;
+    returns its index (its "{" is now expected)."""
+    if (key == "ROOT") != (not stack):
+        raise _LineError(f"{key} in the wrong place")
+    if len(tok) < 2:
+        raise _LineError(f"{key} without a name")
+    joints.names.append(" ".join(tok[1:]))
+    joints.parents.append(stack[-1] if stack else -1)
+    joints.offsets.append(np.zeros(3))
+    joints.channels.append(())
+    joints.ends.append(np.zeros(3))
+    return len(joints.names) - 1
+
+
+def _set_offset(tok: list[str], joints: _Joints, stack: list[int]) -> None:
+    """An OFFSET line: three finite numbers, the offset of the innermost open joint, or
+    inside an End Site block the end site of the innermost joint."""
+    try:
+        vec = np.array([float(v) for v in tok[1:4]])
+    except ValueError:
+        raise _LineError("OFFSET needs three numbers") from None
+    if len(vec) != 3 or not np.all(np.isfinite(vec)):
+        raise _LineError("OFFSET needs three numbers")
+    if stack and stack[-1] == _END_SITE:
+        joints.ends[[j for j in stack if j >= 0][-1]] = vec
+    elif stack:
+        joints.offsets[stack[-1]] = vec
+    else:
+        raise _LineError("OFFSET outside a joint")
+
+
+def _set_channels(tok: list[str], joints: _Joints, stack: list[int]) -> None:
+    """A CHANNELS line: a count and that many channel names, of the innermost joint."""
+    if not stack or stack[-1] < 0:
+        raise _LineError("CHANNELS outside a joint")
+    try:
+        n = int(tok[1])
+    except (IndexError, ValueError):
+        raise _LineError("CHANNELS needs a count") from None
+    if len(tok) != n + 2:
+        raise _LineError(f"CHANNELS says {n} channels but lists {len(tok) - 2}")
+    joints.channels[stack[-1]] = tuple(t.upper() for t in tok[2:])
+
+
+def _motion_header(lines: list[str], i: int, path: str) -> tuple[int, float, int]:
+    """(frames, frame time s, index of the line after the header) from the "Frames:"
+    and "Frame Time:" lines at ``i``; BvhError when they are missing, malformed or say
+    there is nothing to import."""
 
     def header(prefix):
         nonlocal i
-        while i < len(lines) and not lines[i].strip():
-            i += 1
+        i = _skip_blank(lines, i)
         if i >= len(lines) or not lines[i].strip().lower().startswith(prefix.lower()):
             raise BvhError(f"{path}, line {i + 1}: expected '{prefix}'")
         value = lines[i].split(":", 1)[1].strip()
@@ -175,8 +252,13 @@ def read_skeleton(path: str) -> BvhSkeleton:
         raise BvhError(f"{path}, line {i}: bad frame count or frame time") from None
     if frames < 1 or not (0 < frame_time < 10):
         raise BvhError(f"{path}: {frames} frames at frame time {frame_time}: nothing to import")
-    width = sum(len(c) for c in channels)
-    data = [ln for ln in lines[i:] if ln.strip()]
+    return frames, frame_time, i
+
+
+def _check_motion(lines: list[str], frames: int, width: int, path: str) -> None:
+    """BvhError unless the non-blank ``lines`` hold ``frames`` rows of ``width`` numbers
+    (rows beyond ``frames`` are ignored)."""
+    data = [ln for ln in lines if ln.strip()]
     if len(data) < frames:
         raise BvhError(f"{path}: the header says {frames} frames but the file has {len(data)}")
     for k, ln in enumerate(data[:frames]):
@@ -187,5 +269,3 @@ def read_skeleton(path: str) -> BvhSkeleton:
         np.array(" ".join(data[:frames]).split(), dtype=np.float64)
     except ValueError:
         raise BvhError(f"{path}: the motion data has a value that is not a number") from None
-    return BvhSkeleton(path, tuple(names), tuple(parents), np.array(offsets), tuple(channels),
-                       np.array(ends), frames, frame_time)

@@ -87,28 +87,16 @@ class Library:
 
     def clips(self) -> list[str]:
         names = [c.clip for g in self.turn_groups.values() for c in g.clips]
-        return names + [s.clip for s in self.specials]
+        return names + [sp.clip for sp in self.specials]
 
     def to_dict(self) -> dict:
         return {
             "turn_groups": {k: asdict(g) for k, g in self.turn_groups.items()},
             "speed_group": self.speed_group,
-            "specials": [asdict(s) for s in self.specials],
+            "specials": [asdict(sp) for sp in self.specials],
             "excluded": list(self.excluded),
             "edited": self.edited,
         }
-
-    @staticmethod
-    def from_dict(d: dict) -> "Library":
-        try:
-            groups = {k: TurnGroup(g["name"], g["gait"], [GroupClip(**c) for c in g["clips"]])
-                      for k, g in d.get("turn_groups", {}).items()}
-            specials = [SpecialClip(**s) for s in d.get("specials", [])]
-        except (KeyError, TypeError) as ex:
-            raise LibraryError(f"stored clip library is malformed ({ex})") from None
-        for g in groups.values():
-            g.clips.sort(key=lambda c: c.tau)
-        return Library(groups, specials, list(d.get("excluded", [])), bool(d.get("edited", False)))
 
     def check(self, available: set[str]) -> None:
         """Raise LibraryError naming any clip the library uses that no longer exists."""
@@ -132,5 +120,5 @@ def propose_library(analyses: list[ClipAnalysis], excluded=()) -> Library:
             specials.append(SpecialClip(a.name, a.kind, a.entry_gait, a.exit_gait))
     for g in groups.values():
         g.clips.sort(key=lambda c: c.tau)
-    specials.sort(key=lambda s: (SPECIAL_KINDS.index(s.kind), s.clip))
+    specials.sort(key=lambda sp: (SPECIAL_KINDS.index(sp.kind), sp.clip))
     return Library(groups, specials, list(excluded))

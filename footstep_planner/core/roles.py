@@ -158,6 +158,7 @@ class RoleMapping:
 
 
 def _preview(bones: Sequence[str], limit: int = 16) -> str:
+    """The first ``limit`` bone names, comma separated, and how many more (for messages)."""
     if not bones:
         return "(none)"
     shown = ", ".join(bones[:limit])
@@ -339,13 +340,17 @@ class _Ctx:
         return self._size[i]
 
     def z(self, i: int) -> float:
+        """Height of bone ``i``'s rest head (needs heads)."""
         return float(self.heads[i, 2])
 
     def dist(self, a: int, b: int) -> float:
+        """Distance between the rest heads of bones ``a`` and ``b`` (needs heads)."""
         return float(np.linalg.norm(self.heads[a] - self.heads[b]))
 
 
 def _as_points(arr, n, what):
+    """``arr`` as an (n, 3) float array (None stays None); RoleError naming ``what``
+    for another shape."""
     if arr is None:
         return None
     pts = np.asarray(arr, dtype=float)
@@ -358,6 +363,7 @@ def _as_points(arr, n, what):
 
 
 def _leg_chain(side: str) -> tuple[str, ...]:
+    """The roles from the hips down one leg: hips, thigh, shin, foot, toe of ``side``."""
     return ("hips",) + tuple(f"{p}_{side}" for p in _LEG_PARTS)
 
 
@@ -403,6 +409,9 @@ def _assemble(ctx, fixed, proposal):
 
 
 def _name_candidates(ctx: _Ctx):
+    """(leg candidates, hips candidates) by name: role -> [(score, bone index)] for each
+    leg role, and [(score, bone index)] for the hips, each sorted best (lowest score)
+    first. Bones that are never mapped are left out."""
     cands: dict[str, list] = {f"{p}_{s}": [] for p in _LEG_PARTS for s in _SIDES}
     hips: list = []
     for i, p in enumerate(ctx.parsed):
@@ -498,6 +507,9 @@ def _best_leg(ctx, side, hips, cands, fixed):
 
 
 def _name_stage(ctx: _Ctx, fixed: dict[str, int]) -> dict[str, int]:
+    """Role -> bone index by names: the hips candidate (or override) and the consistent
+    legs under it that fill the most roles, then have the best-named hips (the higher
+    bone on equal names), then the best-named legs."""
     cands, hips_cands = _name_candidates(ctx)
     if "hips" in fixed:
         hips_opts = [(_FIXED_SCORE, fixed["hips"])]
@@ -520,6 +532,9 @@ def _name_stage(ctx: _Ctx, fixed: dict[str, int]) -> dict[str, int]:
 
 
 def _name_spine(ctx: _Ctx, hips: int, used) -> int | None:
+    """The unused, mappable bone named like a spine, without a side, that descends from
+    the ``hips`` in the fewest steps (then best tier, lowest index, name); None if
+    there is none."""
     opts = []
     for i, p in enumerate(ctx.parsed):
         if p.tier is None or p.side is not None or p.base not in _SPINE or i in used:
@@ -531,6 +546,8 @@ def _name_spine(ctx: _Ctx, hips: int, used) -> int | None:
 
 
 def _name_root(ctx: _Ctx, hips: int, used) -> int | None:
+    """The nearest unused ancestor of the ``hips`` named root, without a side; None if
+    there is none."""
     opts = []
     for a_step, a in enumerate(ctx.ancestors[hips], 1):
         p = ctx.parsed[a]
@@ -561,6 +578,8 @@ def _main_child(ctx: _Ctx, i: int) -> int | None:
 
 
 def _seg_len(ctx: _Ctx, chain: list[int], j: int) -> float:
+    """Length of bone ``chain[j]``: to the next bone's head, else to its own tail (0
+    without tails)."""
     if j + 1 < len(chain):
         return ctx.dist(chain[j + 1], chain[j])
     if ctx.tails is not None:
@@ -597,6 +616,8 @@ def _leg_from(ctx: _Ctx, start: int):
 
 
 def _chain_side(ctx: _Ctx, bones) -> str | None:
+    """"l" or "r" by majority of the sides the ``bones``' names carry; None on a tie or
+    with no sided name."""
     votes = [ctx.parsed[b].side for b in bones if ctx.parsed[b].side in _SIDES]
     if not votes:
         return None
@@ -647,6 +668,9 @@ def _hierarchy_stage(ctx: _Ctx, fixed: dict[str, int]) -> dict[str, int]:
 
 
 def _pair_key(ctx: _Ctx, pair):
+    """Sort key of two candidate legs, lower for the more symmetric pair: chain heights
+    and subtree sizes alike (from the intermediate bone, if any), then shorter, then
+    by name."""
     (ba, ia), (bb, ib) = pair
     sa = ia if ia is not None else ba[0]
     sb = ib if ib is not None else bb[0]
@@ -695,6 +719,7 @@ def _hier_root(ctx: _Ctx, hips: int, roles: dict[str, int], used) -> int | None:
 
 
 def _lca(ctx: _Ctx, a: int, b: int) -> int | None:
+    """The nearest common proper ancestor of bones ``a`` and ``b``, or None."""
     anc_b = set(ctx.ancestors[b])
     return next((x for x in ctx.ancestors[a] if x in anc_b), None)
 
@@ -722,7 +747,21 @@ def map_roles(
     unfilled are listed in :attr:`RoleMapping.missing` (no exception is raised for them).
     """
     ctx = _Ctx(names, parents, heads, tails)
+    fixed = _fixed_roles(ctx, overrides)
+    proposals = _proposals(ctx, fixed)
+    roles, how = _best_assembly(ctx, fixed, proposals)
+    _add_spine_and_root(ctx, roles, how)
+    return RoleMapping(
+        roles={r: ctx.names[roles[r]] for r in ALL_ROLES if r in roles},
+        missing=tuple(r for r in REQUIRED_ROLES if r not in roles),
+        how={r: how[r] for r in ALL_ROLES if r in roles},
+        bones=tuple(ctx.names),
+    )
 
+
+def _fixed_roles(ctx: _Ctx, overrides: Mapping[str, str] | None) -> dict[str, int]:
+    """The overrides as role -> bone index, empty values dropped; RoleError for an
+    unknown role or a bone the armature does not have."""
     fixed: dict[str, int] = {}
     for role, bone in (overrides or {}).items():
         if role not in ALL_ROLES:
@@ -735,34 +774,53 @@ def map_roles(
                 f"which does not exist in the armature"
             )
         fixed[role] = ctx.index[bone]
+    return fixed
 
-    by_name = _name_stage(ctx, fixed)
-    alternatives = [{r: (i, "name") for r, i in by_name.items() if r not in fixed}]
-    base_roles, _ = _assemble(ctx, fixed, alternatives[0])
-    if any(r not in base_roles for r in REQUIRED_ROLES):
-        by_tree = _hierarchy_stage(ctx, fixed)
-        tree = {r: (i, "hierarchy") for r, i in by_tree.items() if r not in fixed}
-        mixed = dict(alternatives[0])
-        if "hips" not in base_roles:
-            if "hips" in tree:
-                mixed["hips"] = tree["hips"]
-            elif "thigh_l" in base_roles and "thigh_r" in base_roles:
-                lca = _lca(ctx, base_roles["thigh_l"], base_roles["thigh_r"])
-                if lca is not None:
-                    mixed["hips"] = (lca, "hierarchy")
-        for side in _SIDES:
-            leg = [f"{p}_{side}" for p in _LEG_PARTS]
-            if all(r in base_roles for r in leg[:3]):
-                continue
-            if any(r in tree for r in leg):
-                for r in leg:
-                    mixed.pop(r, None)
-                    if r in tree:
-                        mixed[r] = tree[r]
-        alternatives += [mixed, tree]
 
+def _proposals(ctx: _Ctx, fixed: dict[str, int]) -> list[dict[str, tuple[int, str]]]:
+    """Candidate mappings (role -> (bone index, how)), the overrides left out, in order
+    of preference: by names; and when names leave a required role unfilled, names
+    completed by the hierarchy, then the hierarchy alone."""
+    by_name = {r: (i, "name") for r, i in _name_stage(ctx, fixed).items() if r not in fixed}
+    base_roles, _ = _assemble(ctx, fixed, by_name)
+    if all(r in base_roles for r in REQUIRED_ROLES):
+        return [by_name]
+    tree = {r: (i, "hierarchy") for r, i in _hierarchy_stage(ctx, fixed).items() if r not in fixed}
+    return [by_name, _mixed_proposal(ctx, by_name, base_roles, tree), tree]
+
+
+def _mixed_proposal(ctx: _Ctx, by_name: dict, base_roles: dict[str, int], tree: dict) -> dict:
+    """The name proposal ``by_name`` with what names could not fill (``base_roles``: the
+    name proposal as assembled) taken from the hierarchy proposal ``tree``: the hips (or
+    the lowest common ancestor of the named thighs), and each leg whose thigh, shin or
+    foot is missing, as a whole."""
+    mixed = dict(by_name)
+    if "hips" not in base_roles:
+        if "hips" in tree:
+            mixed["hips"] = tree["hips"]
+        elif "thigh_l" in base_roles and "thigh_r" in base_roles:
+            lca = _lca(ctx, base_roles["thigh_l"], base_roles["thigh_r"])
+            if lca is not None:
+                mixed["hips"] = (lca, "hierarchy")
+    for side in _SIDES:
+        leg = [f"{p}_{side}" for p in _LEG_PARTS]
+        if all(r in base_roles for r in leg[:3]):
+            continue
+        if any(r in tree for r in leg):
+            for r in leg:
+                mixed.pop(r, None)
+                if r in tree:
+                    mixed[r] = tree[r]
+    return mixed
+
+
+def _best_assembly(ctx: _Ctx, fixed: dict[str, int], proposals: list[dict]
+                   ) -> tuple[dict[str, int], dict[str, str]]:
+    """(roles, how) of the proposal that, assembled with the overrides, fills the most
+    required roles, then the most roles by name, then the most roles; the earliest on
+    a tie."""
     best_key, roles, how = None, {}, {}
-    for rank, proposal in enumerate(alternatives):
+    for rank, proposal in enumerate(proposals):
         cand_roles, cand_how = _assemble(ctx, fixed, proposal)
         key = (
             -sum(r in cand_roles for r in REQUIRED_ROLES),
@@ -772,30 +830,28 @@ def map_roles(
         )
         if best_key is None or key < best_key:
             best_key, roles, how = key, cand_roles, cand_how
+    return roles, how
 
-    # optional spine / root relative to the final hips: names first, then hierarchy
-    if "hips" in roles:
-        h = roles["hips"]
-        for role, finders in (
-            ("spine", ((_name_spine, "name"), (_hier_spine, "hierarchy"))),
-            ("root", ((_name_root, "name"), (None, "hierarchy"))),
-        ):
-            if role in roles:
-                continue
-            for finder, kind in finders:
-                used = set(roles.values())
-                if finder is None:
-                    idx = _hier_root(ctx, h, roles, used)
-                else:
-                    idx = finder(ctx, h, used)
-                if idx is not None and _compatible(ctx, role, idx, roles):
-                    roles[role] = idx
-                    how[role] = kind
-                    break
 
-    return RoleMapping(
-        roles={r: ctx.names[roles[r]] for r in ALL_ROLES if r in roles},
-        missing=tuple(r for r in REQUIRED_ROLES if r not in roles),
-        how={r: how[r] for r in ALL_ROLES if r in roles},
-        bones=tuple(ctx.names),
-    )
+def _add_spine_and_root(ctx: _Ctx, roles: dict[str, int], how: dict[str, str]) -> None:
+    """Fill the optional spine and root relative to the final hips, names first, then
+    hierarchy, where consistent with the rest (``roles`` and ``how`` changed in place)."""
+    if "hips" not in roles:
+        return
+    h = roles["hips"]
+    for role, finders in (
+        ("spine", ((_name_spine, "name"), (_hier_spine, "hierarchy"))),
+        ("root", ((_name_root, "name"), (None, "hierarchy"))),
+    ):
+        if role in roles:
+            continue
+        for finder, kind in finders:
+            used = set(roles.values())
+            if finder is None:
+                idx = _hier_root(ctx, h, roles, used)
+            else:
+                idx = finder(ctx, h, used)
+            if idx is not None and _compatible(ctx, role, idx, roles):
+                roles[role] = idx
+                how[role] = kind
+                break

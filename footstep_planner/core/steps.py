@@ -41,15 +41,12 @@ class StepSet:
     def n(self) -> int:
         return len(self.fwd)
 
-    def max_speed(self) -> float:
-        return float(np.max(np.hypot(self.fwd, self.left) / self.duration))
-
     @staticmethod
     def concat(sets) -> "StepSet":
-        sets = [s for s in sets if s.n]
+        sets = [part for part in sets if part.n]
         if not sets:
             raise StepError("the clip library gives no steps: it needs at least one walk or run clip")
-        return StepSet(*(np.concatenate([getattr(s, f) for s in sets]) for f in
+        return StepSet(*(np.concatenate([getattr(part, f) for part in sets]) for f in
                          ("fwd", "left", "turn", "duration", "foot", "gait", "jump", "label")))
 
 
@@ -66,12 +63,12 @@ def relative(a: Footprint, b: Footprint, forward: np.ndarray) -> tuple[float, fl
 def clip_steps(a: ClipAnalysis, window: tuple[float, float] | None = None) -> list[tuple]:
     """The steps of one clip: consecutive footprints of alternating feet (inside
     ``window`` seconds, default the best cycle widened to hold two steps each foot)."""
-    fps_ = a.footprints()
+    prints = a.footprints()
     fwd = a.motion.rest_forward
     if window is None:
         window = a.best_cycle or (0.0, a.duration)
     out = []
-    for p, q in zip(fps_[:-1], fps_[1:]):
+    for p, q in zip(prints[:-1], prints[1:]):
         if p.foot == q.foot or p.strike_part is None and p.time <= 0:
             continue
         if window[0] - 1e-6 <= p.time and q.time <= window[1] + 0.6 * (a.cycle or 0) + 1e-6:
@@ -83,7 +80,7 @@ def _mean_by_foot(steps):
     """One step per starting foot: the mean of the clip's steps from that foot."""
     out = {}
     for foot in (0, 1):
-        mine = np.array([s[1:] for s in steps if s[0] == foot])
+        mine = np.array([step[1:] for step in steps if step[0] == foot])
         if len(mine):
             out[foot] = mine.mean(axis=0)
     return out
@@ -118,17 +115,17 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
         if sp.kind != "jump" or a is None or not a.jump_flights:
             continue
         t0, t1 = a.jump_flights[0]
-        fps_ = a.footprints()
-        take = [f for f in fps_ if f.time < t0]
-        land = [f for f in fps_ if f.time > t1]
+        prints = a.footprints()
+        take = [f for f in prints if f.time < t0]
+        land = [f for f in prints if f.time > t1]
         if take and land and sp.entry_gait == "run":
             p, q = take[-1], land[0]
             fwd, left, turn = relative(p, q, a.motion.rest_forward)
             # the jump within its tolerance: a little shorter or longer, a little turned
             for scale in (1 - jump_tolerance, 1.0, 1 + jump_tolerance):
                 for dturn in np.radians([-10.0, 0.0, 10.0]):
-                    c, s_ = np.cos(dturn), np.sin(dturn)
-                    rows.append((p.foot, scale * (c * fwd - s_ * left), scale * (s_ * fwd + c * left),
+                    c, sn = np.cos(dturn), np.sin(dturn)
+                    rows.append((p.foot, scale * (c * fwd - sn * left), scale * (sn * fwd + c * left),
                                  turn + dturn, q.time - p.time, "run", True, sp.clip))
     if not rows:
         raise StepError("the clip library gives no steps: it needs walk or run clips "

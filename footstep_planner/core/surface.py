@@ -234,19 +234,44 @@ def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
     every obstacle at the ankle, knee, hip, chest and head (up to ``body_height``).
     """
     pos = np.atleast_2d(np.asarray(pos, dtype=np.float64))
+    pts = foot.corners(pos, np.broadcast_to(heading, (len(pos),)), forward)  # (N, 5, 2)
+    got, z, nor = _drop_onto(ground, pos, pts, step_height)
+    all_hit = got.all(axis=1)
+    plane_n, uneven = _foot_plane(pts, z, nor, all_hit, unevenness)
+    steep = all_hit & ~uneven & (np.arccos(np.clip(np.nan_to_num(plane_n[:, 2], nan=1.0), -1, 1)) > max_slope)
+    reason = _reasons(all_hit, uneven, steep)
+    zc = z[:, 4]
+    ok = all_hit & ~uneven & ~steep
+    if obstacles is not None and obstacles.mesh.n and ok.any():
+        idx = np.flatnonzero(ok)
+        blocked = _blocked(obstacles, pos[idx], pts[idx], zc[idx], clearance, body_height)
+        ok[idx[blocked]] = False
+        reason[idx[blocked]] = "obstacle"
+    return Support(ok, zc, plane_n, reason)
+
+
+def _drop_onto(ground: Ground, pos: np.ndarray, pts: np.ndarray, step_height: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(hit (N, 5) bool, z (N, 5) m, normal (N, 5, 3)): the foot's ground points ``pts``
+    (N, 5, 2) dropped onto ``ground`` from ``step_height`` above the footprints' heights
+    ``pos[:, 2]``, looking down twice that far (nan where nothing is hit)."""
     n = len(pos)
-    pts = foot.corners(pos, np.broadcast_to(heading, (n,)), forward)  # (N, 5, 2)
     top = np.concatenate([pts, np.broadcast_to(pos[:, None, 2:3] + step_height, (n, 5, 1))], axis=2)
     hit = ground.ray_down(top.reshape(-1, 3), 2 * step_height)
-    got = hit.hit.reshape(n, 5)
-    z = hit.z.reshape(n, 5)
-    nor = hit.normal.reshape(n, 5, 3)
-    reason = np.full(n, "", dtype=object)
-    all_hit = got.all(axis=1)
-    reason[~all_hit] = "off surface"
-    # the plane through the foot's five ground points (least squares, per footprint):
-    # unevenness is the points' distance from it, the slope its tilt
-    mean_n = np.full((n, 3), np.nan)
+    return hit.hit.reshape(n, 5), hit.z.reshape(n, 5), hit.normal.reshape(n, 5, 3)
+
+
+def _foot_plane(pts: np.ndarray, z: np.ndarray, nor: np.ndarray, all_hit: np.ndarray,
+                unevenness: float) -> tuple[np.ndarray, np.ndarray]:
+    """(normal (N, 3), uneven (N,) bool) of the plane z = c0 + c1 x + c2 y fitted (least
+    squares) through each footprint's five ground points ``pts`` (N, 5, 2) at heights
+    ``z`` (N, 5), for the footprints whose points all landed (``all_hit``; nan normal
+    and not uneven for the rest). Uneven: a point is more than ``unevenness`` m from the
+    plane, or a surface normal ``nor`` (N, 5, 3) under the foot is more than 15 degrees
+    from the plane's (a step edge under the foot fits a tilted plane where the surface
+    is level)."""
+    n = len(pts)
+    plane_n = np.full((n, 3), np.nan)
     uneven = np.zeros(n, bool)
     if all_hit.any():
         i = np.flatnonzero(all_hit)
@@ -254,31 +279,41 @@ def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
         coef = np.linalg.solve(a.transpose(0, 2, 1) @ a, (a.transpose(0, 2, 1) @ z[i, :, None]))[..., 0]
         resid = np.abs((a @ coef[:, :, None])[..., 0] - z[i]).max(axis=1)
         pn = np.c_[-coef[:, 1], -coef[:, 2], np.ones(len(i))]
-        mean_n[i] = pn / np.linalg.norm(pn, axis=1, keepdims=True)
-        # a step edge under the foot fits a tilted plane where the surface is level:
-        # the plane must agree with the normals under the foot (within 15 degrees)
-        agree = np.einsum("nkc,nc->nk", nor[i], mean_n[i]).min(axis=1) > np.cos(np.radians(15))
+        plane_n[i] = pn / np.linalg.norm(pn, axis=1, keepdims=True)
+        agree = np.einsum("nkc,nc->nk", nor[i], plane_n[i]).min(axis=1) > np.cos(np.radians(15))
         uneven[i] = (resid > unevenness) | ~agree
-    steep = all_hit & ~uneven & (np.arccos(np.clip(np.nan_to_num(mean_n[:, 2], nan=1.0), -1, 1)) > max_slope)
+    return plane_n, uneven
+
+
+def _reasons(all_hit: np.ndarray, uneven: np.ndarray, steep: np.ndarray) -> np.ndarray:
+    """(N,) object array of str: "" for a supported footprint, else why not ("off
+    surface", "uneven", "steep")."""
+    reason = np.full(len(all_hit), "", dtype=object)
+    reason[~all_hit] = "off surface"
     reason[uneven] = "uneven"
     reason[steep] = "steep"
-    zc = z[:, 4]
-    ok = all_hit & ~uneven & ~steep
-    if obstacles is not None and obstacles.mesh.n and ok.any():
-        idx = np.flatnonzero(ok)
-        levels = np.array([0.1, 0.5, 0.9, 1.3, body_height])
-        probe = np.repeat(np.c_[pos[idx, :2], zc[idx]], len(levels), axis=0)
-        probe[:, 2] += np.tile(levels, len(idx))
-        _, d = obstacles.nearest(probe, max_dist=clearance)
-        blocked = (d < clearance).reshape(len(idx), len(levels)).any(axis=1)
-        # inside or under an obstacle (a thick wall's inside is far from all its faces):
-        # any obstacle surface between the foot and the head
-        head = np.c_[pos[idx, :2], zc[idx] + body_height]
-        blocked |= obstacles.ray_down(head, body_height - 0.05).hit
-        # the foot itself must not stand in an obstacle either
-        foot_pts = np.concatenate([pts[idx], zc[idx, None, None] + np.zeros((len(idx), 5, 1)) + 0.02], axis=2)
-        _, df = obstacles.nearest(foot_pts.reshape(-1, 3), max_dist=0.02)
-        blocked |= (df < 0.02).reshape(len(idx), 5).any(axis=1)
-        ok[idx[blocked]] = False
-        reason[idx[blocked]] = "obstacle"
-    return Support(ok, zc, mean_n, reason)
+    return reason
+
+
+def _blocked(obstacles: Ground, pos: np.ndarray, pts: np.ndarray, zc: np.ndarray,
+             clearance: float, body_height: float) -> np.ndarray:
+    """(M,) bool: the body standing on each of M footprints (positions ``pos`` (M, 3),
+    ground points ``pts`` (M, 5, 2), surface heights ``zc`` (M,) m) meets an obstacle:
+    within ``clearance`` of one at the ankle, knee, hip, chest or head (0.1, 0.5, 0.9,
+    1.3 m and ``body_height`` above ``zc``), under or inside one (an obstacle surface
+    between the foot and the head), or the foot's ground points, 0.02 m up, within
+    0.02 m of one."""
+    m = len(pos)
+    levels = np.array([0.1, 0.5, 0.9, 1.3, body_height])
+    probe = np.repeat(np.c_[pos[:, :2], zc], len(levels), axis=0)
+    probe[:, 2] += np.tile(levels, m)
+    _, d = obstacles.nearest(probe, max_dist=clearance)
+    blocked = (d < clearance).reshape(m, len(levels)).any(axis=1)
+    # inside or under an obstacle (a thick wall's inside is far from all its faces)
+    head = np.c_[pos[:, :2], zc + body_height]
+    blocked |= obstacles.ray_down(head, body_height - 0.05).hit
+    # the foot itself must not stand in an obstacle either
+    foot_pts = np.concatenate([pts, zc[:, None, None] + np.zeros((m, 5, 1)) + 0.02], axis=2)
+    _, df = obstacles.nearest(foot_pts.reshape(-1, 3), max_dist=0.02)
+    blocked |= (df < 0.02).reshape(m, 5).any(axis=1)
+    return blocked

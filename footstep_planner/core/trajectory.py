@@ -77,6 +77,7 @@ def _array(name: str, a, shape: tuple) -> np.ndarray:
 
 
 def _same_length(**arrays: np.ndarray) -> int:
+    """The common length of the named ``arrays``; ValueError listing them if they differ."""
     lengths = {k: len(v) for k, v in arrays.items()}
     if len(set(lengths.values())) > 1:
         listed = ", ".join(f"{k} {n}" for k, n in lengths.items())
@@ -85,6 +86,9 @@ def _same_length(**arrays: np.ndarray) -> int:
 
 
 def _footprints(position, heading, times, who: str = "footprint"):
+    """(positions (N, 3), headings (N,), times (N,)) as checked float arrays; ValueError
+    (naming ``who``) for bad shapes or values, none at all, times that decrease, or more
+    than two footprints at one time."""
     p = _array(f"{who} position", position, (None, 3))
     h = _array(f"{who} heading", heading, (None,))
     tt = _array(f"{who} times", times, (None,))
@@ -145,20 +149,41 @@ def centripetal_catmull_rom(points: np.ndarray, knot_times: np.ndarray, t: np.nd
     Outside [knot_times[0], knot_times[-1]] the curve goes on linearly with its velocity
     at the end point (continuous in position and velocity there). One point: constant.
     """
+    P, kt, tq = _spline_inputs(points, knot_times, t, alpha)
+    if len(P) == 1:
+        return np.repeat(P, len(tq), axis=0)
+    dt = np.diff(kt)
+    if np.any(dt <= 0.0):
+        raise ValueError("knot_times must be strictly increasing")
+    T, dseg = _tangents(P, alpha)
+    k, tau = _segment_of(kt, dt, tq)
+    if smooth_timing:
+        u, ds_end = _smooth_fraction(dt, dseg, k, tau)
+    else:
+        u, ds_end = tau, np.array([dseg[0] / dt[0], dseg[-1] / dt[-1]])
+    out = _hermite(P, T, dseg, k, u)
+    return _extend_linearly(out, tq, kt, T, ds_end)
+
+
+def _spline_inputs(points, knot_times, t, alpha: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(points (n, D), knot_times (n,), t (F,)) as finite float arrays; ValueError for a
+    bad shape, a non-finite value, ``alpha`` outside [0, 1] or no points."""
     P = _array("points", points, (None, None))
     kt = _array("knot_times", knot_times, (len(P),))
     tq = _array("t", t, (None,))
     if not 0.0 <= alpha <= 1.0:
         raise ValueError(f"alpha must be in [0, 1], got {alpha}")
-    n = len(P)
-    if n == 0:
+    if len(P) == 0:
         raise ValueError("no points")
-    if n == 1:
-        return np.repeat(P, len(tq), axis=0)
-    dt = np.diff(kt)
-    if np.any(dt <= 0.0):
-        raise ValueError("knot_times must be strictly increasing")
+    return P, kt, tq
 
+
+def _tangents(P: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+    """(T (n, D), d (n-1,)): the tangents dC/ds at the n >= 2 points ``P`` (the
+    Barry-Goldman T_k of ``centripetal_catmull_rom``, on the ends extended by
+    reflection) and the knot intervals d_k = |p_{k+1} - p_k| ** alpha of the segments
+    (0 for a zero-length chord)."""
     ext = np.concatenate([2.0 * P[:1] - P[1:2], P, 2.0 * P[-1:] - P[-2:-1]])  # (n+2, D)
     chord = np.diff(ext, axis=0)  # (n+1, D): chord j joins ext[j] and ext[j+1]
     length = np.linalg.norm(chord, axis=1)
@@ -166,35 +191,52 @@ def centripetal_catmull_rom(points: np.ndarray, knot_times: np.ndarray, t: np.nd
     a, b = chord[:-1], chord[1:]  # (n, D): the chords before and after each point
     da, db = d[:-1], d[1:]
     T = _safe_div(a, da) - _safe_div(a + b, da + db) + _safe_div(b, db)  # (n, D) dC/ds
+    return T, d[1:-1]
 
-    dseg = d[1:-1]  # (n-1,) intervals of the real segments
-    s = np.concatenate([[0.0], np.cumsum(dseg)])  # (n,)
 
+def _segment_of(kt: np.ndarray, dt: np.ndarray, tq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(k (F,) int, tau (F,)): the segment [kt[k], kt[k+1]] holding each time ``tq``
+    (clamped to the knots' range; ``dt`` (n-1,) the segments' lengths, s) and the
+    fraction of it elapsed, in [0, 1]."""
     tc = np.clip(tq, kt[0], kt[-1])
-    k = np.clip(np.searchsorted(kt, tc, side="right") - 1, 0, n - 2)
-    tau = (tc - kt[k]) / dt[k]  # time fraction of the segment
-    if smooth_timing:
-        rate = _monotone_slopes(dt, dseg / dt)  # (n,) ds/dt at the knots
-        # u(tau) = (s(t) - s_k) / d_k for the cubic Hermite s(t) with those slopes
-        m = _safe_div(np.stack([rate[:-1], rate[1:]], axis=1) * dt[:, None], dseg)  # (n-1, 2)
-        t2, t3 = tau * tau, tau * tau * tau
-        u = (3.0 * t2 - 2.0 * t3) + (t3 - 2.0 * t2 + tau) * m[k, 0] + (t3 - t2) * m[k, 1]
-        u = np.where(dseg[k] > 0.0, u, 0.0)
-        ds_end = rate[[0, -1]]
-    else:
-        u = tau
-        ds_end = np.array([dseg[0] / dt[0], dseg[-1] / dt[-1]])
-    u = np.clip(u, 0.0, 1.0)[:, None]
+    k = np.clip(np.searchsorted(kt, tc, side="right") - 1, 0, len(kt) - 2)
+    tau = (tc - kt[k]) / dt[k]
+    return k, tau
 
+
+def _smooth_fraction(dt: np.ndarray, dseg: np.ndarray, k: np.ndarray, tau: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """(u (F,), ds_end (2,)): the fraction u = (s(t) - s_k) / d_k of segment ``k``'s
+    knot interval reached at time fraction ``tau`` (F,), for s(t) the cubic Hermite
+    with monotone slopes (``_monotone_slopes``) through the knots (0 on a zero
+    interval); and ds/dt (1/s) at the first and last knot."""
+    rate = _monotone_slopes(dt, dseg / dt)  # (n,) ds/dt at the knots
+    m = _safe_div(np.stack([rate[:-1], rate[1:]], axis=1) * dt[:, None], dseg)  # (n-1, 2)
+    t2, t3 = tau * tau, tau * tau * tau
+    u = (3.0 * t2 - 2.0 * t3) + (t3 - 2.0 * t2 + tau) * m[k, 0] + (t3 - t2) * m[k, 1]
+    u = np.where(dseg[k] > 0.0, u, 0.0)
+    return u, rate[[0, -1]]
+
+
+def _hermite(P: np.ndarray, T: np.ndarray, dseg: np.ndarray, k: np.ndarray, u: np.ndarray
+             ) -> np.ndarray:
+    """(F, D) the cubic Hermite of segment ``k`` (F,) from P[k] to P[k+1], tangents
+    T * d_k (``dseg`` (n-1,)), at fractions ``u`` (F,) clipped to [0, 1]."""
+    u = np.clip(u, 0.0, 1.0)[:, None]
     u2, u3 = u * u, u * u * u
     h00 = 2.0 * u3 - 3.0 * u2 + 1.0
     h10 = u3 - 2.0 * u2 + u
     h01 = 3.0 * u2 - 2.0 * u3
     h11 = u3 - u2
     dk = dseg[k][:, None]
-    out = h00 * P[k] + h10 * (dk * T[k]) + h01 * P[k + 1] + h11 * (dk * T[k + 1])
+    return h00 * P[k] + h10 * (dk * T[k]) + h01 * P[k + 1] + h11 * (dk * T[k + 1])
 
-    # linear extrapolation with the end velocities (dC/ds * ds/dt)
+
+def _extend_linearly(out: np.ndarray, tq: np.ndarray, kt: np.ndarray, T: np.ndarray,
+                     ds_end: np.ndarray) -> np.ndarray:
+    """``out`` (F, D), changed in place and returned, continued linearly before the
+    first and after the last knot time with the end velocities dC/ds * ds/dt (``T`` at
+    the ends times ``ds_end`` (2,))."""
     v0, v1 = T[0] * ds_end[0], T[-1] * ds_end[1]
     out += np.minimum(tq - kt[0], 0.0)[:, None] * v0
     out += np.maximum(tq - kt[-1], 0.0)[:, None] * v1
