@@ -33,7 +33,7 @@ test: $(VENV_STAMP)
 	$(VENV_PY) -m pytest -q tests $(PYTEST_ARGS)
 
 demo: $(VENV_STAMP)
-	$(VENV_PY) -m footstep_planner demo $(if $(SCENE),--scene $(SCENE))
+	$(VENV_PY) -m footstep_planner demo --out sample_scenes/out $(if $(SCENE),--scene $(SCENE))
 
 build: $(VENV_STAMP)
 	$(VENV_PY) tools/build_extension.py $(if $(PLATFORMS),--platforms $(PLATFORMS)) $(BUILD_ARGS)
