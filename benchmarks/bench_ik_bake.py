@@ -16,7 +16,6 @@ within 1 cm of its footprint; no penetration deeper than 5 mm; goal within 5 cm;
 """
 
 import argparse
-import glob
 import os
 import sys
 import time
@@ -25,7 +24,8 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
-LIBRARY = ["16_16", "16_11", "16_13", "16_17", "16_19", "16_35", "16_37", "16_39", "16_41", "16_43", "49_05"]
+from library import MOCAP, cmu_files  # noqa: E402  (benchmarks/library.py: the CMU library)
+
 
 
 def cg_ik(rig, basis, t, body_pos, body_yaw, targets, max_frames=None):
@@ -95,7 +95,7 @@ def cg_ik(rig, basis, t, body_pos, body_yaw, targets, max_frames=None):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--mocap", default=os.path.join(os.path.dirname(ROOT), "shared", "mocap", "cmu"))
+    ap.add_argument("--mocap", default=MOCAP)
     ap.add_argument("--scenes", default="jumps,turns,obstacles")
     ap.add_argument("--cg-frames", type=int, default=300, help="frames the CG IK solves (it is slow)")
     ap.add_argument("--library", choices=("cmu", "mannequin"), default="cmu",
@@ -117,7 +117,7 @@ def main():
     from footstep_planner.blender import mannequin
 
     register()
-    files = ([glob.glob(os.path.join(args.mocap, f"cmu_{n}*.bvh"))[0] for n in LIBRARY]
+    files = (cmu_files(args.mocap)
              if args.library == "cmu" else [])
     rows, cmp_rows = [], []
     for name in args.scenes.split(","):
@@ -145,7 +145,7 @@ def main():
         sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot, clearance=pl.clearance)
         normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
         walk = next(a for a in s.analyses if a.kind == "cycle").motion
-        spin = planning._spin(s.forward, s.analyses)
+        spin = planning.body_spin(s.forward, s.analyses)
         planted = syn.planted()
         t0 = time.perf_counter()
         ik = solve_ik(s.rig, basis, sched.t, syn.body_position, syn.body_heading, spin, walk.heel_local,

@@ -11,7 +11,6 @@ blend groups together, 44 ms on Jumps (51 footprints, 1384 frames) and 62 ms on 
 """
 
 import argparse
-import glob
 import os
 import sys
 import time
@@ -20,7 +19,8 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
-LIBRARY = ["16_16", "16_11", "16_13", "16_17", "16_19", "16_35", "16_37", "16_39", "16_41", "16_43", "49_05"]
+from library import MOCAP, cmu_files  # noqa: E402  (benchmarks/library.py: the CMU library)
+
 STAGES = ("smoothing", "refinement", "body_trajectory", "blend_groups")
 
 
@@ -46,7 +46,7 @@ def repeat_path(footsteps, k):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--mocap", default=os.path.join(os.path.dirname(ROOT), "shared", "mocap", "cmu"))
+    ap.add_argument("--mocap", default=MOCAP)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--fps", default="30,60")
     args = ap.parse_args()
@@ -63,7 +63,7 @@ def main():
     from footstep_planner.core.surface import TriMesh
 
     register()
-    files = [glob.glob(os.path.join(args.mocap, f"cmu_{n}*.bvh"))[0] for n in LIBRARY]
+    files = cmu_files(args.mocap)
     rows = []
     for name in ("jumps", "turns"):
         bpy.ops.wm.read_factory_settings(use_empty=True)

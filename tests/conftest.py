@@ -33,6 +33,89 @@ def cmu(name: str) -> str:
     return os.path.join(CMU, hits[0])
 
 
+from benchmarks.library import LIBRARY  # noqa: E402  (the CMU library tests and benchmarks plan with)
+
+
+def plane(x0, x1, y0, y1, z=0.0, tilt_x=0.0, name="floor"):
+    """A rectangle at height z + tilt_x * x, as a core TriMesh."""
+    import numpy as np
+
+    from footstep_planner.core.surface import TriMesh
+
+    v = np.array([[x0, y0, z + tilt_x * x0], [x1, y0, z + tilt_x * x1],
+                  [x1, y1, z + tilt_x * x1], [x0, y1, z + tilt_x * x0]])
+    return TriMesh(v, np.array([[0, 1, 2], [0, 2, 3]]), np.zeros(2, np.int64), (name,))
+
+
+def box(lo, hi, name="box"):
+    """A closed axis-aligned box as a core TriMesh."""
+    import numpy as np
+
+    from footstep_planner.core.surface import TriMesh
+
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    v = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])])
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    tris = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
+    return TriMesh(v, np.array(tris), np.zeros(12, np.int64), (name,))
+
+
+def scene_with_cmu(fp, name, fps=30):
+    """Sample scene ``name`` built, with the CMU library imported as armature "CMU"."""
+    from importlib import import_module
+
+    import bpy
+
+    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
+    scene = bpy.context.scene
+    scene.render.fps = fps
+    clips = import_module(fp.__name__ + ".blender.clips")
+    ob, _ = clips.import_bvh_clips([cmu(n) for n in LIBRARY], name="CMU")
+    return scene, ob
+
+
+def plan_sample(fp, name, **kw):
+    """Sample scene ``name`` with the CMU character, planned from Start to Goal:
+    (scene, PlanResult, PlanSetup, goal)."""
+    from importlib import import_module
+
+    import numpy as np
+
+    scene, ob = scene_with_cmu(fp, name)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    goal = np.array(scene.objects["Goal"].location)
+    result, setup = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"], **kw)
+    return scene, result, setup, goal
+
+
+class Recorder:
+    """Stands in for a UILayout: checks each call against the real UILayout's RNA
+    signature (so a keyword Blender 5.0 lacks fails here, not in the user's viewport),
+    records it, and returns a recorder for sub-layouts."""
+
+    def __init__(self, log=None):
+        self.log = [] if log is None else log
+
+    def __getattr__(self, name):
+        import bpy
+
+        fn = bpy.types.UILayout.bl_rna.functions.get(name)
+        assert fn is not None, f"UILayout has no {name}()"
+        params = [p.identifier for p in fn.parameters if not p.is_output]
+
+        def call(*args, **kwargs):
+            unknown = set(kwargs) - set(params)
+            assert not unknown, f"UILayout.{name}() has no parameter {unknown}"
+            assert len(args) <= len(params), f"UILayout.{name}(): too many arguments"
+            self.log.append((name, args, kwargs))
+            return Recorder(self.log)
+        return call
+
+    def __setattr__(self, name, value):
+        if name == "log":
+            object.__setattr__(self, name, value)
+
+
 def _reraise(ex):
     raise ex
 

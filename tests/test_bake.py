@@ -8,8 +8,7 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import cmu, needs_cmu
-from test_plan_scenes import LIBRARY
+from conftest import LIBRARY, cmu, needs_cmu
 
 pytestmark = needs_cmu
 
@@ -164,7 +163,7 @@ def test_rebake_replaces_only_the_planners_own_and_clear_removes_it(fp, jumps_ba
 def test_bake_operator_clear_operator_undo_and_panel(fp):
     import bpy
 
-    from test_panel_and_operators import Recorder
+    from conftest import Recorder
 
     scene, ob = _scene(fp, "obstacles")
     scene.footstep.character = ob

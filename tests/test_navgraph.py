@@ -4,12 +4,15 @@ import numpy as np
 import pytest
 
 from footstep_planner.core.navgraph import Footstep, PlanError, Planner
+from footstep_planner.core.settings import Settings
 from footstep_planner.core.steps import StepSet
 from footstep_planner.core.surface import FootShape, MeshGround, TriMesh, footprint_support
-from test_surface import box, plane
+from conftest import box, plane
 
 FWD = np.array([0.0, -1.0])
 EAST = np.pi / 2
+#: The search on its own: the fastest path (no running penalty).
+FASTEST = Settings(run_penalty=0.0)
 
 
 def steps(with_jump=True, jump_len=1.7):
@@ -37,7 +40,7 @@ def start(x, y, heading=EAST):
 
 def check_path(planner, result, goal):
     fs = result.footsteps
-    assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= planner.goal_radius
+    assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= planner.settings.goal_radius
     pos = np.array([f.position for f in fs[1:]])
     sup = footprint_support(planner.ground, planner.obstacles, pos, np.array([f.heading for f in fs[1:]]),
                             FWD, planner.foot, clearance=planner.clearance)
@@ -49,8 +52,8 @@ def check_path(planner, result, goal):
 def test_open_floor_reaches_the_goal_and_weighting_is_bounded():
     g = MeshGround(plane(-2, 12, -6, 6))
     goal = np.array([10.0, 3.0, 0.0])
-    w1 = Planner(g, None, steps(), FWD, heuristic_weight=1.0).plan(start(0, 0), goal)
-    p2 = Planner(g, None, steps(), FWD, heuristic_weight=2.0)
+    w1 = Planner(g, None, steps(), FWD, settings=FASTEST.replace(heuristic_weight=1.0)).plan(start(0, 0), goal)
+    p2 = Planner(g, None, steps(), FWD, settings=FASTEST.replace(heuristic_weight=2.0))
     w2 = p2.plan(start(0, 0), goal)
     check_path(p2, w2, goal)
     assert w1.cost <= w2.cost + 1e-9 <= 2.0 * w1.cost + 1e-9
@@ -61,7 +64,7 @@ def test_open_floor_reaches_the_goal_and_weighting_is_bounded():
 def test_a_wall_is_walked_around():
     g = MeshGround(plane(-2, 12, -6, 6))
     wall = MeshGround(box((4, -6, 0), (4.3, 2, 2.5), "wall"))
-    pl = Planner(g, wall, steps(), FWD)
+    pl = Planner(g, wall, steps(), FWD, settings=FASTEST)
     goal = np.array([9.0, 0.0, 0.0])
     r = pl.plan(start(0, 0), goal)
     check_path(pl, r, goal)
@@ -77,13 +80,13 @@ def test_a_wall_is_walked_around():
 @pytest.mark.parametrize("gap,jumps", [(1.0, True), (2.5, False)])
 def test_gaps_are_jumped_only_where_a_jump_reaches(gap, jumps):
     g = MeshGround(TriMesh.concat([plane(-2, 5, -1, 1, name="A"), plane(5 + gap, 12, -1, 1, name="B")]))
-    pl = Planner(g, None, steps(), FWD, max_seconds=float("inf"))
+    pl = Planner(g, None, steps(), FWD, settings=FASTEST)
     goal = np.array([10.0, 0.0, 0.0])
     if not jumps:
         # refused before any search: the walking-distance map already shows no way
-        with pytest.raises(PlanError, match="no walkable way, nor a gap.*nearest reachable point is \\(4\\.[5-9]"):
+        with pytest.raises(PlanError, match="no walkable way, nor a gap.*nearest reachable point is \\(4\\.[5-9]") as err:
             pl.plan(start(0, 0), goal)
-        assert pl.explored == []
+        assert err.value.expanded == 0 and err.value.explored == []
         return
     r = pl.plan(start(0, 0), goal)
     check_path(pl, r, goal)
@@ -95,27 +98,27 @@ def test_gaps_are_jumped_only_where_a_jump_reaches(gap, jumps):
 def test_without_a_jump_clip_a_gap_is_never_crossed():
     g = MeshGround(TriMesh.concat([plane(-2, 5, -1, 1, name="A"), plane(5.3, 12, -1, 1, name="B")]))
     with pytest.raises(PlanError, match="cannot be reached"):
-        Planner(g, None, steps(with_jump=False), FWD, max_seconds=float("inf")).plan(start(0, 0),
+        Planner(g, None, steps(with_jump=False), FWD, settings=FASTEST).plan(start(0, 0),
                                                                                     np.array([10.0, 0, 0]))
 
 
 def test_goal_off_every_surface():
     g = MeshGround(plane(-2, 5, -1, 1))
     with pytest.raises(PlanError, match="off every traversable surface"):
-        Planner(g, None, steps(), FWD).plan(start(0, 0), np.array([20.0, 20.0, 0.0]))
+        Planner(g, None, steps(), FWD, settings=FASTEST).plan(start(0, 0), np.array([20.0, 20.0, 0.0]))
 
 
 def test_arrival_heading():
     g = MeshGround(plane(-2, 12, -6, 6))
-    pl = Planner(g, None, steps(), FWD)
+    pl = Planner(g, None, steps(), FWD, settings=FASTEST)
     goal = np.array([8.0, 0.0, 0.0])
     r = pl.plan(start(0, 0), goal, goal_heading=0.0)  # arrive facing -Y
-    assert abs(np.angle(np.exp(1j * r.footsteps[-1].heading))) <= pl.goal_heading_tolerance
+    assert abs(np.angle(np.exp(1j * r.footsteps[-1].heading))) <= pl.settings.goal_heading_tolerance
 
 
 def test_the_support_cache_serves_the_next_plan():
     g = MeshGround(plane(-2, 12, -6, 6))
-    pl = Planner(g, None, steps(), FWD)
+    pl = Planner(g, None, steps(), FWD, settings=FASTEST)
     pl.cache.update({"floor": ("v1", np.array([-2, -6, 0.0]), np.array([12, 6, 0.0]))})
     goal = np.array([10.0, 3.0, 0.0])
     a = pl.plan(start(0, 0), goal)
@@ -153,6 +156,6 @@ def test_a_search_that_cannot_finish_stops_at_its_budget():
     """Bounded, never a hang: with the goal reachable only by a route the budget can't
     cover, the search stops after max_expansions and says where it got to."""
     g = MeshGround(plane(-2, 40, -6, 6))
-    pl = Planner(g, None, steps(), FWD, max_expansions=5)
+    pl = Planner(g, None, steps(), FWD, settings=FASTEST.replace(max_expansions=5))
     with pytest.raises(PlanError, match="ran out of its budget, 6 footprints expanded.*nearest reachable point"):
         pl.plan(start(0, 0), np.array([38.0, 0.0, 0.0]))

@@ -4,35 +4,7 @@ from importlib import import_module
 
 import pytest
 
-from conftest import cmu, needs_cmu
-
-
-class Recorder:
-    """Stands in for a UILayout: checks each call against the real UILayout's RNA
-    signature (so a keyword Blender 5.0 lacks fails here, not in the user's viewport),
-    records it, and returns a recorder for sub-layouts."""
-
-    def __init__(self, log=None):
-        self.log = [] if log is None else log
-
-    def __getattr__(self, name):
-        import bpy
-
-        fn = bpy.types.UILayout.bl_rna.functions.get(name)
-        assert fn is not None, f"UILayout has no {name}()"
-        params = [p.identifier for p in fn.parameters if not p.is_output]
-
-        def call(*args, **kwargs):
-            unknown = set(kwargs) - set(params)
-            assert not unknown, f"UILayout.{name}() has no parameter {unknown}"
-            assert len(args) <= len(params), f"UILayout.{name}(): too many arguments"
-            self.log.append((name, args, kwargs))
-            return Recorder(self.log)
-        return call
-
-    def __setattr__(self, name, value):
-        if name == "log":
-            object.__setattr__(self, name, value)
+from conftest import Recorder, cmu, needs_cmu
 
 
 def _draw(fp, context):

@@ -7,37 +7,15 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import cmu, needs_cmu
+from conftest import needs_cmu, plan_sample as _plan, scene_with_cmu as _scene_with_character
 
 pytestmark = needs_cmu
-
-LIBRARY = ["16_16", "16_11", "16_13", "16_17", "16_19", "16_35", "16_37", "16_39", "16_41", "16_43", "49_05"]
-
-
-def _scene_with_character(fp, name, fps=30):
-    import bpy
-
-    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
-    scene = bpy.context.scene
-    scene.render.fps = fps
-    clips = import_module(fp.__name__ + ".blender.clips")
-    ob, _ = clips.import_bvh_clips([cmu(n) for n in LIBRARY], name="CMU")
-    return scene, ob
-
-
-def _plan(fp, name, **kw):
-    scene, ob = _scene_with_character(fp, name)
-    planning = import_module(fp.__name__ + ".blender.planning")
-    goal = np.array(scene.objects["Goal"].location)
-    result, setup = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"], **kw)
-    return scene, result, setup, goal
-
 
 def _check(fp, result, setup, goal):
     core = import_module(fp.__name__ + ".core.surface")
     pl = setup.planner
     fs = result.footsteps
-    assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= pl.goal_radius
+    assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= pl.settings.goal_radius
     sup = core.footprint_support(pl.ground, pl.obstacles, np.array([f.position for f in fs]),
                                  np.array([f.heading for f in fs]), setup.forward, pl.foot,
                                  clearance=pl.clearance)
@@ -156,7 +134,7 @@ def test_replanning_after_moving_one_obstacle_keeps_the_other_answers(fp):
 def test_plan_operator_and_panel(fp):
     import bpy
 
-    from test_panel_and_operators import Recorder
+    from conftest import Recorder
 
     scene, ob = _scene_with_character(fp, "turns")
     scene.footstep.character = ob

@@ -119,7 +119,7 @@ def test_bvh_ground_equals_numpy_ground(fp, empty_scene):
 def test_object_panel_draws(fp, empty_scene):
     import bpy
 
-    from test_panel_and_operators import Recorder
+    from conftest import Recorder
 
     panel = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_PT_object_surface
     coll = bpy.data.collections.new("Ground")

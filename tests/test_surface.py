@@ -4,25 +4,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from conftest import box, plane
 from footstep_planner.core.surface import FootShape, MeshGround, TriMesh, footprint_support
 
 FWD = np.array([0.0, -1.0])
-
-
-def box(lo, hi, name="box"):
-    """A closed axis-aligned box as a TriMesh."""
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    v = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])])
-    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
-    tris = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
-    return TriMesh(v, np.array(tris), np.zeros(12, np.int64), (name,))
-
-
-def plane(x0, x1, y0, y1, z=0.0, tilt_x=0.0, name="floor"):
-    """A rectangle at height z + tilt_x * x."""
-    v = np.array([[x0, y0, z + tilt_x * x0], [x1, y0, z + tilt_x * x1],
-                  [x1, y1, z + tilt_x * x1], [x0, y1, z + tilt_x * x0]])
-    return TriMesh(v, np.array([[0, 1, 2], [0, 2, 3]]), np.zeros(2, np.int64), (name,))
 
 
 def test_ray_down_finds_the_highest_surface_below():

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import needs_cmu
-from test_plan_scenes import _plan
+from conftest import plan_sample as _plan
 
 pytestmark = needs_cmu
 
@@ -106,9 +106,7 @@ def test_obstacles_footprints_keep_to_the_step_and_clear_the_pillars(fp):
 def test_plan_report_and_plot_verb(fp, jumps, tmp_path, capsys):
     scene, result, setup, syn = jumps
     cli = import_module(fp.__name__ + ".blender.cli")
-    doc = result.to_dict()
-    doc["stages"] = cli.stage_row(len(result.footsteps), result.seconds, syn)
-    doc["synthesis"] = syn.to_dict()
+    doc = import_module(fp.__name__ + ".core.report").plan_report(result, syn, "CMU", [0, 0, 0], 1.0)
     path = tmp_path / "jumps.json"
     path.write_text(json.dumps(doc))
     assert {"smoothing_ms", "refinement_ms", "body_trajectory_ms", "blend_groups_ms", "frames",

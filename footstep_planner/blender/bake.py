@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation
 from ..core.errors import FootstepError
 from ..core.ik import IKResult, body_frames
 from ..core.rig import Rig, forward_kinematics
+from .scene import scene_fps
 
 OWNED_PROP = "footstep_bake"
 #: The character's own object transform before the first bake (row-major 4x4), put back
@@ -123,88 +124,121 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
     planner's, starting at ``frame_start``: the body on the object's transform
     (``body_on="OBJECT"``) or on the rig's root bone (``"ROOT"``, the object stays put),
     every bone's rotation, and the hips' location. The planner's earlier bake of this
-    character is replaced."""
-    names = [pb.name for pb in ob.pose.bones]
-    if tuple(names) != tuple(rig.names):
+    character is replaced. ``planted`` holds (strike, stance, liftoff) seconds per
+    footprint of ``footsteps``, for the optional markers."""
+    _check(ob, rig, body_on)
+    basis = _root_carries_body(ob, rig, res, spin) if body_on == "ROOT" else res.basis
+    rest = _own_rest(ob)  # (read before clearing frees the old action, and its property with it)
+    clear(ob, scene)
+    act, slot, keys = _new_action(ob, name, rest, body_on, frame_start + np.arange(res.frames, dtype=np.float64))
+    if body_on == "OBJECT":
+        _key_body(keys, ob, res.body_pos, spin + res.body_heading)
+    _key_bones(keys, ob, basis)
+    track = _add_track(ob, name, act, slot, frame_start)
+    if markers and footsteps is not None and planted is not None:
+        _add_markers(scene, footsteps, planted, frame_start)
+    return act, track
+
+
+def _check(ob, rig: Rig, body_on: str) -> None:
+    if tuple(pb.name for pb in ob.pose.bones) != tuple(rig.names):
         raise BakeError(f"armature {ob.name!r} changed since it was read (bones differ)")
     if body_on not in BODY_ON:
         raise BakeError(f"the body goes on one of {', '.join(BODY_ON)}, not {body_on!r}")
-    F = res.frames
-    basis = res.basis
-    if body_on == "ROOT":
-        r = root_bone(ob, rig)
-        # the root carries the body frame relative to the object (which stays where it is):
-        # with the root posed by M = O^-1 Body, every bone under it is where the object
-        # carrying the body would have put it
-        own = own_matrix_world(ob)
-        M = np.linalg.inv(own)[None] @ body_frames(res.body_pos, spin + res.body_heading)
-        basis = basis.copy()
-        basis[:, r] = np.linalg.inv(rig.rest[r])[None] @ M @ rig.rest[r][None]
-    # (copied out now: clearing frees the old action, and its property with it)
+
+
+def _root_carries_body(ob, rig: Rig, res: IKResult, spin: float) -> np.ndarray:
+    """(F, B, 4, 4) the IK's bone bases with the root bone carrying the body frame
+    relative to the object (which stays where it is): with the root posed by
+    M = O^-1 Body, every bone under it is where the object carrying the body would
+    have put it."""
+    r = root_bone(ob, rig)
+    M = np.linalg.inv(own_matrix_world(ob))[None] @ body_frames(res.body_pos, spin + res.body_heading)
+    basis = res.basis.copy()
+    basis[:, r] = np.linalg.inv(rig.rest[r])[None] @ M @ rig.rest[r][None]
+    return basis
+
+
+def _own_rest(ob) -> list[float]:
+    """The object's own transform (16 floats, row by row): the one an earlier bake of
+    the planner's kept, else the object's current one."""
     old = [[float(v) for v in st.action[REST_PROP]] for tr in owned_tracks(ob) for st in tr.strips
            if st.action.get(REST_PROP) is not None]
-    rest = old[0] if old else None
-    if rest is None:
-        rest = [v for row in ob.matrix_basis for v in row]
-    clear(ob, scene)
-    frames = frame_start + np.arange(F, dtype=np.float64)
+    return old[0] if old else [v for row in ob.matrix_basis for v in row]
+
+
+class _Keys:
+    """Writes whole F-Curves of linear keys at ``frames`` into a channel bag."""
+
+    def __init__(self, cbag, frames: np.ndarray):
+        self.cbag, self.frames, self.lin = cbag, frames, _linear()
+
+    def __call__(self, path: str, values: np.ndarray, group: str) -> None:
+        """Key ``values`` (F,) or (F, K) on ``path``, one F-Curve per column (array index)."""
+        values = np.asarray(values, float).reshape(len(self.frames), -1)
+        n = len(self.frames)
+        for i in range(values.shape[1]):
+            kp = self.cbag.fcurves.new(path, index=i, group_name=group)
+            points = kp.keyframe_points
+            points.add(n)
+            co = np.empty(2 * n, np.float32)
+            co[0::2] = self.frames
+            co[1::2] = values[:, i]
+            points.foreach_set("co", co)
+            points.foreach_set("interpolation", np.full(n, self.lin, np.int32))
+            kp.update()
+
+
+def _new_action(ob, name: str, rest: list[float], body_on: str, frames: np.ndarray):
+    """A new slotted Action of the planner's for ``ob``: (action, slot, key writer)."""
     act = bpy.data.actions.new(f"Footstep {name}")
     act[OWNED_PROP] = ob.name
     act[REST_PROP] = [float(v) for v in rest]
+    act[BODY_PROP] = body_on
     slot = act.slots.new(id_type="OBJECT", name=ob.name)
     cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
-    lin = _linear()
+    return act, slot, _Keys(cbag, frames)
 
-    def key(path, values, group, index=None):
-        values = np.atleast_2d(np.asarray(values, float).T).T if values.ndim == 1 else values
-        for i in range(values.shape[1]):
-            fc = cbag.fcurves.new(path, index=i if index is None else index[i], group_name=group)
-            kp = fc.keyframe_points
-            kp.add(F)
-            co = np.empty(2 * F, np.float32)
-            co[0::2] = frames
-            co[1::2] = values[:, i]
-            kp.foreach_set("co", co)
-            kp.foreach_set("interpolation", np.full(F, lin, np.int32))
-            fc.update()
 
-    act[BODY_PROP] = body_on
-    # the body: the object's location and yaw (its tilt, if any, is kept)
-    yaw = spin + res.body_heading
-    mode = ob.rotation_mode if body_on == "OBJECT" else None
-    if mode is not None:
-        key("location", res.body_pos, "Object Transforms")
-        base = ob.matrix_basis.to_euler("XYZ")
-        qz = Rotation.from_euler("xyz", np.c_[np.full(F, base.x), np.full(F, base.y), yaw]).as_quat()
-    if mode is None:
-        pass
-    elif mode == "QUATERNION":
-        key("rotation_quaternion", _wxyz(qz), "Object Transforms")
+def _key_rotation(keys: _Keys, path: str, q_xyzw: np.ndarray, mode: str, group: str, axis0) -> None:
+    """Key rotations (F, 4) (scipy x, y, z, w) in Blender's ``mode`` on ``path``
+    (``<path>.rotation_quaternion`` / ``_axis_angle`` / ``_euler``); ``axis0`` is the
+    axis-angle axis of a zero rotation."""
+    if mode == "QUATERNION":
+        keys(f"{path}rotation_quaternion", _wxyz(q_xyzw), group)
     elif mode == "AXIS_ANGLE":
-        rv = Rotation.from_quat(qz).as_rotvec()
+        rv = Rotation.from_quat(q_xyzw).as_rotvec()
         ang = np.linalg.norm(rv, axis=1)
-        axis = np.where(ang[:, None] > 1e-12, rv / np.maximum(ang, 1e-12)[:, None], [0.0, 0.0, 1.0])
-        key("rotation_axis_angle", np.c_[ang, axis], "Object Transforms")
+        axis = np.where(ang[:, None] > 1e-12, rv / np.maximum(ang, 1e-12)[:, None], axis0)
+        keys(f"{path}rotation_axis_angle", np.c_[ang, axis], group)
     else:
-        key("rotation_euler", _euler(qz, mode), "Object Transforms")
+        keys(f"{path}rotation_euler", _euler(q_xyzw, mode), group)
 
-    # the bones
-    q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, len(names), 4)
+
+def _key_body(keys: _Keys, ob, body_pos: np.ndarray, yaw: np.ndarray) -> None:
+    """The body on the object: its location and yaw (its tilt, if any, is kept)."""
+    keys("location", body_pos, "Object Transforms")
+    base = ob.matrix_basis.to_euler("XYZ")
+    n = len(yaw)
+    qz = Rotation.from_euler("xyz", np.c_[np.full(n, base.x), np.full(n, base.y), yaw]).as_quat()
+    _key_rotation(keys, "", qz, ob.rotation_mode, "Object Transforms", [0.0, 0.0, 1.0])
+
+
+def _key_bones(keys: _Keys, ob, basis: np.ndarray) -> None:
+    """Every bone's rotation (in its own rotation mode) and the location of the bones
+    that move (the hips, a root carrying the body)."""
+    F, B = basis.shape[:2]
+    q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
     moved = np.abs(basis[..., :3, 3]).max(axis=0).max(axis=1) > 1e-6
     for b, pb in enumerate(ob.pose.bones):
-        path = f'pose.bones["{bpy.utils.escape_identifier(pb.name)}"]'
-        if pb.rotation_mode == "QUATERNION":
-            key(f"{path}.rotation_quaternion", _wxyz(q[:, b]), pb.name)
-        elif pb.rotation_mode == "AXIS_ANGLE":
-            rv = Rotation.from_quat(q[:, b]).as_rotvec()
-            ang = np.linalg.norm(rv, axis=1)
-            axis = np.where(ang[:, None] > 1e-12, rv / np.maximum(ang, 1e-12)[:, None], [0.0, 1.0, 0.0])
-            key(f"{path}.rotation_axis_angle", np.c_[ang, axis], pb.name)
-        else:
-            key(f"{path}.rotation_euler", _euler(q[:, b], pb.rotation_mode), pb.name)
+        path = f'pose.bones["{bpy.utils.escape_identifier(pb.name)}"].'
+        _key_rotation(keys, path, q[:, b], pb.rotation_mode, pb.name, [0.0, 1.0, 0.0])
         if moved[b]:
-            key(f"{path}.location", basis[:, b, :3, 3], pb.name)
+            keys(f"{path}location", basis[:, b, :3, 3], pb.name)
 
+
+def _add_track(ob, name: str, act, slot, frame_start: int):
+    """A new NLA track of the planner's playing ``act`` from ``frame_start``."""
     ad = ob.animation_data_create()
     track = ad.nla_tracks.new()
     track.name = f"{TRACK_PREFIX}{name}"
@@ -212,11 +246,14 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
     strip.action_slot = slot
     strip.extrapolation = "HOLD_FORWARD"
     strip.blend_type = "REPLACE"
-    if markers and footsteps is not None and planted is not None:
-        rate = scene.render.fps / (scene.render.fps_base or 1.0)
-        for i, (f, (_, st, _)) in enumerate(zip(footsteps, planted)):
-            scene.timeline_markers.new(f"{MARKER_PREFIX}{i} {'LR'[f.foot]}", frame=int(round(frame_start + st * rate)))
-    return act, track
+    return track
+
+
+def _add_markers(scene, footsteps, planted, frame_start: int) -> None:
+    """A timeline marker ``FP <n> <L|R>`` at each footprint's stance frame."""
+    rate = scene_fps(scene)
+    for i, (f, (_, st, _)) in enumerate(zip(footsteps, planted)):
+        scene.timeline_markers.new(f"{MARKER_PREFIX}{i} {'LR'[f.foot]}", frame=int(round(frame_start + st * rate)))
 
 
 def evaluate(ob, rig: Rig, act, frame_start: int, frames: int):

@@ -21,10 +21,10 @@ import bpy
 import numpy as np
 
 from ..core.errors import FootstepError
-from ..core.pipeline import stage_row  # noqa: F401  (also used by the tests as cli.stage_row)
+from ..core.report import plan_report
 from ..core.settings import Settings
-from ..core.tables import (format_bake, format_demo_plan, format_library, format_plan,  # noqa: F401
-                           format_stages, format_table)
+from ..core.tables import format_bake, format_demo_plan, format_library, format_plan, format_table
+from .scene import scene_fps
 
 EXPECTED = (FootstepError, OSError)
 FOOT = ("L", "R")
@@ -130,7 +130,8 @@ def _add_bake(sub) -> None:
                     "--frame-start). Writes the report (plan, stage times, quality measured on "
                     "the baked armature). Several characters and goals: --job JOBS.json, a list "
                     "of {\"character\", \"goal\", \"start\", \"name\", \"frame_start\", "
-                    "\"report\"}; they run one after another, a failing job does not stop the "
+                    "\"report\", \"goal_heading\", \"body_on\", \"settings\": {NAME: value}}, all checked "
+                    "before the first runs; they run one after another, a failing job does not stop the "
                     "others, and the exit status is 1 when any failed.")
     p.set_defaults(run=_bake)
     p.add_argument("--name", help="name of the bake (track and action; default: character to goal)")
@@ -184,26 +185,9 @@ def cli_main(argv=None) -> int:
 # -- helpers the verbs share --------------------------------------------------------
 
 def settings_from_args(pairs) -> Settings:
-    s = Settings()
-    changes = {}
-    for pair in pairs:
-        if "=" not in pair:
-            raise CliError(f"--set wants NAME=VALUE, got {pair!r}")
-        k, v = pair.split("=", 1)
-        default = getattr(s, k.strip(), None)
-        if default is None:
-            raise CliError(f"unknown setting {k.strip()!r}")
-        try:
-            if isinstance(default, bool):
-                low = v.strip().lower()
-                if low not in ("1", "0", "true", "false", "yes", "no", "on", "off"):
-                    raise ValueError(v)
-                changes[k.strip()] = low in ("1", "true", "yes", "on")
-            else:
-                changes[k.strip()] = type(default)(v)
-        except ValueError:
-            raise CliError(f"setting {k.strip()!r} wants a {type(default).__name__}, got {v!r}") from None
-    return s.replace(**changes)
+    """The Settings of ``--set NAME=VALUE`` options, each converted and range-checked by
+    the setting's own declaration (a SettingsError names the setting)."""
+    return Settings.from_pairs(pairs)
 
 
 def open_blend(path: str) -> None:
@@ -294,7 +278,8 @@ def _characters_to_analyze(args) -> tuple[list, bool]:
 #: the fields of a bake job (JOBS.json) and what each must be; all may be missing or
 #: null but the character
 _JOB_FIELDS = {"character": "an armature's name", "goal": "text", "start": "text", "name": "text", "report": "text",
-               "frame_start": "a whole number", "goal_heading": "a number", "body_on": '"object" or "root"'}
+               "frame_start": "a whole number", "goal_heading": "a number", "body_on": '"object" or "root"',
+               "settings": "an object of settings (NAME: value)"}
 
 
 def _job_field_ok(field: str, value) -> bool:
@@ -310,6 +295,8 @@ def _job_field_ok(field: str, value) -> bool:
         return number
     if kind == "a whole number":
         return number and float(value).is_integer()
+    if field == "settings":
+        return isinstance(value, dict)
     return isinstance(value, str) and value.lower() in ("object", "root")
 
 
@@ -334,6 +321,10 @@ def _read_jobs(path: str) -> list[dict]:
                 raise CliError(f"job list {path!r}: job {n}{name} ({job.get('character') or '?'} to "
                                f"{job.get('goal') or 'the 3D cursor'}): {field!r} must be "
                                f"{_JOB_FIELDS[field]}; {got}")
+        try:
+            job["settings"] = {k: Settings.coerce(k, v) for k, v in (job.get("settings") or {}).items()}
+        except FootstepError as ex:
+            raise CliError(f"job list {path!r}: job {n} ({job.get('character')}): {ex}") from None
     return jobs
 
 
@@ -410,21 +401,17 @@ def _plan(args) -> int:
     ob = find_armature(args.character)
     goal, heading, start = _goal_and_start(scene, args.goal, args.goal_heading, args.start)
     settings = settings_from_args(args.set)
-    result, setup = planning.plan(scene, ob, goal, heading, start, settings,
-                                  _names(args.traversable), _names(args.obstacles))
-    syn = planning.synthesize(scene, result, setup, settings, goal=goal)
-    doc = result.to_dict()
-    doc["character"] = ob.name
-    doc["goal"] = [round(float(v), 4) for v in goal]
-    doc["stages"] = stage_row(len(result.footsteps), result.seconds, syn)
-    doc["synthesis"] = syn.to_dict(frame0=float(scene.frame_current))
+    planned = planning.plan_and_synthesize(scene, ob, goal, heading, start, settings,
+                                           _names(args.traversable), _names(args.obstacles))
+    result, syn = planned.result, planned.synthesis
+    doc = plan_report(result, syn, ob.name, goal, scene.frame_current)
     if args.report:
         with open(args.report, "w") as fh:
             json.dump(doc, fh)
     if args.json:
         print(json.dumps(doc))
     else:
-        print(format_plan(ob.name, goal, result, syn, scene.frame_current, planning.scene_rate(scene),
+        print(format_plan(ob.name, goal, result, syn, scene.frame_current, scene_fps(scene),
                           doc["stages"]))
     return 0
 
@@ -449,7 +436,8 @@ def _bake(args) -> int:
             ob = find_armature(job.get("character"))
             goal, heading, start = _goal_and_start(scene, job.get("goal"), job.get("goal_heading"),
                                                    job.get("start"))
-            doc = planning.run(scene, ob, goal, heading, start, settings, _names(args.traversable),
+            doc = planning.run(scene, ob, goal, heading, start, settings.replace(**job.get("settings", {})),
+                               _names(args.traversable),
                                _names(args.obstacles), name=job.get("name"), frame_start=job.get("frame_start"),
                                markers=args.markers, body_on=str(job.get("body_on") or args.body_on).upper())
         except EXPECTED as ex:

@@ -119,27 +119,19 @@ class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
     def execute(self, context):
         import json
 
+        from ..core.report import plan_report
         from . import planning
 
         fs = context.scene.footstep
         ob = character(context)
         try:
-            goal, heading = planning.goal_of(context.scene, fs.goal.name if fs.goal else None)
-            settings = _settings(context)
-            result, setup = planning.plan(context.scene, ob, goal, heading, fs.start, settings)
-            syn = planning.synthesize(context.scene, result, setup, settings, goal=goal)
-            from . import overlay
-
-            overlay.remember(context.scene, result.footsteps, *syn.footprints, setup.forward, setup.planner.foot,
-                             syn.body_position, np.array([n[2] for n in setup.planner.explored]))
+            goal, heading = _goal(context)
+            planned = planning.plan_and_synthesize(context.scene, ob, goal, heading, fs.start, _settings(context))
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
-        from ..core.pipeline import stage_row
-
-        doc = result.to_dict()
-        doc["character"] = ob.name
-        doc["stages"] = stage_row(len(result.footsteps), result.seconds, syn)
+        result, syn = planned.result, planned.synthesis
+        doc = plan_report(result, syn, ob.name, goal, context.scene.frame_current, synthesis=False)
         fs.plan_json = json.dumps(doc)
         st = doc["stages"]
         fs.last_report = (f"{len(result.footsteps)} footprints, {len(syn.t)} frames; search "
@@ -168,7 +160,6 @@ class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
     def execute(self, context):
         import time
 
-        from ..core.navgraph import DistanceField
         from . import planning
 
         ob = character(context)
@@ -177,13 +168,12 @@ class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
             t0 = time.perf_counter()
             s = planning.setup(context.scene, ob, _settings(context))
             pl = s.planner
-            field = DistanceField.build(pl.ground, pl.obstacles, goal, pl.field_cell, pl.clearance,
-                                        pl._jump_reach(), pl.max_step_height)
+            field = pl.distance_field(goal)
             secs = time.perf_counter() - t0
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
-        reach = int(np.isfinite(field.dist).sum()) if hasattr(field, "dist") else 0
+        reach = int(np.isfinite(field.dist).sum())
         context.scene.footstep.last_report = (
             f"graph: {len(s.analyses)} clips, {pl.steps.n} footsteps ({int(pl.steps.jump.sum())} jumps); "
             f"distance map {reach} cells; {secs * 1e3:.0f} ms")

@@ -13,7 +13,9 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from ..core import report
 from ..core.analysis import ClipAnalysis
+from ..core.ik import IKResult, solve_ik
 from ..core.library import Library
 from ..core.rig import Rig
 from ..core.navgraph import FootprintCache, Footstep, PlanError, PlanResult, Planner
@@ -21,8 +23,11 @@ from ..core.pipeline import Synthesis, stage_row, surface_snap
 from ..core.pipeline import synthesize as _synthesize
 from ..core.settings import Settings
 from ..core.steps import library_steps
-from ..core.surface import FootShape
+from ..core.pose import blend_pose, pose_bases
+from ..core.surface import FootShape, footprint_support
+from ..core.timing import StageTimer
 from .character import analyze_character, library_for
+from .scene import scene_fps
 from .surfaces import scene_surfaces
 
 #: Support answers per scene, reused while its tagged geometry is unchanged.
@@ -93,9 +98,8 @@ def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
     forward = world_forward(ob, clips.analyses)
     cache = _CACHES.setdefault(scene.name, FootprintCache())
     cache.update(object_geometry(ground, obst))
-    st = settings or Settings()
-    planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses), cache=cache,
-                      **{k: getattr(st, k) for k in Planner.FROM_SETTINGS})
+    planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses),
+                      settings=settings or Settings(), cache=cache)
     return PlanSetup(planner, clips.analyses, library, forward, clips.rig)
 
 
@@ -163,10 +167,6 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     return s.planner.plan(start, goal, goal_heading), s
 
 
-def scene_rate(scene) -> float:
-    return float(scene.render.fps) / float(scene.render.fps_base or 1.0)
-
-
 def synthesize(scene, result: PlanResult, s: PlanSetup, settings=None, goal=None) -> Synthesis:
     """Thesis 3.3 to 3.7 on a planned path: the body trajectory and every clip's weight
     and time per scene frame, footprints kept on the tagged surfaces."""
@@ -174,29 +174,93 @@ def synthesize(scene, result: PlanResult, s: PlanSetup, settings=None, goal=None
     snap = surface_snap(pl.ground, pl.obstacles, s.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
     return _synthesize(result.footsteps, s.library, s.analyses, settings or Settings(),
-                       fps=scene_rate(scene), forward=s.forward, snap=snap, goal=goal)
+                       fps=scene_fps(scene), forward=s.forward, snap=snap, goal=goal)
 
 
-def _spin(forward, analyses) -> float:
+@dataclass
+class Planned:
+    """A plan and its synthesized motion."""
+
+    result: PlanResult
+    setup: PlanSetup
+    synthesis: Synthesis
+
+
+def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
+                        traversable=(), obstacles=()) -> Planned:
+    """Plan the footprints to ``goal`` and synthesize the motion along them; the overlay
+    shows the result."""
+    from . import overlay
+
+    result, s = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles)
+    syn = synthesize(scene, result, s, settings, goal=goal)
+    overlay.remember(scene, result.footsteps, *syn.footprints, s.forward, s.planner.foot, syn.body_position,
+                     result.explored_positions if result.explored else None)
+    return Planned(result, s, syn)
+
+
+def body_spin(forward, analyses) -> float:
     """World yaw of heading 0 minus the rig's rest forward's yaw: the armature object's
     yaw is this plus the body heading."""
     rest = analyses[0].motion.rest_forward
     return float(np.arctan2(forward[1], forward[0]) - np.arctan2(rest[1], rest[0]))
 
 
-def source_steps(tracks, schedule, fps: float) -> np.ndarray:
-    """(B,) the largest rotation step (rad) each bone takes between two frames at ``fps``
-    in any clip the schedule plays."""
-    from ..core.metrics import rotation_steps
+def _walk_motion(s: PlanSetup):
+    """The clip whose heel and toe points stand for the character's (its first cycle)."""
+    return next((a for a in s.analyses if a.kind == "cycle"), s.analyses[0]).motion
 
-    out = None
-    for c, name in enumerate(schedule.clips):
-        if not (schedule.weights[:, c] > 0).any():
-            continue
-        tr = tracks[name]
-        step = rotation_steps(tr.quat).max(axis=0) * tr.pose_rate / fps  # per sample -> per frame
-        out = step if out is None else np.maximum(out, step)
-    return out
+
+@dataclass
+class Solved:
+    """The IK's result, with the seconds of the pose blend and of the IK."""
+
+    ik: IKResult
+    spin: float
+    pose_seconds: float
+    ik_seconds: float
+
+
+def solve(planned: Planned, settings: Settings) -> Solved:
+    """Thesis 3.8: the clips' bone rotations blended per frame, then the feet pinned to
+    the footprints (on the surface, along its normal) by the IK."""
+    syn, s = planned.synthesis, planned.setup
+    timer = StageTimer()
+    with timer("pose_blend"):
+        quat, hips = blend_pose(syn.final.schedule, syn.tracks)
+        basis = pose_bases(s.rig, quat, hips)
+    pl = s.planner
+    pos, head = syn.footprints
+    sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot, clearance=pl.clearance)
+    normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
+    walk = _walk_motion(s)
+    spin = body_spin(s.forward, s.analyses)
+
+    def ground_z(points):
+        hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, 0.3], 0.6)
+        return np.where(hit.hit, hit.z, np.nan)
+
+    with timer("ik"):
+        ik = solve_ik(s.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
+                      walk.heel_local, walk.toe_local, syn.final.schedule.feet, syn.planted(), pos, head, normal,
+                      s.forward, settings, ground_z=ground_z)
+    return Solved(ik, spin, timer.seconds["pose_blend"], timer.seconds["ik"])
+
+
+def measure(ob, planned: Planned, solved: Solved, act, frame_start: int, goal, goal_heading, fps: float) -> dict:
+    """The quality of the baked action (see ``core.report.measure_bake``), read from
+    Blender's evaluation of it."""
+    from . import bake as baking
+
+    s, syn, frames = planned.setup, planned.synthesis, solved.ik.frames
+    world, body_pos, body_yaw, bone_rot = baking.evaluate(ob, s.rig, act, frame_start, frames)
+    sched = syn.final.schedule
+    walk = _walk_motion(s)
+    stances = report.planted_stances(sched.feet, syn.planted(), *syn.footprints, fps, frames)
+    allowance = report.source_steps(syn.tracks, sched.clips, sched.weights, fps)
+    return report.measure_bake(world, bone_rot, body_pos, body_yaw - solved.spin,
+                               [s.rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local,
+                               s.planner.ground, stances, goal, goal_heading, allowance, s.rig.names)
 
 
 def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
@@ -222,87 +286,27 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     """``run`` one stage at a time: a generator yielding (fraction done, next stage) and
     returning the report. Nothing in the scene changes before the last stage (the bake),
     so a caller may stop it at any yield and leave the scene as it was."""
-    import time
-
-    from ..core.ik import solve_ik
-    from ..core.metrics import introduced_pops, quality
-    from ..core.pose import blend_pose, pose_bases
-    from ..core.surface import footprint_support
     from . import bake as baking
 
-    st = settings or Settings()
-    fps_scene = scene_rate(scene)
+    settings = settings or Settings()
+    fps = scene_fps(scene)
     name = name or f"{ob.name} to goal"
     frame_start = int(scene.frame_current if frame_start is None else frame_start)
     yield 0.0, "planning"
-    result, s = plan(scene, ob, goal, goal_heading, start_marker, st, traversable, obstacles)
-    yield 0.3, "synthesis"
-    syn = synthesize(scene, result, s, st, goal=goal)
-    from . import overlay
-
-    overlay.remember(scene, result.footsteps, *syn.footprints, s.forward, s.planner.foot, syn.body_position,
-                     np.array([n[2] for n in s.planner.explored]) if s.planner.explored else None)
-    sched = syn.final.schedule
-    tracks = syn.tracks
+    planned = plan_and_synthesize(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles)
+    result, syn = planned.result, planned.synthesis
     yield 0.5, "inverse kinematics"
-    t0 = time.perf_counter()
-    quat, hips = blend_pose(sched, tracks)
-    basis = pose_bases(s.rig, quat, hips)
-    t_pose = time.perf_counter() - t0
-    pl = s.planner
-    pos, head = syn.footprints
-    sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot, clearance=pl.clearance)
-    normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
-    walk = next((a for a in s.analyses if a.kind == "cycle"), s.analyses[0]).motion
-    spin = _spin(s.forward, s.analyses)
-    planted = syn.planted()
-
-    def ground_z(points):
-        hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, 0.3], 0.6)
-        return np.where(hit.hit, hit.z, np.nan)
-
-    t_ik0 = time.perf_counter()
-    ik = solve_ik(s.rig, basis, sched.t, syn.body_position, syn.body_heading, spin, walk.heel_local,
-                  walk.toe_local, sched.feet, planted, pos, head, normal, s.forward, st, ground_z=ground_z)
-    t_ik = time.perf_counter() - t_ik0
+    solved = solve(planned, settings)
     yield 0.7, "bake"
-    t1 = time.perf_counter()
-    act, track = baking.bake(ob, scene, s.rig, ik, spin, name, frame_start, result.footsteps, planted, markers,
-                             body_on)
-    t_bake = time.perf_counter() - t1
+    timer = StageTimer()
+    with timer("bake"):
+        act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
+                                 result.footsteps, syn.planted(), markers, body_on)
     yield 0.85, "quality"
-    world, body_pos, body_yaw, bone_rot = baking.evaluate(ob, s.rig, act, frame_start, ik.frames)
-    feet = [s.rig.foot_chain(x)[0] for x in ("l", "r")]
-    heel = np.stack([(world[:, f] @ walk.heel_local[k])[:, :3] for k, f in enumerate(feet)])
-    toe = np.stack([(world[:, f] @ walk.toe_local[k])[:, :3] for k, f in enumerate(feet)])
-    ground_z = np.full((2, ik.frames, 2), np.nan)
-    for k in range(2):
-        for i, p in enumerate((heel[k], toe[k])):
-            hit = pl.ground.ray_down(p + [0.0, 0.0, 0.5], 1.5)
-            ground_z[k, :, i] = np.where(hit.hit, hit.z, np.nan)
-    idx = lambda t: int(np.clip(round(t * fps_scene), 0, ik.frames - 1))  # noqa: E731
-    stances = [{"foot": int(sched.feet[i]), "start": idx(a), "end": idx(b), "stance": idx(m),
-                "position": pos[i], "heading": float(head[i])} for i, (a, m, b) in enumerate(planted)]
-    qual = quality(heel, toe, ground_z, stances, world[..., :3, 3], bone_rot, body_pos,
-                   body_yaw - spin, np.asarray(goal, float), goal_heading)
-    allowance = source_steps(tracks, sched, fps_scene)
-    qual["pops"]["introduced"] = introduced_pops(bone_rot, allowance)
-    for key in ("rotation_bone", "offset_bone"):
-        if qual["pops"].get(key) is not None:
-            qual["pops"][key] = s.rig.names[qual["pops"][key]]
-    if qual["pops"]["introduced"]["bone"] is not None:
-        qual["pops"]["introduced"]["bone"] = s.rig.names[qual["pops"]["introduced"]["bone"]]
-    stages = stage_row(len(result.footsteps), result.seconds, syn, pose_blend=t_pose, ik=t_ik, bake=t_bake)
-    doc = result.to_dict()
-    doc.update({"character": ob.name, "goal": [round(float(v), 4) for v in goal], "name": name,
-                "forward": [round(float(v), 6) for v in s.forward],
-                "frame_start": frame_start, "frame_end": frame_start + ik.frames - 1,
-                "action": act.name, "track": track.name,
-                "stages": stages,
-                "quality": qual,
-                "footprints": [{**f, "planted_frames": [frame_start + idx(a), frame_start + idx(b)],
-                                "frame": frame_start + idx(m), "position": [round(float(v), 4) for v in pos[i]],
-                                "heading": round(float(head[i]), 4)}
-                               for i, (f, (a, m, b)) in enumerate(zip(doc["footprints"], planted))]})
-    doc["synthesis"] = syn.to_dict(frame0=float(frame_start))
-    return doc
+    qual = measure(ob, planned, solved, act, frame_start, goal, goal_heading, fps)
+    stages = stage_row(len(result.footsteps), result.seconds, syn, pose_blend=solved.pose_seconds,
+                       ik=solved.ik_seconds, bake=timer.seconds["bake"])
+    return report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,
+                              frame_start=frame_start, frames=solved.ik.frames, fps=fps, action=act.name,
+                              track=track.name, stages=stages, quality=qual)
+

@@ -3,11 +3,8 @@ the editable clip library (armature data)."""
 
 from __future__ import annotations
 
-import ast
-import inspect
-from dataclasses import fields
-
 import bpy
+import numpy as np
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        IntProperty, PointerProperty, StringProperty)
 
@@ -25,29 +22,26 @@ USAGES = [
 GAIT_ITEMS = [("stand", "Stand", ""), ("walk", "Walk", ""), ("run", "Run", "")]
 
 
-def _docs() -> dict[str, str]:
-    """Each Settings field's docstring (the string literal that follows it)."""
-    src = inspect.getsource(Settings)
-    body = ast.parse(src).body[0].body
-    docs = {}
-    for a, b in zip(body, body[1:]):
-        if isinstance(a, ast.AnnAssign) and isinstance(b, ast.Expr) and isinstance(b.value, ast.Constant):
-            docs[a.target.id] = " ".join(str(b.value.value).split())
-    return docs
+_SUBTYPE = {"m": "DISTANCE", "s": "TIME_ABSOLUTE", "rad": "ANGLE"}
 
 
 def _settings_class():
-    docs = _docs()
+    """A PropertyGroup with one property per Settings field: its type, default, range and
+    description come from the setting's own declaration (``Settings.spec``)."""
     ann = {}
-    for f in fields(Settings):
-        label = f.name.replace("_", " ").capitalize()
-        desc = docs.get(f.name, "")[:400]
-        if f.type in ("bool", bool):
-            ann[f.name] = BoolProperty(name=label, description=desc, default=f.default)
-        elif f.type in ("int", int):
-            ann[f.name] = IntProperty(name=label, description=desc, default=f.default, min=0)
+    for name in Settings.names():
+        spec = Settings.spec(name)
+        label = name.replace("_", " ").capitalize()
+        unit = f" ({spec['unit']})" if spec["unit"] and spec["unit"] not in ("1", "rad") else ""
+        desc = (spec["doc"] + unit)[:400]
+        bounds = {k: v for k, v in (("min", spec["min"]), ("max", spec["max"])) if v is not None}
+        if spec["type"] is bool:
+            ann[name] = BoolProperty(name=label, description=desc, default=spec["default"])
+        elif spec["type"] is int:
+            ann[name] = IntProperty(name=label, description=desc, default=spec["default"], **bounds)
         else:
-            ann[f.name] = FloatProperty(name=label, description=desc, default=f.default, min=0.0)
+            ann[name] = FloatProperty(name=label, description=desc, default=spec["default"],
+                                      subtype=_SUBTYPE.get(spec["unit"], "NONE"), **bounds)
     return type("FOOTSTEP_PG_settings", (bpy.types.PropertyGroup,), {"__annotations__": ann})
 
 
@@ -55,12 +49,17 @@ FOOTSTEP_PG_settings = _settings_class()
 
 
 def settings_from_props(pg) -> Settings:
-    """The Settings a panel holds. Blender keeps floats in single precision: 7 significant
-    digits are read back, so the thesis's 0.3 stays 0.3."""
+    """The Settings a panel holds. Blender keeps floats in single precision: a value equal
+    to its default in single precision reads as the default, any other as 7 significant
+    digits, so the thesis's 0.3 stays 0.3. A value out of its range raises SettingsError
+    naming the setting."""
     values = {}
-    for f in fields(Settings):
-        v = getattr(pg, f.name)
-        values[f.name] = v if isinstance(v, (bool, int)) else float(f"{v:.7g}")
+    for name in Settings.names():
+        v = getattr(pg, name)
+        if not isinstance(v, (bool, int)):
+            default = Settings.spec(name)["default"]
+            v = default if np.float32(v) == np.float32(default) else float(f"{v:.7g}")
+        values[name] = v
     return Settings(**values)
 
 

@@ -27,8 +27,10 @@ def _matrices(collection, attr: str) -> np.ndarray:
 
 
 def scene_fps(scene=None) -> float:
+    """The scene's frame rate (frames per second), ``fps / fps_base``; the one place it
+    is computed."""
     scene = scene or bpy.context.scene
-    return scene.render.fps / scene.render.fps_base
+    return float(scene.render.fps) / float(scene.render.fps_base or 1.0)
 
 
 def role_overrides(ob) -> dict[str, str]:

@@ -25,16 +25,46 @@ from __future__ import annotations
 import heapq
 import time
 from dataclasses import dataclass, field
+from typing import Callable, NamedTuple
 
 import numpy as np
 
 from .errors import FootstepError
+from .settings import Settings
 from .steps import StepSet
 from .surface import FootShape, Ground, footprint_support
 
 
+#: m: the fine grid on which support answers are cached. A footprint takes only the
+#: answer of its own fine cell, so it never takes a neighbour's answer near an edge.
+FINE_CELL = 0.02
+
+#: Heading bins of the fine grid (2 degrees each).
+FINE_HEADING_BINS = 180
+
+
+def fine_xy(xy: np.ndarray) -> np.ndarray:
+    """(N, 2) int64 fine-grid cells of positions (N, >=2) in metres."""
+    return np.rint(np.asarray(xy, float)[..., :2] / FINE_CELL).astype(np.int64)
+
+
+def fine_keys(xy: np.ndarray, heading: np.ndarray) -> list[tuple[int, int, int]]:
+    """Fine keys (cell x, cell y, heading bin) of footprints at ``xy`` (N, 2) m turned
+    ``heading`` (N,) rad: the keys of ``FootprintCache.table``."""
+    c = fine_xy(xy)
+    b = np.rint(np.asarray(heading, float) / (2 * np.pi / FINE_HEADING_BINS)).astype(np.int64) % FINE_HEADING_BINS
+    return list(zip(c[:, 0].tolist(), c[:, 1].tolist(), b.tolist()))
+
+
 class PlanError(FootstepError):
-    """No path: the message says why, and where the nearest reachable point is."""
+    """No path: the message says why, and where the nearest reachable point is.
+    ``expanded`` footprints were expanded before the search gave up (0: refused before
+    any search), ``explored`` the search's nodes (``SearchNode``)."""
+
+    def __init__(self, message: str, expanded: int = 0, explored: list | None = None):
+        super().__init__(message)
+        self.expanded = expanded
+        self.explored = explored or []
 
 
 @dataclass(frozen=True)
@@ -48,14 +78,37 @@ class Footstep:
     jump: bool = False
 
 
+class SearchNode(NamedTuple):
+    """A footprint the search reached: the foot that stands there (0 left, 1 right), the
+    gait it arrived in, its position (3,) and heading (rad), the cost (s) of the way
+    there, the index of the node it was reached from (-1 at the start) and the index of
+    the step (``StepSet`` row) that reached it (-1 at the start)."""
+
+    foot: int
+    gait: str
+    position: np.ndarray
+    heading: float
+    cost: float
+    parent: int
+    step: int
+
+
 @dataclass
 class PlanResult:
+    """A search's path and everything about it: counts, times (s) and the explored nodes."""
+
     footsteps: list[Footstep]
     expanded: int
     generated: int
     seconds: float
     cost: float
     field_seconds: float = 0.0  # of ``seconds``: building the heuristic's distance field
+    explored: list[SearchNode] = field(default_factory=list, repr=False)
+
+    @property
+    def explored_positions(self) -> np.ndarray:
+        """(N, 3) every footprint the search reached, for review."""
+        return np.array([n.position for n in self.explored], float).reshape(-1, 3)
 
     def to_dict(self) -> dict:
         return {
@@ -75,8 +128,8 @@ class FootprintCache:
     when objects change, only the answers near their old and new bounds are dropped."""
 
     objects: dict = field(default_factory=dict)  # name -> (hash, lo (3,), hi (3,))
-    table: dict = field(default_factory=dict)  # (ix, iy, heading bin) -> (ok, z)
-    between: dict = field(default_factory=dict)  # (from key, to key) -> (ground, clear)
+    table: dict = field(default_factory=dict)  # fine key (ix, iy, heading bin) -> (ok, z)
+    between: dict = field(default_factory=dict)  # (from fine cell, to fine key) -> (ground, clear)
     margin: float = 0.6  # m around a changed object whose answers are dropped
 
     def update(self, objects: dict) -> int:
@@ -92,12 +145,12 @@ class FootprintCache:
             return 0
         # a step's answer goes with either end's region (a step is shorter than 2 m)
         for k in [k for k in self.between
-                  if any(lo[0] - self.margin - 2 <= k[0][0] * 0.02 <= hi[0] + self.margin + 2
-                         and lo[1] - self.margin - 2 <= k[0][1] * 0.02 <= hi[1] + self.margin + 2
+                  if any(lo[0] - self.margin - 2 <= k[0][0] * FINE_CELL <= hi[0] + self.margin + 2
+                         and lo[1] - self.margin - 2 <= k[0][1] * FINE_CELL <= hi[1] + self.margin + 2
                          for _, lo, hi in changed)]:
             del self.between[k]
         keys = list(self.table)
-        xy = np.array([k[:2] for k in keys], dtype=np.float64) * 0.02
+        xy = np.array([k[:2] for k in keys], dtype=np.float64) * FINE_CELL
         drop = np.zeros(len(keys), bool)
         for _, lo, hi in changed:
             drop |= ((xy[:, 0] >= lo[0] - self.margin) & (xy[:, 0] <= hi[0] + self.margin)
@@ -108,33 +161,45 @@ class FootprintCache:
 
 
 @dataclass
+class _Search:
+    """One search's state (never kept on the planner)."""
+
+    goal: np.ndarray
+    goal_heading: float | None
+    heuristic: Callable[[np.ndarray], np.ndarray]
+    base_cost: np.ndarray  # (S,) each step's cost before a gait change
+    nodes: list[SearchNode] = field(default_factory=list)
+    heap: list = field(default_factory=list)
+    best_g: dict = field(default_factory=dict)
+    closed: set = field(default_factory=set)
+    expanded: int = 0
+    generated: int = 0
+    nearest: tuple = (np.inf, None)  # (distance to the goal, position) of the closest node
+
+    def push(self, node: SearchNode, h: float) -> None:
+        self.nodes.append(node)
+        heapq.heappush(self.heap, (node.cost + h, len(self.nodes) - 1))
+
+
+@dataclass
 class Planner:
+    """The footstep search over a scene's surfaces with a library's steps. The user's
+    tunables (penalties, heuristic weight, goal radius and heading tolerance, the
+    expansion budget) come from ``settings``; the fields below them are the search's
+    own geometry."""
+
     ground: Ground
     obstacles: Ground | None
     steps: StepSet
     forward: np.ndarray  # the rig's rest forward (x, y)
     foot: FootShape = FootShape()
-    cell: float = 0.15
-    heading_bins: int = 36
-    turn_penalty: float = 0.1
-    jump_penalty: float = 0.5
-    gait_change_penalty: float = 0.2
-    run_penalty: float = 0.0
-    goal_radius: float = 0.35
-    goal_heading_tolerance: float = np.radians(30)
-    max_step_height: float = 0.3
-    max_expansions: int = 20000
-    max_seconds: float = 10.0
-    clearance: float = 0.25
-    field_cell: float = 0.25
-    heuristic_weight: float = 2.0
+    settings: Settings = field(default_factory=Settings)
     cache: FootprintCache = field(default_factory=FootprintCache)
-    explored: list = field(default_factory=list, repr=False)
-
-    #: The fields the user sets (Settings of the same names; the defaults here are for
-    #: the core's own use: a bare Planner plans the fastest path, run_penalty 0).
-    FROM_SETTINGS = ("turn_penalty", "jump_penalty", "run_penalty", "gait_change_penalty",
-                     "heuristic_weight", "goal_radius")
+    cell: float = 0.15  # m: footprints closer than this (same foot, gait, heading bin) merge
+    heading_bins: int = 36
+    max_step_height: float = 0.3  # m up or down between two footprints
+    clearance: float = 0.25  # m from obstacles
+    field_cell: float = 0.25  # m: the distance field's grid
 
     def _support(self, pos, heading):
         return footprint_support(self.ground, self.obstacles, pos, heading, self.forward, self.foot,
@@ -169,24 +234,53 @@ class Planner:
             clear = ~inside & ~near
         return ground, clear
 
+    # ------------------------------------------------------------------ the search
     def plan(self, start: list[Footstep], goal: np.ndarray, goal_heading: float | None = None) -> PlanResult:
         """A footstep path from ``start`` (the character's current footprints, in any
-        order: the search may step off either) to ``goal`` (x, y, z)."""
+        order: the search may step off either) to ``goal`` (x, y, z), arriving turned
+        within the goal heading tolerance of ``goal_heading`` (rad, like the footprints'
+        headings) when one is given. Raises PlanError saying what blocks the way."""
         t0 = time.perf_counter()
         goal = np.asarray(goal, dtype=np.float64)
-        table, between = self.cache.table, self.cache.between
+        self._check_goal(goal, goal_heading)
+        t_field = time.perf_counter()
+        dist = self.distance_field(goal)
+        field_seconds = time.perf_counter() - t_field
+        self._refuse_unreachable(dist, start, goal)
+        search = _Search(goal, goal_heading, self._heuristic(dist, goal), self._base_costs())
+        for s in start:
+            for gait in ("walk", "run"):
+                node = SearchNode(s.foot, gait, np.asarray(s.position, float), float(s.heading), 0.0, -1, -1)
+                search.push(node, float(search.heuristic(node.position)[0]))
+        while search.heap:
+            idx = self._pop(search)
+            if idx is None:
+                continue
+            if self._arrived(search, idx):
+                return self._result(search, idx, time.perf_counter() - t0, field_seconds)
+            search.expanded += 1
+            if search.expanded > self.settings.max_expansions:
+                break
+            self._expand(search, idx)
+        raise self._dead_end(search)
+
+    def distance_field(self, goal: np.ndarray) -> "DistanceField":
+        """The walking-distance map to ``goal`` that the search's heuristic reads."""
+        return DistanceField.build(self.ground, self.obstacles, np.asarray(goal, float), self.field_cell,
+                                   self.clearance, self._jump_reach(), self.max_step_height)
+
+    def _check_goal(self, goal: np.ndarray, goal_heading: float | None) -> None:
+        """PlanError when no traversable surface lies under (or near above) the goal."""
         gsup = self._support(goal[None], np.array([goal_heading or 0.0]))
         if not gsup.ok[0] and gsup.reason[0] in ("off surface", "uneven", "steep"):
             hit = self.ground.ray_down(np.array([[goal[0], goal[1], goal[2] + 2.0]]), 10.0)
             if not hit.hit[0]:
                 raise PlanError(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}, {goal[2]:.2f}) is off every "
                                 "traversable surface")
-        vmax = self._cost_speed()
-        t_field = time.perf_counter()
-        dist = DistanceField.build(self.ground, self.obstacles, goal, self.field_cell, self.clearance,
-                                   self._jump_reach(), self.max_step_height)
-        self._field_seconds = time.perf_counter() - t_field
 
+    def _refuse_unreachable(self, dist: "DistanceField", start: list[Footstep], goal: np.ndarray) -> None:
+        """PlanError before any search when the walking-distance map has no way from the
+        start to the goal."""
         if not np.isfinite(dist.at_many(np.array([f.position for f in start], float))).any():
             near = dist.nearest_reachable(np.asarray(start[0].position, float), goal)
             raise PlanError(
@@ -195,139 +289,158 @@ class Planner:
                 f"point is ({near[0]:.2f}, {near[1]:.2f}), {np.linalg.norm(near[:2] - goal[:2]):.2f} m "
                 "from the goal")
 
+    def _heuristic(self, dist: "DistanceField", goal: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """Weighted remaining time (s) for points (N, >=2): the walking distance over the
+        cheapest step's speed; off the grid's reach, three times the straight distance."""
+        vmax = self._cost_speed()
+        weight = self.settings.heuristic_weight
+
         def heuristic(p):
-            """Weighted remaining time for points (N, >=2); off the grid's reach, three
-            times the straight distance."""
             p = np.atleast_2d(p)
             d = dist.at_many(p)
             d = np.where(np.isfinite(d), d, 3.0 * np.hypot(goal[0] - p[:, 0], goal[1] - p[:, 1]))
-            return self.heuristic_weight * d / vmax
-        fwd_angle = np.arctan2(self.forward[1], self.forward[0])
+            return weight * d / vmax
+        return heuristic
+
+    def _base_costs(self) -> np.ndarray:
+        """(S,) s: each step's cost, its duration plus the turn, jump and run penalties
+        (a gait change is added per successor)."""
+        st, cfg = self.steps, self.settings
+        return (st.duration + cfg.turn_penalty * np.abs(st.turn)
+                + np.where(st.jump, cfg.jump_penalty, 0.0)
+                + np.where(st.gait == "run", cfg.run_penalty, 0.0))
+
+    def _pop(self, search: _Search) -> int | None:
+        """The cheapest open node's index, closing its merge key (None if already closed)."""
+        _, idx = heapq.heappop(search.heap)
+        node = search.nodes[idx]
+        key = self._keys(node.foot, [node.gait], node.position[None, :2], np.array([node.heading]))[0]
+        if key in search.closed:
+            return None
+        search.closed.add(key)
+        return idx
+
+    def _arrived(self, search: _Search, idx: int) -> bool:
+        """Whether node ``idx`` ends the path (within the goal radius, heading within
+        tolerance, and not a start footprint); keeps the nearest node for messages."""
+        node, goal = search.nodes[idx], search.goal
+        d_goal = float(np.linalg.norm(goal[:2] - node.position[:2]))
+        if d_goal < search.nearest[0]:
+            search.nearest = (d_goal, node.position)
+        cfg = self.settings
+        return d_goal <= cfg.goal_radius and node.parent >= 0 and (
+            search.goal_heading is None
+            or abs(_wrap(node.heading - search.goal_heading)) <= cfg.goal_heading_tolerance)
+
+    def _expand(self, search: _Search, idx: int) -> None:
+        """Push every supported, reachable successor of node ``idx``."""
+        node = search.nodes[idx]
+        sel, nxt, npsi, keys = self._successors(search, node)
+        if not len(sel):
+            return
+        ok, z = self._supported(node, nxt, npsi)
+        ok &= np.abs(z - node.position[2]) <= self.max_step_height
+        if ok.any():
+            ok[ok] &= self._way_clear(node, sel[ok], np.c_[nxt[ok], z[ok]], fine_keys(nxt[ok], npsi[ok]))
+        good = np.flatnonzero(ok)
+        if not len(good):
+            return
         st = self.steps
-        nodes = []  # (foot, gait, pos, psi, g, parent, step index or -1)
-        heap = []
-        best_g = {}
-        for s in start:
-            for gait in ("walk", "run"):
-                idx = len(nodes)
-                nodes.append((s.foot, gait, np.asarray(s.position, float), float(s.heading), 0.0, -1, -1))
-                heapq.heappush(heap, (float(heuristic(np.asarray(s.position, float))[0]), idx))
-        self.explored = nodes  # for review: every footprint the search reached
-        expanded = generated = 0
-        best_near = (np.inf, None)
-        closed = set()
-        while heap:
-            f, idx = heapq.heappop(heap)
-            foot, gait, pos, psi, g, parent, si = nodes[idx]
-            key = self._keys(foot, [gait], pos[None, :2], np.array([psi]))[0]
-            if key in closed:
+        change = np.where(st.gait[sel[good]] != node.gait, self.settings.gait_change_penalty, 0.0)
+        cost = node.cost + (search.base_cost[sel[good]] + change)
+        h = search.heuristic(nxt[good])
+        for j, g, hj in zip(good.tolist(), cost.tolist(), h.tolist()):
+            k = keys[j]
+            if search.best_g.get(k, np.inf) <= g:
                 continue
-            closed.add(key)
-            d_goal = float(np.linalg.norm(goal[:2] - pos[:2]))
-            if d_goal < best_near[0]:
-                best_near = (d_goal, pos)
-            if d_goal <= self.goal_radius and parent >= 0 and (
-                    goal_heading is None or abs(_wrap(psi - goal_heading)) <= self.goal_heading_tolerance):
-                return self._result(nodes, idx, expanded, generated, t0, g)
-            expanded += 1
-            if expanded > self.max_expansions or time.perf_counter() - t0 > self.max_seconds:
-                break
-            # successors: every step starting from this foot, from this gait or changing gait
-            sel = np.flatnonzero(st.foot == foot)
-            if si >= 0 and st.jump[si]:
-                sel = sel[~st.jump[sel]]  # no jump straight after a jump
-            if gait == "walk":
-                sel = sel[~st.jump[sel]]  # a jump is entered running
-            ang = psi + fwd_angle
-            f_ = np.array([np.cos(ang), np.sin(ang)])
-            l_ = np.array([-f_[1], f_[0]])
-            nxt = pos[:2] + st.fwd[sel, None] * f_ + st.left[sel, None] * l_
-            npsi = _wrap(psi + st.turn[sel])
-            keys = self._keys(1 - foot, st.gait[sel].tolist(), nxt, npsi)
-            todo = [j for j, k in enumerate(keys) if k not in closed]
-            if not todo:
-                continue
-            sel, nxt, npsi = sel[todo], nxt[todo], npsi[todo]
-            keys = [keys[j] for j in todo]
-            # support, from the cache where the key was seen before
-            ok = np.zeros(len(sel), bool)
-            z = np.zeros(len(sel))
-            # (a fine key: a footprint never takes a neighbour's answer near an edge)
-            fx = np.rint(nxt / 0.02).astype(np.int64)
-            fb = np.rint(npsi / (np.pi / 90)).astype(np.int64) % 180
-            fine = list(zip(fx[:, 0].tolist(), fx[:, 1].tolist(), fb.tolist()))
-            ask = [j for j, k in enumerate(fine) if k not in table]
-            if ask:
-                p3 = np.c_[nxt[ask], np.full(len(ask), pos[2])]
-                sup = self._support(p3, npsi[ask])
-                for j, o, zz in zip(ask, sup.ok, sup.z):
-                    table[fine[j]] = (bool(o), float(zz))
-            for j, k in enumerate(fine):
-                ok[j], z[j] = table[k]
-            ok &= np.abs(z - pos[2]) <= self.max_step_height
-            # a step walks on continuous ground; a jump is only taken across a gap; and
-            # neither passes through an obstacle
-            if ok.any():
-                here = (int(round(pos[0] / 0.02)), int(round(pos[1] / 0.02)))
-                j = np.flatnonzero(ok)
-                pairs = [(here, fine[i]) for i in j]
-                ask = [n for n, k in enumerate(pairs) if k not in between]
-                if ask:
-                    ja = j[ask]
-                    ground, clear = self._between(np.repeat(pos[None], len(ja), axis=0), np.c_[nxt[ja], z[ja]])
-                    for n, g_, c_ in zip(ask, ground.tolist(), clear.tolist()):
-                        between[pairs[n]] = (g_, c_)
-                gc = np.array([between[k] for k in pairs], dtype=bool).reshape(-1, 2)
-                ok[j] &= np.where(st.jump[sel[j]], ~gc[:, 0], gc[:, 0]) & gc[:, 1]
-            good = np.flatnonzero(ok)
-            hs = heuristic(nxt[good]) if len(good) else ()
-            for j, h in zip(good, hs):
-                i = sel[j]
-                cost = (st.duration[i] + self.turn_penalty * abs(st.turn[i])
-                        + (self.jump_penalty if st.jump[i] else 0.0)
-                        + (self.run_penalty if st.gait[i] == "run" else 0.0)
-                        + (self.gait_change_penalty if st.gait[i] != gait else 0.0))
-                ng = g + cost
-                k = keys[j]
-                if best_g.get(k, np.inf) <= ng:
-                    continue
-                best_g[k] = ng
-                p = np.array([nxt[j, 0], nxt[j, 1], z[j]])
-                nodes.append((1 - foot, st.gait[i], p, float(npsi[j]), ng, idx, int(i)))
-                heapq.heappush(heap, (ng + float(h), len(nodes) - 1))
-                generated += 1
-        near = best_near[1]
+            search.best_g[k] = g
+            i = int(sel[j])
+            search.push(SearchNode(1 - node.foot, st.gait[i], np.array([nxt[j, 0], nxt[j, 1], z[j]]),
+                                   float(npsi[j]), g, idx, i), hj)
+            search.generated += 1
+
+    def _successors(self, search: _Search, node: SearchNode):
+        """The steps that may follow ``node`` (indices (K,)), where they land (K, 2) and
+        turned how (K,), with their merge keys; merged-away (closed) ones dropped. No
+        jump follows a jump, and a jump is entered running."""
+        st = self.steps
+        sel = np.flatnonzero(st.foot == node.foot)
+        if node.step >= 0 and st.jump[node.step]:
+            sel = sel[~st.jump[sel]]
+        if node.gait == "walk":
+            sel = sel[~st.jump[sel]]
+        ang = node.heading + np.arctan2(self.forward[1], self.forward[0])
+        f_ = np.array([np.cos(ang), np.sin(ang)])
+        l_ = np.array([-f_[1], f_[0]])
+        nxt = node.position[:2] + st.fwd[sel, None] * f_ + st.left[sel, None] * l_
+        npsi = _wrap(node.heading + st.turn[sel])
+        keys = self._keys(1 - node.foot, st.gait[sel].tolist(), nxt, npsi)
+        todo = [j for j, k in enumerate(keys) if k not in search.closed]
+        return sel[todo], nxt[todo], npsi[todo], [keys[j] for j in todo]
+
+    def _supported(self, node: SearchNode, nxt: np.ndarray, npsi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(ok (K,), z (K,)): whether a foot may stand at each successor and the surface
+        height there, from the cache where the fine key was seen before."""
+        table = self.cache.table
+        fine = fine_keys(nxt, npsi)
+        ask = [j for j, k in enumerate(fine) if k not in table]
+        if ask:
+            sup = self._support(np.c_[nxt[ask], np.full(len(ask), node.position[2])], npsi[ask])
+            for j, o, zz in zip(ask, sup.ok, sup.z):
+                table[fine[j]] = (bool(o), float(zz))
+        answers = np.array([table[k] for k in fine], dtype=float).reshape(-1, 2)
+        return answers[:, 0].astype(bool), answers[:, 1]
+
+    def _way_clear(self, node: SearchNode, steps: np.ndarray, to: np.ndarray, fine: list) -> np.ndarray:
+        """(K,) whether each step from ``node`` to ``to`` (K, 3) may be taken: a walking
+        step on continuous ground, a jump only across a gap, neither through an obstacle
+        (cached per fine cell pair)."""
+        between = self.cache.between
+        here = tuple(fine_xy(node.position[:2]).tolist())
+        pairs = [(here, k) for k in fine]
+        ask = [n for n, k in enumerate(pairs) if k not in between]
+        if ask:
+            ground, clear = self._between(np.repeat(node.position[None], len(ask), axis=0), to[ask])
+            for n, g_, c_ in zip(ask, ground.tolist(), clear.tolist()):
+                between[pairs[n]] = (g_, c_)
+        gc = np.array([between[k] for k in pairs], dtype=bool).reshape(-1, 2)
+        return np.where(self.steps.jump[steps], ~gc[:, 0], gc[:, 0]) & gc[:, 1]
+
+    def _dead_end(self, search: _Search) -> PlanError:
+        goal, (d_near, near) = search.goal, search.nearest
         where = "nowhere" if near is None else f"({near[0]:.2f}, {near[1]:.2f}, {near[2]:.2f})"
-        why = "the search ran out of its budget" if heap else "no step of the library leads further"
-        raise PlanError(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) cannot be reached ({why}, "
-                        f"{expanded} footprints expanded); the nearest reachable point is {where}, "
-                        f"{best_near[0]:.2f} m from the goal")
+        why = "the search ran out of its budget" if search.heap else "no step of the library leads further"
+        return PlanError(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) cannot be reached ({why}, "
+                         f"{search.expanded} footprints expanded); the nearest reachable point is {where}, "
+                         f"{d_near:.2f} m from the goal", search.expanded, search.nodes)
 
     def _cost_speed(self) -> float:
         """Metres per second of cost of the step that covers ground cheapest: the
         heuristic divides the distance to the goal by it, so it never overestimates."""
-        st = self.steps
-        cost = st.duration + np.where(st.gait == "run", self.run_penalty, 0.0) \
-            + np.where(st.jump, self.jump_penalty, 0.0)
+        st, cfg = self.steps, self.settings
+        cost = st.duration + np.where(st.gait == "run", cfg.run_penalty, 0.0) \
+            + np.where(st.jump, cfg.jump_penalty, 0.0)
         return float(np.max(np.hypot(st.fwd, st.left) / cost))
 
     def _jump_reach(self) -> float:
         j = self.steps.jump
         return float(np.hypot(self.steps.fwd[j], self.steps.left[j]).max()) if j.any() else 0.0
 
-    def _result(self, nodes, idx, expanded, generated, t0, cost) -> PlanResult:
+    def _result(self, search: _Search, idx: int, seconds: float, field_seconds: float) -> PlanResult:
         chain = []
         while idx >= 0:
-            chain.append(nodes[idx])
-            idx = nodes[idx][5]
+            chain.append(search.nodes[idx])
+            idx = search.nodes[idx].parent
         chain.reverse()
         out, tnow = [], 0.0
-        for foot, gait, pos, psi, g, parent, si in chain:
-            if si >= 0:
-                tnow += float(self.steps.duration[si])
-            out.append(Footstep(foot, pos, psi, tnow, "start" if si < 0 else str(self.steps.label[si]),
-                                gait, bool(si >= 0 and self.steps.jump[si])))
-        return PlanResult(out, expanded, generated, time.perf_counter() - t0, cost, self._field_seconds)
+        for n in chain:
+            if n.step >= 0:
+                tnow += float(self.steps.duration[n.step])
+            out.append(Footstep(n.foot, n.position, n.heading, tnow,
+                                "start" if n.step < 0 else str(self.steps.label[n.step]),
+                                n.gait, bool(n.step >= 0 and self.steps.jump[n.step])))
+        return PlanResult(out, search.expanded, search.generated, seconds, chain[-1].cost, field_seconds,
+                          search.nodes)
 
 
 def _wrap(a):
@@ -370,13 +483,6 @@ class DistanceField:
         cy = self.origin[1] + (ok % self.shape[1] + 0.5) * self.cell
         k = int(np.argmin(np.hypot(cx - goal[0], cy - goal[1])))
         return np.array([cx[k], cy[k], 0.0])
-
-    def at(self, p) -> float:
-        i = int(np.floor((p[0] - self.origin[0]) / self.cell))
-        j = int(np.floor((p[1] - self.origin[1]) / self.cell))
-        if 0 <= i < self.shape[0] and 0 <= j < self.shape[1]:
-            return float(self.dist[i, j])
-        return np.inf
 
     @staticmethod
     def build(ground, obstacles, goal, cell, clearance, jump_reach, step_height) -> "DistanceField":

@@ -17,7 +17,6 @@ turning left; tau positive turning left. Normalized time u counts footsteps.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -32,6 +31,7 @@ from .refinement import Refined, refine
 from .settings import Settings
 from .smoothing import Smoothed, smooth_footprints
 from .surface import FootShape, Ground, footprint_support
+from .timing import StageTimer
 from .trajectory import transfer_body
 
 SnapFn = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -272,19 +272,19 @@ def planted_ranges(S: Schedule, pb: Playback) -> list[tuple[float, float, float]
     return out
 
 
-def _one_pass(schedule, tracks, desired_pos, desired_head, forward, s: Settings, snap,
-              seconds: dict, key: str) -> Pass:
-    t0 = time.perf_counter()
-    played = playback(schedule, tracks, start=(desired_pos[0], desired_head[0]), forward=forward)
-    refined = refine(played.footprints, played.footprint_heading, desired_pos, desired_head,
-                     s.refinement_iterations, snap, height=getattr(snap, "height", None))
-    t1 = time.perf_counter()
-    body_pos, body_head = transfer_body(played.footprints, played.footprint_heading, refined.position,
-                                        refined.heading, schedule.footprint_times, played.root,
-                                        played.heading, schedule.t)
-    t2 = time.perf_counter()
-    seconds[f"refinement{key}"] = t1 - t0
-    seconds[f"body_trajectory{key}"] = t2 - t1
+def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Settings, snap,
+              timer: StageTimer, key: str) -> Pass:
+    """One round: play the schedule, refine the played footprints towards the desired
+    ones (stage ``refinement<key>``), carry the played body onto them
+    (``body_trajectory<key>``)."""
+    with timer(f"refinement{key}"):
+        played = playback(schedule, tracks, start=(desired_pos[0], desired_head[0]), forward=forward)
+        refined = refine(played.footprints, played.footprint_heading, desired_pos, desired_head,
+                         settings.refinement_iterations, snap, height=getattr(snap, "height", None))
+    with timer(f"body_trajectory{key}"):
+        body_pos, body_head = transfer_body(played.footprints, played.footprint_heading, refined.position,
+                                            refined.heading, schedule.footprint_times, played.root,
+                                            played.heading, schedule.t)
     return Pass(schedule, played, refined, body_pos, body_head)
 
 
@@ -321,98 +321,137 @@ def synthesize(footsteps, library: Library, analyses: list[ClipAnalysis] | dict[
     the world direction of heading 0 (default the clips' rest forward). With ``goal``
     the path's end is moved so that the body ends on it (the planner stops anywhere
     within its goal radius; see ``ease_end``)."""
-    s = settings or Settings()
+    settings = settings or Settings()
     if len(footsteps) < 2:
         raise BlendError("the path has a single footprint: the character is already at its goal")
-    seconds: dict[str, float] = {}
-    t_start = time.perf_counter()
-    if isinstance(analyses, dict):
-        tracks = analyses
-    else:
-        by = {a.name: a for a in analyses}
-        missing = [c for c in library.clips() if c not in by]
-        if missing:
-            raise BlendError(f"clips of the library are missing: {', '.join(missing)}")
-        tracks = {c: make_track(by[c]) for c in library.clips()}
-    seconds["tracks"] = time.perf_counter() - t_start
-    cyc = cyclic_clips(library)
-    steps = plan_steps(footsteps, library, cyc)
+    timer = StageTimer()
+    with timer("total"):
+        with timer("tracks"):
+            tracks = _tracks_of(library, analyses)
+        cyc = cyclic_clips(library)
+        steps = plan_steps(footsteps, library, cyc)
+        with timer("smoothing"):  # 3.3
+            smoothed = _smooth(footsteps, settings, snap, goal)
+        # 3.5 / 3.6 with the plan's clips
+        sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time)
+        first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1")
+        with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
+            curves = _tau_curves(library, cyc, sch1, first, settings)
+            pins = speed_pins(steps, tracks)
+            loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
+            sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco)
+        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal)
+        tau_final = np.interp(sch2.u, sch1.u, curves.tau)
+        s_final = loco.speed(sch2.u, sch2.n)
+    seconds = timer.seconds
+    seconds["refinement"] = seconds["refinement_1"] + seconds["refinement_2"]
+    seconds["body_trajectory"] = seconds["body_trajectory_1"] + seconds["body_trajectory_2"]
+    return Synthesis(footsteps=list(footsteps), settings=settings, clips=sch2.clips, smoothed=smoothed,
+                     first=first, tau_plan=curves.plan, tau_raw=curves.raw, tau=curves.tau, final=final,
+                     tau_final=tau_final, s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks)
 
-    # 3.3 smoothing
-    t0 = time.perf_counter()
+
+def _tracks_of(library: Library, analyses) -> dict[str, ClipTrack]:
+    """Clip name -> ClipTrack of every clip of the library (``analyses`` may already be
+    the tracks)."""
+    if isinstance(analyses, dict):
+        return analyses
+    by = {a.name: a for a in analyses}
+    missing = [c for c in library.clips() if c not in by]
+    if missing:
+        raise BlendError(f"clips of the library are missing: {', '.join(missing)}")
+    return {c: make_track(by[c]) for c in library.clips()}
+
+
+def _smooth(footsteps, settings: Settings, snap, goal) -> Smoothed:
+    """3.3: the planned footprints smoothed; with a goal, the path's end first eased so
+    that the body ends between the last two feet on it."""
     pos0 = np.array([f.position for f in footsteps], float)
     head0 = np.unwrap(np.array([f.heading for f in footsteps], float))
-    if goal is not None:  # first guess: the body ends between the last two feet
+    if goal is not None:
         pos0 = ease_end(pos0, head0, np.asarray(goal, float)[:2] - 0.5 * (pos0[-1, :2] + pos0[-2, :2]), snap)
-    smoothed = smooth_footprints(pos0, head0, s.smoothing_iterations, snap,
-                                 preserve_arcs=s.smoothing_keep_arcs)
-    seconds["smoothing"] = time.perf_counter() - t0
+    return smooth_footprints(pos0, head0, settings.smoothing_iterations, snap,
+                             preserve_arcs=settings.smoothing_keep_arcs)
 
-    # 3.5 / 3.6 with the plan's clips
-    sch1 = build_schedule(steps, tracks, cyc, fps, s.transition_time)
-    first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, s, snap, seconds, "_1")
 
-    # 3.7 blend groups: tau from the body trajectory, s from the special clips
-    t0 = time.perf_counter()
+@dataclass
+class _TauCurves:
+    plan: np.ndarray  # (F1,) the plan's clips' own tau, blended by the first weights
+    raw: np.ndarray  # (F1,) the first pass's body trajectory's tau
+    tau: np.ndarray  # (F1,) that, low-passed
+
+
+def _tau_curves(library: Library, cyc: list[str], sch1: Schedule, first: Pass, settings: Settings) -> _TauCurves:
+    """3.7: the curvature tau (1/m) of the first pass's body trajectory, estimated and
+    low-passed at TAU_RATE Hz (the filter keeps nothing faster than a step), read at
+    every frame of the first schedule; and the plan's own tau for comparison."""
     cyc_tau = np.array([_clip_tau(library, c) for c in cyc])
     wc = sch1.weights[:, :len(cyc)]
     tau_plan = (wc @ cyc_tau) / np.maximum(wc.sum(axis=1), 1e-9)
-    # tau is estimated and low-passed at TAU_RATE Hz (the filter keeps nothing faster
-    # than a step), then read at every frame
     tc = np.linspace(0.0, sch1.t[-1], max(8, int(np.ceil(sch1.t[-1] * TAU_RATE)) + 1))
     body_c = np.stack([np.interp(tc, sch1.t, first.body_pos[:, k]) for k in range(3)], axis=1)
-    tau_c = bg.curvature(body_c, tc, s.tau_dt)
+    tau_c = bg.curvature(body_c, tc, settings.tau_dt)
     tau_raw = np.interp(sch1.t, tc, tau_c)
-    tau = np.interp(sch1.t, tc, bg.smooth_signal(tc, tau_c, s.tau_smoothing / (2 * np.pi)))
-    pins = speed_pins(steps, tracks)
-    groups = library.turn_groups
-    walk, run = groups.get("walk"), groups.get("run")
-    pu, ps = zip(*pins)
+    tau = np.interp(sch1.t, tc, bg.smooth_signal(tc, tau_c, settings.tau_smoothing / (2 * np.pi)))
+    return _TauCurves(tau_plan, tau_raw, tau)
 
-    def loco_weights(u):
-        tau_u = np.interp(u, sch1.u, tau)
+
+class _LocoWeights:
+    """The cyclic clips' weights (N, C) at normalized times u (footsteps): each gait's
+    turning group blended by tau, walk and run by the speed parameter s."""
+
+    def __init__(self, groups: dict, cyc: list[str], u_tau: np.ndarray, tau: np.ndarray, pins, sigma: float):
+        self.walk, self.run = groups.get("walk"), groups.get("run")
+        self.cyc, self.u_tau, self.tau, self.sigma = cyc, u_tau, tau, sigma
+        self.pin_u, self.pin_s = zip(*pins)
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        tau_u = np.interp(u, self.u_tau, self.tau)
         parts = []
-        for g in (walk, run):
+        for g in (self.walk, self.run):
             if g is None or not g.clips:
                 continue
-            taus = np.array([c.tau for c in g.clips])
-            w = bg.group_weights(taus, tau_u)
-            full = np.zeros((len(u), len(cyc)))
+            w = bg.group_weights(np.array([c.tau for c in g.clips]), tau_u)
+            full = np.zeros((len(u), len(self.cyc)))
             for k, c in enumerate(g.clips):
-                full[:, cyc.index(c.clip)] += w[:, k]
+                full[:, self.cyc.index(c.clip)] += w[:, k]
             parts.append(full)
         if len(parts) == 2:
-            sp = bg.speed_parameter(u, pu, ps, s.speed_sigma)
+            sp = bg.speed_parameter(u, self.pin_u, self.pin_s, self.sigma)
             return (1.0 - sp)[:, None] * parts[0] + sp[:, None] * parts[1]
         return parts[0]
 
-    # step durations follow the new weights (evaluated mid-step)
-    umid = np.arange(len(steps)) + 0.5
-    wmid = loco_weights(umid)
+    def speed(self, u: np.ndarray, n: int) -> np.ndarray:
+        """(n,) the walk/run parameter s at ``u`` (constant 0 or 1 with one gait only)."""
+        walk, run = self.walk, self.run
+        if walk and run and walk.clips and run.clips:
+            return bg.speed_parameter(u, self.pin_u, self.pin_s, self.sigma)
+        return np.full(n, 1.0 if run and not walk else 0.0)
+
+
+def _blend_group_schedule(steps: list[PlanStep], tracks, cyc: list[str], fps: float, settings: Settings,
+                          loco: _LocoWeights) -> Schedule:
+    """The schedule under the blend groups' weights, each step lasting what its clips'
+    weights (evaluated mid-step) make it last."""
+    wmid = loco(np.arange(len(steps)) + 0.5)
     feet = np.array([st.foot for st in steps])
     dur = (wmid * step_durations_of([tracks[c] for c in cyc])[feet]).sum(axis=1)
-    sch2 = build_schedule(steps, tracks, cyc, fps, s.transition_time, loco_weights=loco_weights,
+    return build_schedule(steps, tracks, cyc, fps, settings.transition_time, loco_weights=loco,
                           step_durations=dur)
-    seconds["blend_groups"] = time.perf_counter() - t0
-    desired = first.refined.position
-    if goal is not None:  # where the first pass's body ended tells how far to move the end
-        desired = ease_end(desired, first.refined.heading,
-                           np.asarray(goal, float)[:2] - first.body_pos[-1, :2], snap)
-    final = _one_pass(sch2, tracks, desired, first.refined.heading, forward, s, snap, seconds, "_2")
-    if goal is not None:  # the blend groups move the end a little: once more if it missed
+
+
+def _final_pass(sch2: Schedule, tracks, first: Pass, forward, settings: Settings, snap, timer: StageTimer,
+                goal) -> Pass:
+    """The blend groups' pass. With a goal, the path's end is moved by where the first
+    pass's body ended, and once more if the blend groups still miss it by more than
+    GOAL_TOLERANCE."""
+    desired, heading = first.refined.position, first.refined.heading
+    if goal is not None:
+        desired = ease_end(desired, heading, np.asarray(goal, float)[:2] - first.body_pos[-1, :2], snap)
+    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2")
+    if goal is not None:
         miss = np.asarray(goal, float)[:2] - final.body_pos[-1, :2]
         if np.linalg.norm(miss) > GOAL_TOLERANCE:
-            desired = ease_end(desired, first.refined.heading, miss, snap)
-            extra = {}
-            final = _one_pass(sch2, tracks, desired, first.refined.heading, forward, s, snap, extra, "_2")
-            for k, v in extra.items():
-                seconds[k] += v
-    tau_final = np.interp(sch2.u, sch1.u, tau)
-    s_final = (bg.speed_parameter(sch2.u, pu, ps, s.speed_sigma) if walk and run and walk.clips and run.clips
-               else np.full(sch2.n, 1.0 if run and not walk else 0.0))
-    seconds["refinement"] = seconds["refinement_1"] + seconds["refinement_2"]
-    seconds["body_trajectory"] = seconds["body_trajectory_1"] + seconds["body_trajectory_2"]
-    seconds["total"] = time.perf_counter() - t_start
-    return Synthesis(footsteps=list(footsteps), settings=s, clips=sch2.clips, smoothed=smoothed,
-                     first=first, tau_plan=tau_plan, tau_raw=tau_raw, tau=tau, final=final, tau_final=tau_final,
-                     s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks)
+            desired = ease_end(desired, heading, miss, snap)
+            final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2")
+    return final

@@ -1,106 +1,225 @@
 """Every tunable of the planner in one dataclass, with the thesis's defaults.
 
-The panel, the command line and the tests all build this same object. Units: metres,
-seconds, radians unless a name says otherwise.
+Each setting declares, once, its type (the annotation), its unit, its valid range and
+what it does (``setting(...)``): the panel builds its properties from that, the command
+line's ``--set NAME=VALUE`` and the job file convert and check through ``Settings.parse``
+and ``Settings.check``, and the tests build the same object. Units: metres, seconds,
+radians unless the unit says otherwise.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+import math
+from dataclasses import asdict, dataclass, field, fields
+
+from .errors import FootstepError
 
 
-@dataclass
+class SettingsError(FootstepError):
+    """A setting's name, type or value is not valid; the message names the setting."""
+
+
+def setting(default, unit: str, lo: float | None = None, hi: float | None = None, doc: str = "",
+            lo_open: bool = False):
+    """A Settings field: its default, unit (``"m"``, ``"s"``, ``"1"`` for a plain number...),
+    valid range ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``; None: unbounded) and what it
+    does."""
+    return field(default=default, metadata={"unit": unit, "min": lo, "max": hi, "min_open": lo_open,
+                                            "doc": " ".join(doc.split())})
+
+
+_TRUE = ("1", "true", "yes", "on")
+_FALSE = ("0", "false", "no", "off")
+
+
+@dataclass(frozen=True)
 class Settings:
     # --- clip analysis (Johansen 2008) -----------------------------------------------
-    analysis_rate: float = 120.0
-    """Hz. Clips are resampled (cubic) to at least this rate before contact events are
-    searched, so the figures do not depend on the scene's frame rate."""
-    contact_height: float = 0.08
-    """m. A foot point lower than this above its lowest level in the clip may be in contact."""
-    contact_speed: float = 1.0
-    """m/s. A foot point slower than this (horizontally) may be in contact."""
-    balance_band: float = 0.04
-    """m. Johansen's heel/toe balance moves from heel to toe while the heel rises this much
-    more than the toe (a half of it either side of level)."""
-    firm_speed: float = 0.35
-    """m/s. ... and while it moves (horizontally) slower than this."""
-    firm_height: float = 0.03
-    """m. During a stance the foot stands firmly while its higher point (heel or toe) is
-    within this of its lowest; Johansen's lift and landing searches start from there."""
-    lift_fraction: float = 0.1
-    """Johansen's rule 1: the lift (or landing) lies before the foot curve reaches this
-    fraction of its maximum height above the stance height."""
-    derivative_smoothing: float = 0.02
-    """s. Gaussian width used when differentiating foot curves (mocap noise)."""
-    min_step_height: float = 0.02
-    """m. A foot whose heel and toe never rise more than this between stances is not stepping."""
-    slip_tolerance: float = 0.5
-    """Johansen's horizontal check: the foot has left the ground once its horizontal speed
-    differs from its speed at the stance time by more than this fraction of the body speed."""
-    slip_min_speed: float = 0.25
-    """m/s. Floor of the horizontal check, for a body at (or near) rest."""
-    rest_speed: float = 0.15
-    """m/s. The body is at rest while slower than this, with both feet down."""
-    rest_time: float = 0.25
-    """s. A clip starts (ends) at rest if it is at rest for at least this long at its start (end)."""
-    jump_min_flight: float = 0.25
-    """s. A flight phase at least this long (and well above the clip's running flights) is a jump."""
-    run_flight_share: float = 0.5
-    """A gait is a run when at least this share of its steps has a flight phase."""
+    analysis_rate: float = setting(120.0, "Hz", 1.0, 10000.0, """Clips are resampled (cubic) to at
+        least this rate before contact events are searched, so the figures do not depend on the
+        scene's frame rate.""")
+    contact_height: float = setting(0.08, "m", 0.0, 1.0, """A foot point lower than this above its
+        lowest level in the clip may be in contact.""", lo_open=True)
+    contact_speed: float = setting(1.0, "m/s", 0.0, 20.0, """A foot point slower than this
+        (horizontally) may be in contact.""", lo_open=True)
+    balance_band: float = setting(0.04, "m", 0.0, 0.5, """Johansen's heel/toe balance moves from heel
+        to toe while the heel rises this much more than the toe (a half of it either side of
+        level).""", lo_open=True)
+    firm_speed: float = setting(0.35, "m/s", 0.0, 10.0, """During a stance the foot stands firmly
+        while it moves (horizontally) slower than this.""", lo_open=True)
+    firm_height: float = setting(0.03, "m", 0.0, 0.5, """During a stance the foot stands firmly while
+        its higher point (heel or toe) is within this of its lowest; Johansen's lift and landing
+        searches start from there.""", lo_open=True)
+    lift_fraction: float = setting(0.1, "1", 0.0, 1.0, """Johansen's rule 1: the lift (or landing)
+        lies before the foot curve reaches this fraction of its maximum height above the stance
+        height.""", lo_open=True)
+    derivative_smoothing: float = setting(0.02, "s", 0.0, 1.0, """Gaussian width used when
+        differentiating foot curves (mocap noise).""")
+    min_step_height: float = setting(0.02, "m", 0.0, 1.0, """A foot whose heel and toe never rise
+        more than this between stances is not stepping.""")
+    slip_tolerance: float = setting(0.5, "1", 0.0, 10.0, """Johansen's horizontal check: the foot has
+        left the ground once its horizontal speed differs from its speed at the stance time by more
+        than this fraction of the body speed.""", lo_open=True)
+    slip_min_speed: float = setting(0.25, "m/s", 0.0, 10.0, """Floor of the horizontal check, for a
+        body at (or near) rest.""")
+    rest_speed: float = setting(0.15, "m/s", 0.0, 10.0, """The body is at rest while slower than this,
+        with both feet down.""", lo_open=True)
+    rest_time: float = setting(0.25, "s", 0.0, 60.0, """A clip starts (ends) at rest if it is at rest
+        for at least this long at its start (end).""", lo_open=True)
+    jump_min_flight: float = setting(0.25, "s", 0.0, 10.0, """A flight phase at least this long (and
+        well above the clip's running flights) is a jump.""", lo_open=True)
+    run_flight_share: float = setting(0.5, "1", 0.0, 1.0, """A gait is a run when at least this share
+        of its steps has a flight phase.""", lo_open=True)
 
     # --- path search (thesis 3.2) ---------------------------------------------------
-    turn_penalty: float = 0.1
-    """s per radian of heading change added to a step's cost (cost is time)."""
-    jump_penalty: float = 0.5
-    """s added to the cost of each jump."""
-    run_penalty: float = 1.0
-    """s added to the cost of each running step: the path walks, and runs only where a
-    clip needs it (a jump is entered running); 0 plans the fastest path."""
-    gait_change_penalty: float = 0.2
-    """s added where the path changes between walking and running."""
-    heuristic_weight: float = 2.0
-    """Weighted A*: the path found costs at most this many times the cheapest; larger
-    searches less. 1 is plain A*."""
-    goal_radius: float = 0.35
-    """m. The path ends at the first footprint this close to the goal."""
+    turn_penalty: float = setting(0.1, "s/rad", 0.0, 100.0, """Seconds per radian of heading change
+        added to a step's cost (cost is time).""")
+    jump_penalty: float = setting(0.5, "s", 0.0, 100.0, """Seconds added to the cost of each jump.""")
+    run_penalty: float = setting(1.0, "s", 0.0, 100.0, """Seconds added to the cost of each running
+        step: the path walks, and runs only where a clip needs it (a jump is entered running); 0
+        plans the fastest path.""")
+    gait_change_penalty: float = setting(0.2, "s", 0.0, 100.0, """Seconds added where the path
+        changes between walking and running.""")
+    heuristic_weight: float = setting(2.0, "1", 1.0, 100.0, """Weighted A*: the path found costs at
+        most this many times the cheapest; larger searches less. 1 is plain A*.""")
+    goal_radius: float = setting(0.35, "m", 0.0, 100.0, """The path ends at the first footprint this
+        close to the goal.""", lo_open=True)
+    goal_heading_tolerance: float = setting(math.radians(30), "rad", 0.0, math.pi, """With a goal
+        heading, the path ends at a footprint turned at most this far from it.""", lo_open=True)
+    bend_curvature: float = setting(0.8, "1/m", 0.0, 5.0, """A cyclic clip's steps may also be
+        bent into arcs of up to this curvature (1/radius) either way, beyond the turns the
+        library's own clips make, so a library of one straight walk still turns; the IK puts
+        the feet on the bent footprints. 0: only the clips' own steps.""")
+    max_expansions: int = setting(20000, "footprints", 1, 10_000_000, """The search gives up after
+        expanding this many footprints (a bound on work, the same on every machine).""")
 
     # --- smoothing (thesis 3.3) -----------------------------------------------------
-    smoothing_iterations: int = 4
-    smoothing_keep_arcs: bool = True
-    """Smooth positions with the thesis's binomial kernel K made shrink-free
-    (p - (I - K)^3 p): kinks and the left/right zig-zag go as before, but planned turns
-    keep their radius (K alone makes a 2.5 m turn 17 % tighter in four passes, a 1.25 m
-    turn 89 %). Off: the thesis's kernel as printed."""
+    smoothing_iterations: int = setting(4, "passes", 0, 100, """Passes of the binomial kernel over
+        the footprints.""")
+    smoothing_keep_arcs: bool = setting(True, "", doc="""Smooth positions with the thesis's binomial
+        kernel K made shrink-free (p - (I - K)^3 p): kinks and the left/right zig-zag go as before,
+        but planned turns keep their radius (K alone makes a 2.5 m turn 17 % tighter in four passes,
+        a 1.25 m turn 89 %). Off: the thesis's kernel as printed.""")
 
     # --- refinement (3.5) -----------------------------------------------------------
-    refinement_iterations: int = 10
-    transition_time: float = 0.3
-    """s. Clip transitions are blend-weight ramps of this length."""
+    refinement_iterations: int = setting(10, "passes", 0, 1000, """Sweeps pulling the footprints
+        towards what the clips do locally.""")
+    transition_time: float = setting(0.3, "s", 0.0, 10.0, """Clip transitions are blend-weight ramps
+        of this length.""")
 
     # --- blend groups (3.7) ---------------------------------------------------------
-    tau_dt: float = 0.5
-    """s. Half-width of the three-point circumradius estimate of the path curvature tau."""
-    tau_smoothing: float = 2.5
-    """s. Low-pass filter on tau: curvature changes with a period of this many seconds are
-    halved, quicker ones removed (the sway of each step, and a plan that alternates
-    left and right clips), slower ones kept (the turns of the path). 0 = no filter."""
-    speed_sigma: float = 2.0
-    """Footsteps taken to change between walk (s = 0) and run (s = 1); thesis sigma."""
+    tau_dt: float = setting(0.5, "s", 0.0, 10.0, """Half-width of the three-point circumradius
+        estimate of the path curvature tau.""", lo_open=True)
+    tau_smoothing: float = setting(2.5, "s", 0.0, 100.0, """Low-pass filter on tau: curvature changes
+        with a period of this many seconds are halved, quicker ones removed (the sway of each step,
+        and a plan that alternates left and right clips), slower ones kept (the turns of the path).
+        0 = no filter.""")
+    speed_sigma: float = setting(2.0, "footsteps", 0.0, 100.0, """Footsteps taken to change between
+        walk (s = 0) and run (s = 1); thesis sigma.""", lo_open=True)
 
     # --- IK (3.8) -------------------------------------------------------------------
-    ik_alpha: float = 0.5
-    ik_beta: float = 1.0
-    ik_iterations: int = 10
+    ik_alpha: float = setting(0.5, "1", 0.0, 2.0, """Body-offset IK: share of the feet's pull that
+        moves the body (thesis alpha).""")
+    ik_beta: float = setting(1.0, "1/m^2", 0.0, 2.0, """Body-offset IK: scale of the torque that turns
+        the body (thesis beta).""")
+    ik_iterations: int = setting(10, "passes", 0, 1000, """Body-offset IK iterations.""")
+
+    def __post_init__(self):
+        self.check()
+
+    # ------------------------------------------------------------------ the table
+    @classmethod
+    def names(cls) -> list[str]:
+        return [f.name for f in fields(cls)]
+
+    @classmethod
+    def spec(cls, name: str) -> dict:
+        """``{"type", "default", "unit", "min", "max", "min_open", "doc"}`` of a setting;
+        SettingsError for an unknown name."""
+        for f in fields(cls):
+            if f.name == name:
+                return {"type": _TYPES[f.type], "default": f.default, **f.metadata}
+        raise SettingsError(f"unknown setting {name!r}")
+
+    # ------------------------------------------------------------------ values
+    @classmethod
+    def coerce(cls, name: str, value):
+        """``value`` (a JSON or Python value) as the setting's type, range-checked."""
+        spec = cls.spec(name)
+        kind = spec["type"]
+        if kind is bool:
+            if not isinstance(value, (bool, int)) or value not in (0, 1):
+                raise SettingsError(f"setting {name!r} wants true or false, got {value!r}")
+            return bool(value)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
+                kind is int and not float(value).is_integer()):
+            raise SettingsError(f"setting {name!r} wants {'an integer' if kind is int else 'a number'}"
+                                f"{_unit(spec)}, got {value!r}")
+        value = kind(value)
+        _check_range(name, value, spec)
+        return value
+
+    @classmethod
+    def parse(cls, name: str, text: str):
+        """The string ``text`` (from ``--set NAME=VALUE``) as the setting's value."""
+        spec = cls.spec(name.strip())
+        low = text.strip().lower()
+        if spec["type"] is bool:
+            if low not in _TRUE + _FALSE:
+                raise SettingsError(f"setting {name.strip()!r} wants true or false, got {text!r}")
+            return low in _TRUE
+        try:
+            value = spec["type"](low) if spec["type"] is float else int(float(low)) if float(low).is_integer() \
+                else float(low)
+        except ValueError:
+            raise SettingsError(f"setting {name.strip()!r} wants {'an integer' if spec['type'] is int else 'a number'}"
+                                f"{_unit(spec)}, got {text!r}") from None
+        return cls.coerce(name.strip(), value)
+
+    @classmethod
+    def from_pairs(cls, pairs) -> "Settings":
+        """Settings from ``NAME=VALUE`` strings (the CLI's ``--set``)."""
+        changes = {}
+        for pair in pairs:
+            if "=" not in pair:
+                raise SettingsError(f"--set wants NAME=VALUE, got {pair!r}")
+            k, v = pair.split("=", 1)
+            changes[k.strip()] = cls.parse(k, v)
+        return cls().replace(**changes)
+
+    def check(self) -> None:
+        """SettingsError naming the first setting of the wrong type or out of its range."""
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if _TYPES[f.type] is float and isinstance(v, int) and not isinstance(v, bool):
+                object.__setattr__(self, f.name, float(v))
+            self.coerce(f.name, getattr(self, f.name))
 
     def replace(self, **changes) -> "Settings":
-        """A copy with some fields changed; unknown names raise ValueError naming them."""
-        names = {f.name for f in fields(self)}
-        unknown = sorted(set(changes) - names)
+        """A copy with some fields changed; unknown names raise SettingsError naming them."""
+        unknown = sorted(set(changes) - set(self.names()))
         if unknown:
-            raise ValueError(f"unknown setting(s): {', '.join(unknown)}")
+            raise SettingsError(f"unknown setting(s): {', '.join(unknown)}")
         data = asdict(self)
         data.update(changes)
         return Settings(**data)
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+_TYPES = {"float": float, "int": int, "bool": bool, float: float, int: int, bool: bool}
+
+
+def _unit(spec) -> str:
+    return f" ({spec['unit']})" if spec["unit"] and spec["unit"] != "1" else ""
+
+
+def _check_range(name: str, value, spec) -> None:
+    lo, hi = spec["min"], spec["max"]
+    if not math.isfinite(value) or (lo is not None and (value < lo or (spec["min_open"] and value == lo))) \
+            or (hi is not None and value > hi):
+        low = "" if lo is None else f"{'above' if spec['min_open'] else 'at least'} {lo:g}"
+        high = "" if hi is None else f"at most {hi:g}"
+        rng = " and ".join(x for x in (low, high) if x)
+        raise SettingsError(f"setting {name!r} must be {rng}{_unit(spec)}, got {value!r}")
