@@ -180,3 +180,27 @@ def test_up_the_ramp_to_its_landing(fp):
     on_ramp = [f for f in result.footsteps if 0.2 < f.position[0] < run - 0.2]
     assert on_ramp and all(0.0 < f.position[2] < 0.8 for f in on_ramp)
     assert result.footsteps[-1].position[2] == pytest.approx(0.8, abs=1e-3)
+
+
+@pytest.mark.parametrize("turn", [0.0, 0.5 * math.pi, -0.5 * math.pi])
+def test_the_goal_empty_faces_the_way_to_arrive(fp, turn):
+    """The Goal empty's facing (its -Y axis, as Blender's characters face) is the heading
+    the path arrives with; the command line's --goal-heading overrides it."""
+    import bpy
+
+    scene, ob = _scene_with_character(fp, "obstacles")
+    planning = import_module(fp.__name__ + ".blender.planning")
+    goal_ob = scene.objects["Goal"]
+    goal_ob.rotation_euler.z = math.pi / 2 + turn
+    bpy.context.view_layer.update()
+    goal, heading = planning.goal_of(scene, "Goal")
+    assert abs(math.remainder(heading - (math.pi / 2 + turn), 2 * math.pi)) < 1e-6
+    result, setup = planning.plan(scene, ob, goal, heading, scene.objects["Start"])
+    want = np.array([np.cos(heading - math.pi / 2), np.sin(heading - math.pi / 2)])  # -Y turned by heading
+    fwd = setup.forward
+    for f in result.footsteps[-1:]:
+        a = f.heading + math.atan2(fwd[1], fwd[0])
+        got = np.array([math.cos(a), math.sin(a)])
+        assert math.degrees(math.acos(np.clip(got @ want, -1, 1))) <= math.degrees(
+            setup.planner.settings.goal_heading_tolerance) + 1e-6
+    assert planning.goal_of(scene, None)[1] is None  # the 3D cursor has no heading

@@ -62,7 +62,9 @@ def _scene_options(character_required: bool) -> argparse.ArgumentParser:
     p.add_argument("--character", required=character_required, metavar="ARMATURE")
     p.add_argument("--goal", metavar="OBJECT", help="walk to this object (default: the 3D cursor)")
     p.add_argument("--goal-heading", type=float, metavar="DEG",
-                   help="arrive facing this way (degrees, 0 = the character's rest forward)")
+                   help="arrive facing this way: the Z rotation in degrees of an empty facing that "
+                        "way (empties face their -Y axis: 0 faces -Y, 90 faces +X); default: the "
+                        "goal empty's own")
     p.add_argument("--start", metavar="OBJECT",
                    help="start standing at this object instead of where the feet are now")
     p.add_argument("--traversable", default="", metavar="NAME,...", help="tag these objects traversable for this run")
@@ -230,8 +232,9 @@ def _names(csv: str) -> list[str]:
 
 
 def _goal_and_start(scene, goal: str | None, heading_deg, start: str | None):
-    """(goal position, goal heading or None, start object or None) from the names given
-    to plan and bake (``heading_deg``, when given, overrides the goal's own heading)."""
+    """(goal position, goal heading (a Z rotation, rad) or None, start object or None)
+    from the names given to plan and bake (``heading_deg``, when given, overrides the goal
+    empty's own heading)."""
     from . import planning
 
     position, heading = planning.goal_of(scene, goal)
@@ -502,8 +505,8 @@ def _demo(args) -> int:
         print(f"footstep: error: {msg}", file=sys.stderr)
 
     t1 = time.perf_counter()
-    doc = planning.run(scene, ob, np.array(scene.objects["Goal"].location), start_marker=scene.objects["Start"],
-                       name=f"{name} demo", frame_start=1)
+    goal, heading, start = _goal_and_start(scene, "Goal", None, "Start")
+    doc = planning.run(scene, ob, goal, heading, start, name=f"{name} demo", frame_start=1)
     scene.frame_start, scene.frame_end = doc["frame_start"], doc["frame_end"]
     print("\n" + format_demo_plan(doc, 30, time.perf_counter() - t1))
     print(format_bake(doc))

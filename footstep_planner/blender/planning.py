@@ -131,12 +131,32 @@ def character_footprints(ob, s: PlanSetup) -> list[Footstep]:
     return out
 
 
+#: Empties (Start, Goal) and the character face their local -Y axis, as Blender's
+#: characters do: an empty turned by ``z`` about Z faces the way a character at rest
+#: turned by ``z`` faces.
+FACING = "-Y"
+
+
+def facing_rotation(ob) -> float:
+    """The Z rotation (rad) of the way ``ob`` faces: the yaw of its local -Y axis in the
+    world, plus a quarter turn (0 when it faces -Y, pi/2 facing +X)."""
+    m = ob.matrix_world
+    if abs(m[2][2] - 1.0) < 1e-6:  # upright: its Z rotation as it was set
+        return float(m.to_euler().z)
+    return float(np.arctan2(-m[1][1], -m[0][1]) + np.pi / 2)
+
+
+def rotation_heading(z_rotation: float, forward) -> float:
+    """The planner's heading (rad, from the character's ``forward``) of the way something
+    turned ``z_rotation`` about Z from facing -Y faces."""
+    return float(z_rotation) - np.pi / 2 - float(np.arctan2(forward[1], forward[0]))
+
+
 def marker_footprints(marker, s: PlanSetup, width: float = 0.1) -> list[Footstep]:
-    """Both feet standing at an object (an empty), facing along its -Y axis turned by its
-    Z rotation like the character (heading = its Z rotation)."""
-    m = np.array(marker.matrix_world)
-    p = m[:3, 3]
-    psi = float(marker.matrix_world.to_euler().z)
+    """Both feet standing at an object (an empty), side by side, facing the way it faces
+    (see ``FACING``)."""
+    p = np.array(marker.matrix_world.translation)
+    psi = rotation_heading(facing_rotation(marker), s.forward)
     ang = psi + np.arctan2(s.forward[1], s.forward[0])
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
     out = []
@@ -150,21 +170,26 @@ def marker_footprints(marker, s: PlanSetup, width: float = 0.1) -> list[Footstep
 
 
 def goal_of(scene, name: str | None):
-    """(position, heading or None): an object's location (and Z rotation as heading when
-    it is an empty arrow), or the 3D cursor."""
+    """(position, heading or None): an object's location and, for an empty, the way it
+    faces as a Z rotation (``facing_rotation``: the heading to arrive with); without a
+    name the 3D cursor, with no heading."""
     if name:
         ob = scene.objects.get(name)
         if ob is None:
             raise PlanError(f"no object named {name!r} in scene {scene.name!r} to walk to")
-        return np.array(ob.matrix_world.translation), None
+        return np.array(ob.matrix_world.translation), (facing_rotation(ob) if ob.type == "EMPTY" else None)
     return np.array(scene.cursor.location), None
 
 
 def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
          traversable=(), obstacles=()) -> tuple[PlanResult, PlanSetup]:
+    """The footprints from the start (``start_marker``, else the character's feet) to
+    ``goal``, arriving facing ``goal_heading`` (a Z rotation, rad, see ``FACING``) when
+    one is given."""
     s = setup(scene, ob, settings, traversable, obstacles)
     start = marker_footprints(start_marker, s) if start_marker is not None else character_footprints(ob, s)
-    return s.planner.plan(start, goal, goal_heading), s
+    heading = None if goal_heading is None else rotation_heading(goal_heading, s.forward)
+    return s.planner.plan(start, goal, heading), s
 
 
 def synthesize(scene, result: PlanResult, s: PlanSetup, settings=None, goal=None) -> Synthesis:
@@ -184,6 +209,7 @@ class Planned:
     result: PlanResult
     setup: PlanSetup
     synthesis: Synthesis
+    goal_heading: float | None  # the planner's heading to arrive with (rad), if any
 
 
 def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
@@ -196,7 +222,8 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     syn = synthesize(scene, result, s, settings, goal=goal)
     overlay.remember(scene, result.footsteps, *syn.footprints, s.forward, s.planner.foot, syn.body_position,
                      result.explored_positions if result.explored else None)
-    return Planned(result, s, syn)
+    heading = None if goal_heading is None else rotation_heading(goal_heading, s.forward)
+    return Planned(result, s, syn, heading)
 
 
 def body_spin(forward, analyses) -> float:
@@ -303,7 +330,7 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
         act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
                                  result.footsteps, syn.planted(), markers, body_on)
     yield 0.85, "quality"
-    qual = measure(ob, planned, solved, act, frame_start, goal, goal_heading, fps)
+    qual = measure(ob, planned, solved, act, frame_start, goal, planned.goal_heading, fps)
     stages = stage_row(len(result.footsteps), result.seconds, syn, pose_blend=solved.pose_seconds,
                        ik=solved.ik_seconds, bake=timer.seconds["bake"])
     return report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,
