@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import quat as quaternions
 from .analysis import ClipAnalysis
 from .errors import FootstepError
 
@@ -144,7 +145,7 @@ def make_track(a: ClipAnalysis, rate: float = 120.0) -> ClipTrack:
     bal = np.stack([np.interp(dense.times, src, a.balance[k]) for k in range(2)])
     con = np.stack([np.interp(dense.times, src, a.contact[k].astype(float)) for k in range(2)])
     cpt = heel + bal[..., None] * (toe - heel)
-    stances = sorted(((s.foot, float(s.stance)) for s in a.stances), key=lambda x: x[1])
+    stances = sorted(((st.foot, float(st.stance)) for st in a.stances), key=lambda x: x[1])
     phase = _phase_times(a) if a.kind == "cycle" else None
     return ClipTrack(name=a.name, kind=a.kind, gait=a.gait, entry_gait=a.entry_gait,
                      exit_gait=a.exit_gait, rate=float(dense.fps), duration=dense.duration,
@@ -160,10 +161,7 @@ def _quats(rot: np.ndarray) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
     n, b = rot.shape[:2]
-    q = Rotation.from_matrix(rot.reshape(-1, 3, 3)).as_quat().reshape(n, b, 4)
-    flip = np.cumprod(np.where(np.einsum("nbk,nbk->nb", q[1:], q[:-1]) < 0, -1.0, 1.0), axis=0)
-    q[1:] *= flip[..., None]
-    return q
+    return quaternions.continuous(Rotation.from_matrix(rot.reshape(-1, 3, 3)).as_quat().reshape(n, b, 4))
 
 
 def _phase_times(a: ClipAnalysis) -> np.ndarray:
@@ -174,9 +172,9 @@ def _phase_times(a: ClipAnalysis) -> np.ndarray:
     a clip that holds no whole left-right-left triple is keyed on a right-left-right one.
     Cut stances are the last resort."""
     lo = a.best_cycle[0] - 1e-6 if a.best_cycle else 0.0
-    whole = sorted(((s.foot, float(s.stance)) for s in a.stances if not (s.open_start or s.open_end)),
+    whole = sorted(((st.foot, float(st.stance)) for st in a.stances if not (st.open_start or st.open_end)),
                    key=lambda x: x[1])
-    every = sorted(((s.foot, float(s.stance)) for s in a.stances), key=lambda x: x[1])
+    every = sorted(((st.foot, float(st.stance)) for st in a.stances), key=lambda x: x[1])
     for stances in (whole, every):
         for first in (0, 1):
             triples = _triples(stances, first)
@@ -262,6 +260,14 @@ def step_durations_of(cyc: list[ClipTrack]) -> np.ndarray:
     return np.array([[tr.step_duration(f) for tr in cyc] for f in (0, 1)]).reshape(2, len(cyc))
 
 
+#: s: a step shorter than this has no duration (both feet down at once).
+MIN_STEP = 1e-6
+#: frames: a schedule that ends within this of a frame ends on that frame.
+FRAME_EPS = 1e-9
+#: s: the shortest weight ramp (a shorter one would divide by about 0).
+MIN_RAMP = 1e-6
+
+
 def build_schedule(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyclic: list[str],
                    fps: float, transition: float, loco_weights=None,
                    step_durations: np.ndarray | None = None) -> Schedule:
@@ -275,112 +281,172 @@ def build_schedule(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyclic: 
     returning (F, C) rows) when given. A special clip ramps in over ``transition``
     before its take-off and out after its landing, played at its own speed there.
     """
-    nstep = len(steps)
-    if nstep == 0:
+    if not steps:
         raise BlendError("a path of one footprint has no motion to play")
     cyc = [tracks[c] for c in cyclic]
-    nc = len(cyc)
-    feet = np.array([s.foot for s in steps] + [1 - steps[-1].foot])
-    specials = sorted({s.special for s in steps if s.special})
+    feet = np.array([step.foot for step in steps] + [1 - steps[-1].foot])  # the foot of each footprint
+    specials = sorted({step.special for step in steps if step.special})
     clips = list(cyclic) + specials
+    w_step = _step_weights(steps, len(cyc))
+    dur, windows = _step_durations(steps, tracks, cyc, feet[:-1], w_step, step_durations)
+    footprint_times = np.concatenate([[0.0], np.cumsum(dur)])
+    t, u, du_dt = _frame_times(footprint_times, dur, fps)
+    clip_time, clip_rate = _cyclic_clip_times(cyc, feet[0], u, du_dt, len(clips))
+    W = _locomotion_weights(len(cyc), t, u, footprint_times, w_step, transition, loco_weights)
+    lam = _play_specials(steps, tracks, windows, clips, len(cyc), t, u, footprint_times, dur, transition,
+                         clip_time, clip_rate)
+    weights = _all_weights(W, lam, len(cyc))
+    return Schedule(t=t, u=u, clips=clips, weights=weights, clip_time=clip_time,
+                    clip_rate=clip_rate, footprint_times=footprint_times, feet=feet, fps=float(fps))
 
-    # locomotion weights per step (specials take their neighbours' weights)
+
+def _step_weights(steps: list[PlanStep], nc: int) -> np.ndarray:
+    """(len(steps), nc) the cyclic clips' weights of every step: a locomotion step's own
+    (checked: nc non-negative numbers summing to 1), a special step the last locomotion
+    step's before it (the first one's when none comes before)."""
+    nstep = len(steps)
     w_step = np.full((nstep, nc), np.nan)
-    for j, s in enumerate(steps):
-        if s.special is None:
-            w = np.asarray(s.weights, float)
+    for j, step in enumerate(steps):
+        if step.special is None:
+            w = np.asarray(step.weights, float)
             if w.shape != (nc,) or abs(w.sum() - 1.0) > 1e-6 or (w < -1e-12).any():
                 raise BlendError(f"step {j}: weights must be {nc} non-negative numbers summing to 1")
             w_step[j] = w
-    have = ~np.isnan(w_step[:, 0]) if nc else np.zeros(nstep, bool)
-    if nc and not have.any():
+    if not nc:
+        return w_step
+    have = ~np.isnan(w_step[:, 0])
+    if not have.any():
         raise BlendError("the path has no walking or running step to play between its special clips")
-    if nc:
-        idx = np.where(have, np.arange(nstep), -1)
-        idx = np.maximum.accumulate(idx)
-        first = int(np.argmax(have))
-        idx[idx < 0] = first
-        w_step = w_step[idx]
+    idx = np.maximum.accumulate(np.where(have, np.arange(nstep), -1))
+    idx[idx < 0] = int(np.argmax(have))
+    return w_step[idx]
 
-    # durations: cyclic steps the weighted mean of their clips', specials their clip's own
-    step_feet = feet[:-1]
-    dur = (w_step * step_durations_of(cyc)[step_feet]).sum(axis=1) if nc else np.zeros(nstep)
+
+def _step_durations(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyc: list[ClipTrack],
+                    step_feet: np.ndarray, w_step: np.ndarray, step_durations: np.ndarray | None
+                    ) -> tuple[np.ndarray, dict]:
+    """((len(steps),) s each step lasts, {step: (take-off, landing) clip times of its
+    special clip}): a locomotion step the weighted mean of its clips' step durations from
+    its foot ``step_feet`` (or ``step_durations`` when given), a special step its clip's
+    take-off to landing (``special_window``)."""
+    dur = (w_step * step_durations_of(cyc)[step_feet]).sum(axis=1) if cyc else np.zeros(len(steps))
     windows = {}
-    for j, s in enumerate(steps):
-        if s.special:
-            a, b = special_window(tracks[s.special], s.foot)
+    for j, step in enumerate(steps):
+        if step.special:
+            a, b = special_window(tracks[step.special], step.foot)
             windows[j] = (a, b)
             dur[j] = b - a
     if step_durations is not None:
-        loco = np.array([s.special is None for s in steps])
+        loco = np.array([step.special is None for step in steps])
         dur[loco] = np.asarray(step_durations, float)[loco]
-    if (dur <= 1e-6).any():
-        j = int(np.argmax(dur <= 1e-6))
+    if (dur <= MIN_STEP).any():
+        j = int(np.argmax(dur <= MIN_STEP))
         raise BlendError(f"step {j} has no duration: its clips put both feet down at once")
-    T = np.concatenate([[0.0], np.cumsum(dur)])
-    nf = int(np.ceil(T[-1] * fps - 1e-9)) + 1  # the last frame reaches the last footprint
-    t = np.arange(nf) / fps
-    u = np.interp(t, T, np.arange(nstep + 1))
-    u = np.where(t > T[-1], nstep + (t - T[-1]) / dur[-1], u)  # under a frame past the end
-    step_of = np.minimum(u.astype(np.int64), nstep - 1)
-    du_dt = 1.0 / dur[step_of]
+    return dur, windows
 
-    # cyclic clips: phase from u; the left foot's stances at whole phases
-    off = 0.0 if feet[0] == 0 else 1.0
-    phase = 0.5 * (u + off)
-    C = len(clips)
-    clip_time = np.zeros((nf, C))
-    clip_rate = np.zeros((nf, C))
+
+def _frame_times(footprint_times: np.ndarray, dur: np.ndarray, fps: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t (F,) s, u (F,) footsteps, du/dt (F,) footsteps per s) of the frames at ``fps``
+    from the first footprint's stance to the last's (the last frame reaches it, under a
+    frame past it): u is j at ``footprint_times[j]``, linear in between, and goes on at
+    the last step's rate (``dur`` (N-1,) s per step) past the end."""
+    nstep = len(dur)
+    end = footprint_times[-1]
+    t = np.arange(int(np.ceil(end * fps - FRAME_EPS)) + 1) / fps
+    u = np.interp(t, footprint_times, np.arange(nstep + 1))
+    u = np.where(t > end, nstep + (t - end) / dur[-1], u)
+    step_of = np.minimum(u.astype(np.int64), nstep - 1)
+    return t, u, 1.0 / dur[step_of]
+
+
+def _cyclic_clip_times(cyc: list[ClipTrack], first_foot: int, u: np.ndarray, du_dt: np.ndarray, C: int
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """(clip time (F, C) s, its rate d clip time / dt (F, C)) with the cyclic clips' columns
+    (the first len(cyc)) filled, the others 0: each played in phase, phase = (u + off) / 2
+    with off 0 when the first footprint (``first_foot``) is the left, 1 when the right (the
+    left foot's stances at whole phases)."""
+    phase = 0.5 * (u + (0.0 if first_foot == 0 else 1.0))
+    clip_time = np.zeros((len(u), C))
+    clip_rate = np.zeros((len(u), C))
     for c, tr in enumerate(cyc):
         ct, slope = tr.clip_time_of_phase(phase)
         clip_time[:, c] = ct
         clip_rate[:, c] = slope * 0.5 * du_dt
+    return clip_time, clip_rate
 
-    # locomotion weights
-    if nc:
-        if loco_weights is not None:
-            W = np.asarray(loco_weights(u), float)
-        else:
-            W = _ramped(t, T, w_step, transition)
-    else:
-        W = np.zeros((nf, 0))
 
-    # special clips: their own time, ramps outside their step
-    lam = np.zeros((nf, len(specials)))
-    for j, s in enumerate(steps):
-        if not s.special:
+def _locomotion_weights(nc: int, t: np.ndarray, u: np.ndarray, footprint_times: np.ndarray,
+                        w_step: np.ndarray, transition: float, loco_weights) -> np.ndarray:
+    """(F, nc) the cyclic clips' weights at the frames (times ``t`` s, normalized times
+    ``u``): ``loco_weights(u)`` when given, else the steps' weights ``w_step`` ramped over
+    ``transition`` s about the footprint times (``_ramped``)."""
+    if not nc:
+        return np.zeros((len(t), 0))
+    if loco_weights is not None:
+        return np.asarray(loco_weights(u), float)
+    return _ramped(t, footprint_times, w_step, transition)
+
+
+def _play_specials(steps: list[PlanStep], tracks: dict[str, ClipTrack], windows: dict, clips: list[str],
+                   nc: int, t: np.ndarray, u: np.ndarray, footprint_times: np.ndarray, dur: np.ndarray,
+                   transition: float, clip_time: np.ndarray, clip_rate: np.ndarray) -> np.ndarray:
+    """The special clips' weights (F, len(clips) - nc), each clip's the largest of its
+    steps' ramps; fills their columns of ``clip_time`` and ``clip_rate`` (F, C) in place
+    where a step's ramp is the clip's weight (``_special_timing``), its clip time clamped
+    to the clip and its rate 0 outside it."""
+    lam = np.zeros((len(t), len(clips) - nc))
+    for j, step in enumerate(steps):
+        if not step.special:
             continue
-        c = clips.index(s.special)
+        c = clips.index(step.special)
         k = c - nc
-        a, b = windows[j]
-        t0, t1 = T[j], T[j + 1]
-        tr = tracks[s.special]
-        ct = np.where(t < t0, a + (t - t0), np.where(t > t1, b + (t - t1), a + (u - j) * (b - a)))
-        rate = np.where((t < t0) | (t > t1), 1.0, (b - a) / dur[j])
-        tr_ = max(transition, 1e-6)
-        ramp = np.clip(np.minimum((t - (t0 - tr_)) / tr_, ((t1 + tr_) - t) / tr_), 0.0, 1.0)
-        ramp[(t >= t0) & (t <= t1)] = 1.0
+        duration = tracks[step.special].duration
+        ct, rate, ramp = _special_timing(t, u, j, windows[j], footprint_times[j], footprint_times[j + 1],
+                                         dur[j], transition)
         mine = ramp > lam[:, k]
         lam[mine, k] = ramp[mine]
-        clip_time[mine, c] = np.clip(ct[mine], 0.0, tr.duration)
-        inside = (ct[mine] >= 0.0) & (ct[mine] <= tr.duration)
+        clip_time[mine, c] = np.clip(ct[mine], 0.0, duration)
+        inside = (ct[mine] >= 0.0) & (ct[mine] <= duration)
         clip_rate[mine, c] = np.where(inside, rate[mine], 0.0)
+    return lam
+
+
+def _special_timing(t: np.ndarray, u: np.ndarray, j: int, window: tuple[float, float], t0: float, t1: float,
+                    dur_j: float, transition: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A special clip across step ``j`` (from time ``t0`` to ``t1`` s, ``dur_j`` s long)
+    at the frames (``t`` s, ``u`` footsteps): (clip time (F,) s, its rate (F,), its ramp
+    (F,) 0..1). Inside the step its ``window`` (take-off, landing) clip times are
+    stretched over the step; outside it the clip plays at its own speed, and its ramp
+    comes in linearly over ``transition`` s before t0 and goes out over as long after t1."""
+    a, b = window
+    ct = np.where(t < t0, a + (t - t0), np.where(t > t1, b + (t - t1), a + (u - j) * (b - a)))
+    rate = np.where((t < t0) | (t > t1), 1.0, (b - a) / dur_j)
+    ramp_s = max(transition, MIN_RAMP)
+    ramp = np.clip(np.minimum((t - (t0 - ramp_s)) / ramp_s, ((t1 + ramp_s) - t) / ramp_s), 0.0, 1.0)
+    ramp[(t >= t0) & (t <= t1)] = 1.0
+    return ct, rate, ramp
+
+
+def _all_weights(W: np.ndarray, lam: np.ndarray, nc: int) -> np.ndarray:
+    """(F, nc + ns) every clip's weight, rows summing to 1: the special clips' ``lam``
+    (F, ns) (scaled down, in place, where they sum over 1), the ``nc`` cyclic clips' ``W``
+    (F, nc) sharing the rest; without cyclic clips the specials' are normalised."""
     total = lam.sum(axis=1)
     over = total > 1.0
     lam[over] /= total[over, None]
     total = np.minimum(total, 1.0)
-    weights = np.concatenate([W * (1.0 - total)[:, None], lam], axis=1) if C else np.zeros((nf, 0))
+    weights = np.concatenate([W * (1.0 - total)[:, None], lam], axis=1)
     if not nc:
         weights[:, nc:] /= np.maximum(weights[:, nc:].sum(axis=1, keepdims=True), 1e-12)
-    return Schedule(t=t, u=u, clips=clips, weights=weights, clip_time=clip_time,
-                    clip_rate=clip_rate, footprint_times=T, feet=feet, fps=float(fps))
+    return weights
 
 
 def _ramped(t: np.ndarray, T: np.ndarray, w_step: np.ndarray, transition: float) -> np.ndarray:
     """Piecewise-constant step weights (step j over [T_j, T_j+1)) filtered by a box of
     ``transition`` seconds: linear ramps centred on the footprint times."""
     h = 0.5 * max(transition, 0.0)
-    if h <= 1e-6:  # no ramp (below a microsecond the filter would divide by ~0)
+    if h <= MIN_RAMP:  # no ramp (the filter would divide by about 0)
         j = np.clip(np.searchsorted(T, t, side="right") - 1, 0, len(w_step) - 1)
         return w_step[j]
 
@@ -437,56 +503,104 @@ def playback(schedule: Schedule, tracks: dict[str, ClipTrack],
     Headings are relative to the clips' rest forward. With ``start`` (position, heading)
     the result is placed by ``place`` in a world whose heading 0 points along
     ``forward`` (default: the clips' rest forward)."""
-    S = schedule
     rest_fwd = next(iter(tracks.values())).rest_forward if tracks else np.array([0.0, -1.0])
-    F, dt = S.n, 1.0 / S.fps
+    dt = 1.0 / schedule.fps
+    mix = _mix_tracks(schedule, tracks)
+    heading, step = _integrate_root(mix, dt)
+    alpha, corr = _blend_point_correction(mix, heading, step, dt)
+    root = np.c_[np.cumsum(step + corr, axis=0), np.zeros(schedule.n)]
+    world = {k: _rot2(heading[None, :], mix.points[k]) + root[None] for k in mix.points}
+    fp, fh = _footprints_left(schedule, world, rest_fwd)
+    out = Playback(t=schedule.t, root=root, heading=heading, heel=world["heel"], toe=world["toe"],
+                   contact_point=world["contact_point"], contact=mix.contact, blend_alpha=alpha,
+                   correction=corr, footprints=fp, footprint_heading=fh)
+    if start is not None:
+        spin = 0.0 if forward is None else float(
+            np.arctan2(forward[1], forward[0]) - np.arctan2(rest_fwd[1], rest_fwd[0]))
+        out = place(out, *start, spin=spin)
+    return out
+
+
+#: The root-frame points of the feet a playback carries (``ClipTrack`` fields, (2, n, 3)).
+FOOT_POINTS = ("heel", "toe", "contact_point")
+
+
+@dataclass
+class _Mix:
+    """The clips' samples at every frame of a schedule, blended twice: with the frame's
+    own weights, and with the previous frame's (``*_prev``; the first frame's for the
+    first) -- the same samples, so the two differ only by the weight change."""
+
+    vel: np.ndarray  # (F, 2) root velocity in the root frame, m/s (clip rates applied)
+    yaw_rate: np.ndarray  # (F,) rad/s
+    vel_prev: np.ndarray  # (F, 2)
+    yaw_rate_prev: np.ndarray  # (F,)
+    points: dict  # FOOT_POINTS -> (2, F, 3) root frame, m
+    points_prev: dict  # the same, previous frame's weights
+    contact: np.ndarray  # (2, F) blended contact weight in [0, 1] (own weights only)
+
+
+def _mix_tracks(S: Schedule, tracks: dict[str, ClipTrack]) -> _Mix:
+    """Blend every clip of schedule ``S`` sampled at its clip times, sampling a clip only
+    at the frames where it has weight now or had at the frame before."""
+    F = S.n
     W = S.weights
-    vel = np.zeros((F, 2))  # blended with this frame's weights
-    yaw = np.zeros(F)
-    vel_old = np.zeros((F, 2))  # the same samples blended with the previous frame's weights
-    yaw_old = np.zeros(F)
-    pts = {k: np.zeros((2, F, 3)) for k in ("heel", "toe", "contact_point")}
-    pts_old = {k: np.zeros((2, F, 3)) for k in ("heel", "toe", "contact_point")}
-    contact = np.zeros((2, F))
     Wprev = np.vstack([W[:1], W[:-1]])
+    mix = _Mix(np.zeros((F, 2)), np.zeros(F), np.zeros((F, 2)), np.zeros(F),
+               {k: np.zeros((2, F, 3)) for k in FOOT_POINTS}, {k: np.zeros((2, F, 3)) for k in FOOT_POINTS},
+               np.zeros((2, F)))
     for c, name in enumerate(S.clips):
         on = np.flatnonzero((W[:, c] > 0) | (Wprev[:, c] > 0))  # only where the clip plays
         if not len(on):
             continue
         smp = tracks[name].sample(S.clip_time[on, c])
         w, wp, r = W[on, c], Wprev[on, c], S.clip_rate[on, c]
-        vel[on] += (w * r)[:, None] * smp["vel"]
-        yaw[on] += w * r * smp["yaw_rate"]
-        vel_old[on] += (wp * r)[:, None] * smp["vel"]
-        yaw_old[on] += wp * r * smp["yaw_rate"]
-        for k in pts:
-            pts[k][:, on] += w[None, :, None] * smp[k]
-            pts_old[k][:, on] += wp[None, :, None] * smp[k]
-        contact[:, on] += w[None, :] * smp["contact"]
+        mix.vel[on] += (w * r)[:, None] * smp["vel"]
+        mix.yaw_rate[on] += w * r * smp["yaw_rate"]
+        mix.vel_prev[on] += (wp * r)[:, None] * smp["vel"]
+        mix.yaw_rate_prev[on] += wp * r * smp["yaw_rate"]
+        for k in FOOT_POINTS:
+            mix.points[k][:, on] += w[None, :, None] * smp[k]
+            mix.points_prev[k][:, on] += wp[None, :, None] * smp[k]
+        mix.contact[:, on] += w[None, :] * smp["contact"]
+    return mix
 
-    # Phase one: the motion from frame k-1 to k under frame k-1's weights (trapezoid;
-    # rotation first, then translation). A weight change at frame k only moves the
-    # feet in the root frame; phase two (the blend point) answers for that.
-    heading = np.concatenate([[0.0], np.cumsum(0.5 * (yaw_old[1:] + yaw[:-1]) * dt)])
+
+def _integrate_root(mix: _Mix, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Phase one: the root's motion from frame k-1 to k under frame k-1's weights
+    (trapezoid rule over ``dt`` s; rotation first, then translation). Returns (heading (F,)
+    rad from 0 at the first frame, step (F, 2) m: the root's move into each frame in the
+    playback's frame, 0 into the first). A weight change at frame k only moves the feet
+    in the root frame; phase two (the blend point) answers for that."""
+    heading = np.concatenate([[0.0], np.cumsum(0.5 * (mix.yaw_rate_prev[1:] + mix.yaw_rate[:-1]) * dt)])
     hmid = 0.5 * (heading[1:] + heading[:-1])
-    step = np.zeros((F, 2))
-    step[1:] = _rot2(hmid, 0.5 * (vel_old[1:] + vel[:-1])) * dt
+    step = np.zeros((len(heading), 2))
+    step[1:] = _rot2(hmid, 0.5 * (mix.vel_prev[1:] + mix.vel[:-1])) * dt
+    return heading, step
 
-    # blend point: velocities of the feet under the old weights, jumps from the new ones
-    cp, cpo = pts["contact_point"], pts_old["contact_point"]
-    world_new = _rot2(heading[None, :], cp)[..., :2]
-    world_old = _rot2(heading[None, :], cpo)[..., :2]
-    v = np.zeros((2, F, 2))
+
+def _blend_point_correction(mix: _Mix, heading: np.ndarray, step: np.ndarray, dt: float
+                            ) -> tuple[np.ndarray, np.ndarray]:
+    """Phase two, the blend point (module docstring): (a (F,) the most stable point's
+    parameter, 0 left foot .. 1 right; correction (F, 2) m added to each frame's root
+    step, 0 at the first frame) from the feet's contact points' velocities under the old
+    weights and their jumps to the new ones, turned by ``heading`` (F,) rad."""
+    world_new = _rot2(heading[None, :], mix.points["contact_point"])[..., :2]
+    world_old = _rot2(heading[None, :], mix.points_prev["contact_point"])[..., :2]
+    v = np.zeros((2, len(heading), 2))
     v[:, 1:] = (step[None, 1:] + world_old[:, 1:] - world_new[:, :-1]) / dt
     jump = world_new - world_old  # (2, F, 2)
     alpha = blend_point_alpha(v[0], v[1])
     corr = -(alpha[:, None] * jump[1] + (1.0 - alpha)[:, None] * jump[0])
     corr[0] = 0.0
-    root2 = np.cumsum(step + corr, axis=0)
-    root = np.c_[root2, np.zeros(F)]
+    return alpha, corr
 
-    world = {k: _rot2(heading[None, :], pts[k]) + root[None] for k in pts}
-    # the footprints left: heel/toe midpoint and direction at each stance time
+
+def _footprints_left(S: Schedule, world: dict, rest_fwd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The footprints the animation leaves: at each footprint's stance time (schedule
+    ``S``), its foot's heel/toe midpoint (N, 3) m and the heel-to-toe direction's
+    heading (N,) rad relative to ``rest_fwd`` (2,), from the feet's ``world`` points
+    ("heel", "toe" (2, F, 3))."""
     T = S.footprint_times
     mid = 0.5 * (world["heel"] + world["toe"])
     d = world["toe"] - world["heel"]
@@ -500,14 +614,7 @@ def playback(schedule: Schedule, tracks: dict[str, ClipTrack],
         dx = np.interp(T[sel], S.t, d[foot, :, 0])
         dy = np.interp(T[sel], S.t, d[foot, :, 1])
         fh[sel] = np.arctan2(dy, dx) - np.arctan2(rest_fwd[1], rest_fwd[0])
-    out = Playback(t=S.t, root=root, heading=heading, heel=world["heel"], toe=world["toe"],
-                   contact_point=world["contact_point"], contact=contact, blend_alpha=alpha,
-                   correction=corr, footprints=fp, footprint_heading=fh)
-    if start is not None:
-        spin = 0.0 if forward is None else float(
-            np.arctan2(forward[1], forward[0]) - np.arctan2(rest_fwd[1], rest_fwd[0]))
-        out = place(out, *start, spin=spin)
-    return out
+    return fp, fh
 
 
 def place(pb: Playback, position: np.ndarray, heading: float, spin: float = 0.0) -> Playback:

@@ -128,12 +128,12 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
         ankle = fm[:, :3, 3]
         ball = (fm @ rig.ball_local(side))[:, :3]
         low = np.maximum(ankle[:, 2] - ankle[:, 2].min(), ball[:, 2] - ball[:, 2].min())
-        s = int(np.argmin(low))
-        inv = np.linalg.inv(fm[s])
-        heel_z = ankle[s, 2] - min(max(ankle[s, 2], 0.0), max_drop)
-        toe_z = ball[s, 2] - min(max(ball[s, 2], 0.0), max_drop)
-        heel_local[k] = inv @ np.array([ankle[s, 0], ankle[s, 1], heel_z, 1.0])
-        toe_local[k] = inv @ np.array([ball[s, 0], ball[s, 1], toe_z, 1.0])
+        flat = int(np.argmin(low))  # the frame the foot is lowest (flat on the ground)
+        inv = np.linalg.inv(fm[flat])
+        heel_z = ankle[flat, 2] - min(max(ankle[flat, 2], 0.0), max_drop)
+        toe_z = ball[flat, 2] - min(max(ball[flat, 2], 0.0), max_drop)
+        heel_local[k] = inv @ np.array([ankle[flat, 0], ankle[flat, 1], heel_z, 1.0])
+        toe_local[k] = inv @ np.array([ball[flat, 0], ball[flat, 1], toe_z, 1.0])
         heel[k] = (fm @ heel_local[k])[:, :3]
         toe[k] = (fm @ toe_local[k])[:, :3]
 

@@ -31,6 +31,7 @@ Arrays are per frame (F) and vectorized over frames.
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,6 +46,18 @@ from .settings import Settings
 GROUND_MARGIN = 0.002
 #: The leg is never stretched past this share of its length (a straight knee pops).
 MAX_REACH = 0.995
+#: s either side of a frame whose planted ankle is out of reach over which the hips come
+#: down (and go back up) smoothly.
+REACH_EASE = 0.15
+#: frames, the Gaussian sigma that spreads a swinging foot's lift over the surface.
+LIFT_SMOOTH = 1.0
+#: The ankle target blends the heel- and the toe-pinned solutions while the heel and toe
+#: heights differ by less than this share of ``Settings.balance_band``.
+PIN_BAND_SHARE = 0.25
+#: frames: a strike or liftoff this close to a frame counts as on it.
+FRAME_EPS = 1e-6
+#: Frames per second assumed for a single frame (no spacing to measure).
+DEFAULT_FPS = 30.0
 
 SIDES = ("l", "r")
 
@@ -98,7 +111,6 @@ def min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         f = np.where(s2 > 1e-18, (1 - c) / np.where(s2 > 1e-18, s2, 1.0), 0.5)
     r = np.eye(3)[None] + k + f[:, None, None] * (k @ k)
-    # opposite directions: half a turn about any axis perpendicular to a
     # (nearly) opposite directions: half a turn about an axis perpendicular to a, then
     # the small rest of the way from -a to b
     opp = c < -1 + 1e-6
@@ -107,12 +119,6 @@ def min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         half = Rotation.from_rotvec(np.pi * axis / np.linalg.norm(axis, axis=1, keepdims=True)).as_matrix()
         r[opp] = min_rotation(-a[opp], b[opp]) @ half
     return r
-
-
-def _slerp_mats(r0: np.ndarray, r1: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Per-frame slerp between rotation matrices r0 and r1 (F, 3, 3) by w (F,)."""
-    rel = Rotation.from_matrix(np.einsum("fji,fjk->fik", r0, r1))  # r0^T r1
-    return r0 @ Rotation.from_rotvec(rel.as_rotvec() * w[:, None]).as_matrix()
 
 
 def _tilt(normal: np.ndarray) -> np.ndarray:
@@ -158,70 +164,146 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     return A, R
 
 
+def _frame_rate(t: np.ndarray) -> float:
+    """Frames per second of the evenly spaced frame times ``t`` (F,) s; ``DEFAULT_FPS``
+    for a single frame."""
+    return 1.0 / (t[1] - t[0]) if len(t) > 1 else DEFAULT_FPS
+
+
 def foot_targets(rig: Rig, heel_local: np.ndarray, toe_local: np.ndarray, world: np.ndarray,
                  t: np.ndarray, feet: np.ndarray, planted: list, pos: np.ndarray, heading: np.ndarray,
                  normal: np.ndarray, forward: np.ndarray, band: float) -> FootTargets:
     """The targets of both feet (see the module docstring). ``world`` (F, B, 4, 4) is the
-    unadjusted pose in the world; ``planted`` per footprint (strike, stance, liftoff) s;
-    ``pos``, ``heading``, ``normal`` the footprints (N, 3), (N,), (N, 3)."""
+    unadjusted pose in the world; ``heel_local``, ``toe_local`` (2, 4) each foot's heel and
+    toe in its foot bone's frame (homogeneous); ``t`` (F,) the frame times, s; ``feet``
+    (N,) the foot of each footprint; ``planted`` per footprint (strike, stance, liftoff) s;
+    ``pos``, ``heading``, ``normal`` the footprints (N, 3) m, (N,) rad, (N, 3) unit;
+    ``forward`` (2,) the world direction of heading 0; ``band`` m, the heel/toe balance
+    band (``Settings.balance_band``)."""
     F = len(t)
-    fps = 1.0 / (t[1] - t[0]) if F > 1 else 30.0
+    fps = _frame_rate(t)
     weight = np.zeros((2, F))
     index = np.full((2, F), -1)
     pin = np.zeros((2, F, 3))
     pin_local = np.zeros((2, F, 3))
     rot = np.zeros((2, F, 3, 3))
     ankle = np.zeros((2, F, 3))
-    fa = np.arctan2(forward[1], forward[0])
+    yaw_fp = np.asarray(heading) + np.arctan2(forward[1], forward[0])  # (N,) world yaw of each footprint
     tilt = _tilt(normal)
     for k, side in enumerate(SIDES):
-        foot, _ = rig.foot_chain(side)
-        Wf = world[:, foot]
+        Wf = world[:, rig.foot_chain(side)[0]]
         rot[k] = Wf[:, :3, :3]
-        heel_w = (Wf @ heel_local[k])[:, :3]
+        heel_w = (Wf @ heel_local[k])[:, :3]  # the clip's heel and toe, world
         toe_w = (Wf @ toe_local[k])[:, :3]
-        length = float(np.linalg.norm(toe_local[k, :3] - heel_local[k, :3]))
-        # whose footprint each frame belongs to: its planted range, strike to liftoff
-        for j in np.flatnonzero(feet == k):
-            a, s_, b = planted[j]
-            fr = np.arange(max(0, int(np.ceil(a * fps - 1e-6))), min(F, int(np.floor(b * fps + 1e-6)) + 1))
-            weight[k, fr] = 1.0
-            index[k, fr] = j
+        weight[k], index[k] = _planted_frames(np.asarray(feet) == k, planted, fps, F)
         on = np.flatnonzero(index[k] >= 0)
         if not len(on):
             continue
-        j = index[k, on]
-        # the foot keeps the clip's pitch and roll (heel strike, flat, toe off), but its
-        # heading is the footprint's for the whole stance (a planted foot does not turn with
-        # the body), and it is tilted onto the surface: tilt_j Rz(want_j) Rz(-yaw(f)) R0(f)
-        js = np.unique(j)
-        d = toe_w[on] - heel_w[on]
-        yaw_now = np.arctan2(d[:, 1], d[:, 0])
-        yaw_want = np.zeros(len(feet))
-        yaw_want[js] = heading[js] + fa
-        turn = Rotation.from_euler("z", (yaw_want[j] - yaw_now)[:, None]).as_matrix()
-        rot[k, on] = tilt[j] @ turn @ rot[k, on]
-        yaw_want = yaw_want[js]
-        # the footprint's heel and toe on the surface
-        u = tilt[js] @ np.c_[np.cos(yaw_want), np.sin(yaw_want), np.zeros(len(js))][..., None]
-        heel_t = np.zeros((len(feet), 3))
-        toe_t = np.zeros((len(feet), 3))
-        heel_t[js] = pos[js] - 0.5 * length * u[..., 0]
-        toe_t[js] = pos[js] + 0.5 * length * u[..., 0]
-        # Johansen: the pinned point is the heel or the toe, whichever is lower. The ankle
-        # target blends the heel-pinned and the toe-pinned solutions while their heights
-        # differ by less than a quarter of ``band``: the two agree while the foot lies
-        # flat, and a blend over a wider band slides the pinned end (a 10 degree roll puts
-        # the two solutions 3 cm apart)
-        bal = np.clip((heel_w[on, 2] - toe_w[on, 2]) / max(0.25 * band, 1e-6) + 0.5, 0.0, 1.0)[:, None]
-        r_on = rot[k, on]
-        a_heel = heel_t[j] - np.einsum("fij,j->fi", r_on, heel_local[k, :3])
-        a_toe = toe_t[j] - np.einsum("fij,j->fi", r_on, toe_local[k, :3])
-        ankle[k, on] = (1 - bal) * a_heel + bal * a_toe
-        toe_down = bal[:, 0] > 0.5
-        pin[k, on] = np.where(toe_down[:, None], toe_t[j], heel_t[j])
-        pin_local[k, on] = np.where(toe_down[:, None], toe_local[k, :3], heel_local[k, :3])
+        j = index[k, on]  # the footprint of each planted frame
+        heel_l, toe_l = heel_local[k, :3], toe_local[k, :3]
+        rot[k, on] = _laid_on_footprints(rot[k, on], toe_w[on] - heel_w[on], j, yaw_fp, tilt)
+        heel_t, toe_t = _footprint_ends(j, pos, yaw_fp, tilt, heel_l, toe_l)
+        ankle[k, on], pin[k, on], pin_local[k, on] = _pinned(heel_w[on, 2] - toe_w[on, 2], band, rot[k, on],
+                                                             heel_t[j], toe_t[j], heel_l, toe_l)
     return FootTargets(weight, index, pin, pin_local, rot, ankle)
+
+
+def _planted_frames(mine: np.ndarray, planted: list, fps: float, F: int) -> tuple[np.ndarray, np.ndarray]:
+    """Whose footprint each frame of one foot belongs to: ((F,) weight, 1.0 from strike to
+    liftoff of one of its footprints, else 0.0; (F,) int index of that footprint, -1 when
+    none). ``mine`` (N,) bool marks the foot's footprints; ``planted`` per footprint
+    (strike, stance, liftoff) s; frames at ``fps``, the strike's frame rounded up and the
+    liftoff's down (within ``FRAME_EPS`` of a frame counts as on it). A later footprint
+    overrides an earlier one where their ranges meet."""
+    weight = np.zeros(F)
+    index = np.full(F, -1)
+    for j in np.flatnonzero(mine):
+        strike, _, liftoff = planted[j]
+        fr = np.arange(max(0, int(np.ceil(strike * fps - FRAME_EPS))),
+                       min(F, int(np.floor(liftoff * fps + FRAME_EPS)) + 1))
+        weight[fr] = 1.0
+        index[fr] = j
+    return weight, index
+
+
+def _laid_on_footprints(rot: np.ndarray, heel_to_toe: np.ndarray, j: np.ndarray, yaw_fp: np.ndarray,
+                        tilt: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) world rotations of a planted foot at n frames: the clip's own ``rot``
+    (n, 3, 3) keeps its pitch and roll (heel strike, flat, toe off), but its heading is
+    footprint ``j``'s (n,) for the whole stance (a planted foot does not turn with the
+    body) and it is tilted onto the surface: tilt_j Rz(yaw_fp_j - yaw(f)) R0(f), where
+    yaw(f) is the world yaw (rad) of the clip's heel-to-toe vector ``heel_to_toe`` (n, 3),
+    ``yaw_fp`` (N,) the footprints' world yaws and ``tilt`` (N, 3, 3) +Z onto their normals."""
+    yaw_now = np.arctan2(heel_to_toe[:, 1], heel_to_toe[:, 0])
+    turn = Rotation.from_euler("z", (yaw_fp[j] - yaw_now)[:, None]).as_matrix()
+    return tilt[j] @ turn @ rot
+
+
+def _footprint_ends(j: np.ndarray, pos: np.ndarray, yaw_fp: np.ndarray, tilt: np.ndarray,
+                    heel_local: np.ndarray, toe_local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World heel and toe targets (N, 3) of the footprints among ``j`` (rows of the
+    others are zero): half the foot's length (heel to toe, from ``heel_local``,
+    ``toe_local`` (3,) in the foot bone's frame) behind and ahead of each footprint's
+    centre ``pos`` (N, 3) m, along its world yaw ``yaw_fp`` (N,) rad, tilted by ``tilt``
+    (N, 3, 3) onto the surface."""
+    length = float(np.linalg.norm(toe_local - heel_local))
+    js = np.unique(j)
+    yaw = yaw_fp[js]
+    u = tilt[js] @ np.c_[np.cos(yaw), np.sin(yaw), np.zeros(len(js))][..., None]
+    heel_t = np.zeros((len(pos), 3))
+    toe_t = np.zeros((len(pos), 3))
+    heel_t[js] = pos[js] - 0.5 * length * u[..., 0]
+    toe_t[js] = pos[js] + 0.5 * length * u[..., 0]
+    return heel_t, toe_t
+
+
+def _pinned(heel_above_toe: np.ndarray, band: float, rot: np.ndarray, heel_t: np.ndarray,
+            toe_t: np.ndarray, heel_local: np.ndarray, toe_local: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Johansen: the pinned point is the heel or the toe, whichever is lower. At n planted
+    frames, from the clip's heel height over its toe ``heel_above_toe`` (n,) m, the foot's
+    target rotation ``rot`` (n, 3, 3) and the footprint's heel and toe ``heel_t``, ``toe_t``
+    (n, 3): the ankle target (n, 3), the pinned point's target (n, 3) and the pinned
+    point in the foot bone's frame (n, 3) (of ``heel_local``, ``toe_local`` (3,)).
+
+    The ankle target blends the heel-pinned and the toe-pinned solutions while their
+    heights differ by less than a quarter of ``band`` (m): the two agree while the foot
+    lies flat, and a blend over a wider band slides the pinned end (a 10 degree roll puts
+    the two solutions 3 cm apart)."""
+    bal = np.clip(heel_above_toe / max(PIN_BAND_SHARE * band, 1e-6) + 0.5, 0.0, 1.0)[:, None]
+    a_heel = heel_t - np.einsum("fij,j->fi", rot, heel_local)
+    a_toe = toe_t - np.einsum("fij,j->fi", rot, toe_local)
+    toe_down = bal[:, 0] > 0.5
+    return ((1 - bal) * a_heel + bal * a_toe, np.where(toe_down[:, None], toe_t, heel_t),
+            np.where(toe_down[:, None], toe_local, heel_local))
+
+
+@dataclass(frozen=True)
+class _Legs:
+    """The leg bones of a rig, per side (0 left, 1 right): indices and rest lengths (m)."""
+
+    thigh: tuple[int, int]
+    shin: tuple[int, int]
+    foot: tuple[int, int]
+    thigh_len: tuple[float, float]  # hip to knee
+    shin_len: tuple[float, float]  # knee to ankle
+    chain: list  # every leg bone's index, sorted
+
+    @classmethod
+    def of(cls, rig: Rig) -> "_Legs":
+        thigh = tuple(rig.role_index(f"thigh_{x}") for x in SIDES)
+        shin = tuple(rig.role_index(f"shin_{x}") for x in SIDES)
+        foot = tuple(rig.foot_chain(x)[0] for x in SIDES)
+        L1, L2 = zip(*(leg_lengths(rig, x) for x in SIDES))
+        return cls(thigh, shin, foot, L1, L2, sorted(set(thigh) | set(shin) | set(foot)))
+
+
+@contextmanager
+def _timed(seconds: dict, stage: str):
+    """Add the wall-clock seconds the block takes to ``seconds[stage]``."""
+    t0 = time.perf_counter()
+    yield
+    seconds[stage] = seconds.get(stage, 0.0) + time.perf_counter() - t0
 
 
 def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, body_heading: np.ndarray,
@@ -234,105 +316,136 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     where there is no surface) lets a swinging foot clear the ground: where the heel or
     the toe would pass under the surface, the ankle is lifted by that much.
     Returns the adjusted body and pose bases."""
-    s = settings or Settings()
+    settings = settings or Settings()
     sec = {}
     t0 = time.perf_counter()
+    with _timed(sec, "targets"):
+        legs = _Legs.of(rig)
+        pose = forward_kinematics(rig, basis, bones=list(legs.foot))  # the legs and what carries them
+        yaw = spin + np.asarray(body_heading, float)
+        tg = foot_targets(rig, heel_local, toe_local, _legs_in_world(pose, legs, body_pos, yaw), t,
+                          np.asarray(feet), planted, fp_pos, np.asarray(fp_heading, float), fp_normal, forward,
+                          settings.balance_band)
+    with _timed(sec, "body_offset"):  # 3.8.1
+        body_pos, yaw, offset = _offset_body(pose, legs, tg, t, body_pos, yaw, settings)
+        world = _legs_in_world(pose, legs, body_pos, yaw)
+    with _timed(sec, "reach"):
+        drop = _reach_drop(world, legs, tg, _frame_rate(t))
+        body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
+        world[:, legs.chain, 2, 3] -= drop[:, None]
+        ankle_t, rot_t = _all_frame_targets(world, legs, tg)
+    with _timed(sec, "legs"):  # 3.8.2
+        lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, heel_local[k, :3], toe_local[k, :3],
+                             ground_z) for k in range(2)]
+        basis = _solve_legs(rig, basis, pose, world, legs, ankle_t, rot_t, lift, yaw)
+    sec["total"] = time.perf_counter() - t0
+    return IKResult(body_pos, yaw - spin, basis, tg, drop, offset, sec)
+
+
+def _legs_in_world(pose: np.ndarray, legs: _Legs, pos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """World matrices (F, B, 4, 4) of the leg bones (``legs.chain``; the other entries are
+    not set) from their armature-space matrices ``pose`` (F, B, 4, 4), the armature object
+    at ``pos`` (F, 3) m turned by ``yaw`` (F,) rad about +Z."""
+    w = np.empty_like(pose)
+    w[:, legs.chain] = body_frames(pos, yaw)[:, None] @ pose[:, legs.chain]
+    return w
+
+
+def _offset_body(pose: np.ndarray, legs: _Legs, tg: FootTargets, t: np.ndarray, body_pos: np.ndarray,
+                 yaw: np.ndarray, settings: Settings):
+    """Thesis 3.8.1: the body (object position ``body_pos`` (F, 3) m, world yaw ``yaw``
+    (F,) rad) pulled and turned so the pinned points (where fully planted) reach their
+    targets, the offsets spread over time (``offsets.smooth_offsets``; zero when no frame
+    is planted). ``pose`` (F, B, 4, 4) armature space, ``t`` (F,) s. Returns (body
+    position (F, 3), yaw (F,), (dp (F, 3), dpsi (F,)))."""
     F = len(t)
-    fps = 1.0 / (t[1] - t[0]) if F > 1 else 30.0
-    legs = [rig.foot_chain(x)[0] for x in SIDES]
-    pose = forward_kinematics(rig, basis, bones=legs)  # the legs and what carries them
-    yaw = spin + np.asarray(body_heading, float)
-    chain = sorted({b for x in SIDES for b in (rig.role_index(f"thigh_{x}"), rig.role_index(f"shin_{x}"),
-                                                rig.foot_chain(x)[0])})
-
-    def to_world(pos_, yaw_):
-        """World matrices of the leg bones (the other entries are not used)."""
-        w = np.empty_like(pose)
-        w[:, chain] = body_frames(pos_, yaw_)[:, None] @ pose[:, chain]
-        return w
-
-    world = to_world(body_pos, yaw)
-    tg = foot_targets(rig, heel_local, toe_local, world, t, np.asarray(feet), planted, fp_pos,
-                      np.asarray(fp_heading, float), fp_normal, forward, s.balance_band)
-    sec["targets"] = time.perf_counter() - t0
-
-    # 3.8.1 body offset: pinned points (where fully planted) onto their targets
-    t1 = time.perf_counter()
+    # the pinned points in armature space: that is the body frame turned by the object's
+    # yaw, so it is p_loc in a frame turned by the body heading's world yaw
     p_loc = np.zeros((2, F, 3))
-    for k, side in enumerate(SIDES):
-        foot, _ = rig.foot_chain(side)
-        pt = (pose[:, foot] @ np.c_[tg.pin_local[k], np.ones(F)][..., None])[:, :3, 0]  # armature space
-        p_loc[k] = pt
-    # armature space is the body frame turned by the object's yaw: express p_loc in a
-    # frame turned by the body heading's world yaw (the same thing)
+    for k in range(2):
+        p_loc[k] = (pose[:, legs.foot[k]] @ np.c_[tg.pin_local[k], np.ones(F)][..., None])[:, :3, 0]
     planted_mask = tg.weight >= 1.0 - 1e-9
     dp, dpsi = body_offsets(np.asarray(body_pos, float), yaw, p_loc, tg.pin, planted_mask,
-                            alpha=s.ik_alpha, beta=s.ik_beta, iterations=s.ik_iterations)
+                            alpha=settings.ik_alpha, beta=settings.ik_beta, iterations=settings.ik_iterations)
     if np.isfinite(dpsi).any():
         dp, dpsi = smooth_offsets(t, dp, dpsi)
     else:
         dp, dpsi = np.zeros((F, 3)), np.zeros(F)
-    body_pos = np.asarray(body_pos, float) + dp
-    yaw = yaw + dpsi
-    world = to_world(body_pos, yaw)
-    sec["body_offset"] = time.perf_counter() - t1
+    return np.asarray(body_pos, float) + dp, yaw + dpsi, (dp, dpsi)
 
-    # reach: lower the hips (smoothly, ahead of time) where a planted ankle is too far
-    t2 = time.perf_counter()
-    thigh = [rig.role_index(f"thigh_{x}") for x in SIDES]
-    shin = [rig.role_index(f"shin_{x}") for x in SIDES]
-    foot_i = [rig.foot_chain(x)[0] for x in SIDES]
-    L1, L2 = zip(*(leg_lengths(rig, x) for x in SIDES))
-    need = np.zeros(F)
+
+def _reach_drop(world: np.ndarray, legs: _Legs, tg: FootTargets, fps: float) -> np.ndarray:
+    """(F,) m to lower the hips (smoothly, over ``REACH_EASE`` s either side, ahead of
+    time) where a planted ankle target is beyond ``MAX_REACH`` of its leg's length from
+    the hip joint in ``world`` (F, B, 4, 4)."""
+    need = np.zeros(len(world))
     for k in range(2):
-        drop = reach_need(world[:, thigh[k], :3, 3], tg.ankle[k], MAX_REACH * (L1[k] + L2[k]))
+        drop = reach_need(world[:, legs.thigh[k], :3, 3], tg.ankle[k],
+                          MAX_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
         need = np.maximum(need, np.where(tg.weight[k] >= 1.0, np.maximum(drop, 0.0), 0.0))
-    drop = lower_smoothly(need, max(1, int(round(0.15 * fps))))
-    body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
-    world[:, chain, 2, 3] -= drop[:, None]
-    # every frame's ankle and foot targets: on the footprint while planted, the clip's own
-    # swing plus a correction easing from one footprint's to the next's in between
+    return lower_smoothly(need, max(1, int(round(REACH_EASE * fps))))
+
+
+def _all_frame_targets(world: np.ndarray, legs: _Legs, tg: FootTargets) -> tuple[np.ndarray, np.ndarray]:
+    """Every frame's ankle targets (2, F, 3) and foot rotations (2, F, 3, 3), world: on the
+    footprint while planted, the clip's own swing (the foot bones in ``world``) plus a
+    correction easing from one footprint's to the next's in between (``swing_targets``)."""
+    F = len(world)
     ankle_t = np.zeros((2, F, 3))
     rot_t = np.zeros((2, F, 3, 3))
     for k in range(2):
-        A0 = world[:, foot_i[k], :3, 3]
-        R0 = world[:, foot_i[k], :3, :3]
-        ankle_t[k], rot_t[k] = swing_targets(tg.weight[k] >= 1.0, A0, R0, tg.ankle[k], tg.foot_rot[k])
-    sec["reach"] = time.perf_counter() - t2
+        Wf = world[:, legs.foot[k]]
+        ankle_t[k], rot_t[k] = swing_targets(tg.weight[k] >= 1.0, Wf[:, :3, 3], Wf[:, :3, :3], tg.ankle[k],
+                                             tg.foot_rot[k])
+    return ankle_t, rot_t
 
-    # 3.8.2 legs, in closed form
-    t3 = time.perf_counter()
+
+def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, heel_local: np.ndarray,
+                 toe_local: np.ndarray, ground_z) -> np.ndarray:
+    """(F,) m to lift one swinging foot's ankle (targets ``ankle`` (F, 3), ``rot`` (F, 3, 3))
+    so that its heel and toe (``heel_local``, ``toe_local`` (3,) in the foot bone's frame)
+    stay ``GROUND_MARGIN`` above the surface ``ground_z`` (points (M, 3) -> heights (M,),
+    NaN for none; None: no lift), smoothed over ``LIFT_SMOOTH`` frames; 0 where
+    ``planted`` (F,) (a planted foot is on its footprint already)."""
+    lift = np.zeros(len(ankle))
+    if ground_z is None:
+        return lift
+    free = np.flatnonzero(~planted)
+    for loc in (heel_local, toe_local):
+        pt = ankle[free] + np.einsum("fij,j->fi", rot[free], loc)
+        gz = np.asarray(ground_z(pt), float)
+        depth = np.where(np.isfinite(gz), gz + GROUND_MARGIN - pt[:, 2], 0.0)
+        lift[free] = np.maximum(lift[free], depth)
+    lift = np.maximum(lift, 0.0)
+    if lift.any():
+        lift = np.maximum(lift, gaussian_filter1d(lift, LIFT_SMOOTH))
+        lift[planted] = 0.0
+    return lift
+
+
+def _solve_legs(rig: Rig, basis: np.ndarray, pose: np.ndarray, world: np.ndarray, legs: _Legs,
+                ankle_t: np.ndarray, rot_t: np.ndarray, lift: list, yaw: np.ndarray) -> np.ndarray:
+    """Thesis 3.8.2: a copy of ``basis`` (F, B, 4, 4) with both legs solved in closed form
+    (``two_bone``, the knee towards the rig's forward) so each ankle reaches its target
+    ``ankle_t`` (2, F, 3) raised by ``lift`` (2 x (F,)) m and each foot takes ``rot_t``
+    (2, F, 3, 3); ``world`` holds the legs' current world matrices, ``pose`` the
+    armature-space ones, the object turned by ``yaw`` (F,) rad."""
+    F = len(yaw)
     basis = basis.copy()
     inv_yaw = body_frames(np.zeros((F, 3)), -yaw)[:, :3, :3]
-    fwd_arm = rig.forward_axis()
+    fwd = np.einsum("fij,j->fi", body_frames(np.zeros((F, 3)), yaw)[:, :3, :3], rig.forward_axis())
     for k in range(2):
-        planted_k = tg.weight[k] >= 1.0
-        lift = np.zeros(F)
-        if ground_z is not None:
-            # a swinging foot never passes under the surface
-            free = np.flatnonzero(~planted_k)
-            for loc in (heel_local[k, :3], toe_local[k, :3]):
-                pt = ankle_t[k, free] + np.einsum("fij,j->fi", rot_t[k, free], loc)
-                gz = np.asarray(ground_z(pt), float)
-                depth = np.where(np.isfinite(gz), gz + GROUND_MARGIN - pt[:, 2], 0.0)
-                lift[free] = np.maximum(lift[free], depth)
-            lift = np.maximum(lift, 0.0)
-            if lift.any():
-                lift = np.maximum(lift, gaussian_filter1d(lift, 1.0))
-                lift[planted_k] = 0.0  # a planted foot is on its footprint already
-        Wt, Ws, Wf = world[:, thigh[k]], world[:, shin[k]], world[:, foot_i[k]]
+        thigh, shin, foot = legs.thigh[k], legs.shin[k], legs.foot[k]
+        Wt, Ws, Wf = world[:, thigh], world[:, shin], world[:, foot]
         A = ankle_t[k].copy()
-        A[:, 2] += lift
-        fb = np.einsum("fij,j->fi", body_frames(np.zeros((F, 3)), yaw)[:, :3, :3], fwd_arm)
-        r1, r2 = two_bone(Wt[:, :3, 3], Ws[:, :3, 3], Wf[:, :3, 3], A, L1[k], L2[k], fb)
-        arm = {thigh[k]: inv_yaw @ r1 @ Wt[:, :3, :3], shin[k]: inv_yaw @ r2 @ r1 @ Ws[:, :3, :3],
-               foot_i[k]: inv_yaw @ rot_t[k]}
-        p = rig.parents[thigh[k]]
+        A[:, 2] += lift[k]
+        r1, r2 = two_bone(Wt[:, :3, 3], Ws[:, :3, 3], Wf[:, :3, 3], A, legs.thigh_len[k], legs.shin_len[k], fwd)
+        arm = {thigh: inv_yaw @ r1 @ Wt[:, :3, :3], shin: inv_yaw @ r2 @ r1 @ Ws[:, :3, :3],
+               foot: inv_yaw @ rot_t[k]}
+        p = rig.parents[thigh]
         parent_rot = pose[:, p, :3, :3] if p >= 0 else np.eye(3)[None]
-        chain_bases(rig, [thigh[k], shin[k], foot_i[k]], parent_rot, arm, basis)
-    sec["legs"] = time.perf_counter() - t3
-    sec["total"] = time.perf_counter() - t0
-    return IKResult(body_pos, yaw - spin, basis, tg, drop, (dp, dpsi), sec)
+        chain_bases(rig, [thigh, shin, foot], parent_rot, arm, basis)
+    return basis
 
 
 def reach_need(hip: np.ndarray, ankle: np.ndarray, reach: float) -> np.ndarray:
@@ -354,9 +467,9 @@ def lower_smoothly(need: np.ndarray, win: int, mode: str = "reflect", edge: str 
 
 def leg_lengths(rig: Rig, side: str) -> tuple[float, float]:
     """(thigh, shin) rest lengths of one leg: hip to knee and knee to ankle, m."""
-    t, s_, f = rig.role_index(f"thigh_{side}"), rig.role_index(f"shin_{side}"), rig.foot_chain(side)[0]
-    return (float(np.linalg.norm(rig.rest[s_, :3, 3] - rig.rest[t, :3, 3])),
-            float(np.linalg.norm(rig.rest[f, :3, 3] - rig.rest[s_, :3, 3])))
+    thigh, shin, foot = rig.role_index(f"thigh_{side}"), rig.role_index(f"shin_{side}"), rig.foot_chain(side)[0]
+    return (float(np.linalg.norm(rig.rest[shin, :3, 3] - rig.rest[thigh, :3, 3])),
+            float(np.linalg.norm(rig.rest[foot, :3, 3] - rig.rest[shin, :3, 3])))
 
 
 def two_bone(H: np.ndarray, K0: np.ndarray, A0: np.ndarray, A: np.ndarray, L1: float, L2: float,

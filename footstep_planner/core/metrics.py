@@ -45,6 +45,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from . import quat as quaternions
+
 #: Decimal places of the floats ``quality`` returns (mm to the micrometre, m to the mm).
 DIGITS = 3
 
@@ -59,14 +61,14 @@ def _feet(heel, toe) -> tuple[np.ndarray, np.ndarray]:
     return h, t
 
 
-def _stance(s: Mapping, n_frames: int) -> tuple[int, int, int]:
+def _stance(stance: Mapping, n_frames: int) -> tuple[int, int, int]:
     """(foot, start, end) of one stance dict, frames clipped to 0..F-1."""
-    foot = int(s["foot"])
+    foot = int(stance["foot"])
     if foot not in (0, 1):
-        raise ValueError(f"stance foot must be 0 or 1, not {s['foot']!r}")
+        raise ValueError(f"stance foot must be 0 or 1, not {stance['foot']!r}")
     hi = max(n_frames - 1, 0)
-    start = min(max(int(s["start"]), 0), hi)
-    end = min(max(int(s["end"]), 0), hi)
+    start = min(max(int(stance["start"]), 0), hi)
+    end = min(max(int(stance["end"]), 0), hi)
     return foot, start, end
 
 
@@ -125,8 +127,8 @@ def foot_skate(heel, toe, stances: Stances, planted_height: float = 0.02) -> dic
     step = np.where(keep, step, 0.0)
     run = np.concatenate([np.zeros((2, 1)), np.cumsum(step, axis=1)], axis=1)  # (2, F)
     per = []
-    for s in stances:
-        foot, start, end = _stance(s, n)
+    for stance in stances:
+        foot, start, end = _stance(stance, n)
         win = planted_window(point[foot, :, 2], start, end, planted_height) if n else None
         per.append(0.0 if win is None else float(run[foot, win[1]] - run[foot, win[0]]) * 1000.0)
     mean, mx = _summary(per)
@@ -139,14 +141,14 @@ def footprint_error(heel, toe, stances: Stances) -> dict:
     h, t = _feet(heel, toe)
     n = h.shape[1]
     per = []
-    for s in stances:
-        foot, _, _ = _stance(s, n)
+    for stance in stances:
+        foot, _, _ = _stance(stance, n)
         if n == 0:
             per.append(None)
             continue
-        k = min(max(int(s["stance"]), 0), n - 1)
+        k = min(max(int(stance["stance"]), 0), n - 1)
         mid = 0.5 * (h[foot, k] + t[foot, k])
-        want = np.asarray(s["position"], dtype=float).reshape(3)
+        want = np.asarray(stance["position"], dtype=float).reshape(3)
         per.append(_num(np.linalg.norm(mid - want) * 1000.0))
     mean, mx = _summary(per)
     return {"per_stance_mm": per, "mean_mm": mean, "max_mm": mx}
@@ -183,8 +185,8 @@ def floating(heel, toe, ground_z, stances: Stances, planted_height: float = 0.02
     under = np.take_along_axis(g, which[..., None], axis=-1)[..., 0]  # (2, F)
     lift = point[..., 2] - under
     per = []
-    for s in stances:
-        foot, start, end = _stance(s, n)
+    for stance in stances:
+        foot, start, end = _stance(stance, n)
         win = planted_window(point[foot, :, 2], start, end, planted_height) if n else None
         if win is None:
             continue
@@ -235,11 +237,9 @@ def rotation_steps(bone_rot) -> np.ndarray:
     q = np.asarray(bone_rot, dtype=float)
     with np.errstate(invalid="ignore", divide="ignore"):
         q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    a, b = q[:-1], q[1:]
-    sign = np.where(np.sum(a * b, axis=-1) < 0, -1.0, 1.0)[..., None]
+    a, b = q[:-1], quaternions.align(q[1:], q[:-1])
     # half the rotation angle between them is 2 atan2(|a - b|, |a + b|) (stable near 0)
-    return 4.0 * np.arctan2(np.linalg.norm(a - sign * b, axis=-1),
-                            np.linalg.norm(a + sign * b, axis=-1))
+    return 4.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
 
 
 def in_body_frame(bone_pos, body_pos, body_heading) -> np.ndarray:

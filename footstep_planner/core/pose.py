@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from . import quat as quaternions
 from .blending import ClipTrack, Schedule
 from .rig import Rig
 
@@ -30,13 +31,14 @@ def _sample_pose(tr: ClipTrack, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     q /= np.linalg.norm(q, axis=-1, keepdims=True)
     hp = tr.hips[i0, :3, 3] * (1 - fr) + tr.hips[i1, :3, 3] * fr
     hq0 = Rotation.from_matrix(_unit(tr.hips[i0, :3, :3])).as_quat()
-    hq1 = Rotation.from_matrix(_unit(tr.hips[i1, :3, :3])).as_quat()
-    hq1 *= np.where(np.einsum("fk,fk->f", hq0, hq1) < 0, -1.0, 1.0)[:, None]
+    hq1 = quaternions.align(Rotation.from_matrix(_unit(tr.hips[i1, :3, :3])).as_quat(), hq0)
     hq = hq0 * (1 - fr) + hq1 * fr
     return q, hp, hq / np.linalg.norm(hq, axis=-1, keepdims=True)
 
 
 def _unit(m: np.ndarray) -> np.ndarray:
+    """Matrices (..., 3, 3) with each column scaled to unit length (a clip's hips matrix
+    may carry a scale)."""
     return m / np.linalg.norm(m, axis=-2, keepdims=True)
 
 
@@ -61,10 +63,8 @@ def blend_pose(schedule: Schedule, tracks: dict[str, ClipTrack]) -> tuple[np.nda
         if acc is None:
             acc = np.zeros((F,) + q.shape[1:])
         ww = w[on]
-        sign = np.where(np.einsum("fbk,fbk->fb", acc[on], q) < 0, -1.0, 1.0)
-        acc[on] += (ww[:, None] * sign)[..., None] * q
-        sh = np.where(np.einsum("fk,fk->f", hq[on], h) < 0, -1.0, 1.0)
-        hq[on] += (ww * sh)[:, None] * h
+        acc[on] += ww[:, None, None] * quaternions.align(q, acc[on])
+        hq[on] += ww[:, None] * quaternions.align(h, hq[on])
         hp[on] += ww[:, None] * p
     if acc is None:
         raise ValueError("blend_pose: no clip has weight in the schedule")
@@ -79,16 +79,6 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """(..., 4) scipy quaternions -> (..., 3, 3)."""
     shape = q.shape[:-1]
     return Rotation.from_quat(q.reshape(-1, 4)).as_matrix().reshape(shape + (3, 3))
-
-
-def matrix_to_quat(m: np.ndarray) -> np.ndarray:
-    """(..., 3, 3) -> (..., 4) scipy quaternions, kept on one hemisphere along axis 0."""
-    shape = m.shape[:-2]
-    q = Rotation.from_matrix(m.reshape(-1, 3, 3)).as_quat().reshape(shape + (4,))
-    if len(shape) >= 1 and shape[0] > 1:
-        flip = np.cumprod(np.where(np.sum(q[1:] * q[:-1], axis=-1) < 0, -1.0, 1.0), axis=0)
-        q[1:] *= flip[..., None]
-    return q
 
 
 def pose_bases(rig: Rig, quat: np.ndarray, hips_in_root: np.ndarray) -> np.ndarray:

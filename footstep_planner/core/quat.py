@@ -1,0 +1,40 @@
+"""Unit quaternions on one hemisphere: the one sign fix the core uses.
+
+A quaternion q and its negation -q are the same rotation. Blending, interpolating or
+differencing quaternions needs the two sides on the same hemisphere (a non-negative
+dot product), else the blend goes the long way round (or through zero). Every such
+fix in the core goes through ``hemisphere_signs``: ``align`` puts quaternions on the
+hemisphere of reference ones, ``continuous`` a sequence on one hemisphere.
+
+Conventions: quaternions are arrays (..., 4) in any component order (the dot product
+does not care; the core uses scipy's (x, y, z, w)); they need not be normalised. A
+negation is exact in floating point, so these change signs and nothing else.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def hemisphere_signs(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """(...,) +1.0 where the quaternions ``q`` (..., 4) lie on the hemisphere of ``ref``
+    (..., 4; broadcast against q) -- a dot product >= 0, so a zero ``ref`` keeps q --
+    and -1.0 where they do not."""
+    return np.where(np.einsum("...k,...k->...", q, ref) < 0, -1.0, 1.0)
+
+
+def align(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """A new (..., 4) array: the quaternions ``q`` (..., 4), each negated where it lies
+    on the other hemisphere from its ``ref`` (..., 4), so that dot(result, ref) >= 0."""
+    return q * hemisphere_signs(q, ref)[..., None]
+
+
+def continuous(q: np.ndarray) -> np.ndarray:
+    """A new (N, ..., 4) array: the sequences of quaternions ``q`` (N, ..., 4) along
+    axis 0 (samples) kept on one hemisphere, each sample negated where needed so that
+    consecutive samples have a dot product >= 0 (no sign flips between samples). The
+    first sample keeps its sign."""
+    out = np.array(q, dtype=np.float64, copy=True)
+    flip = np.cumprod(hemisphere_signs(out[1:], out[:-1]), axis=0)
+    out[1:] *= flip[..., None]
+    return out
