@@ -18,8 +18,8 @@ stance, 1/2 the next right-foot stance, 1 the left again; each clip's time is wa
 piecewise-linearly between its own stance times, so blended clips put their feet down
 together (Kovar and Gleicher's registration, keyed at footsteps as in Johansen).
 
-The blend point (derived here; the thesis's formulas are garbled, see
-``../shared/docs/pipeline-notes.md``): when the weights change from w to w' at frame k,
+The blend point (derived here: the thesis's formulas swap the feet and lose the |v_L|^2
+term): when the weights change from w to w' at frame k,
 each foot's root-frame point jumps by d = f(w', t_k) - f(w, t_k). Let v_L, v_R be the
 world velocities the feet would have had with the old weights, and p_s = a p_R + (1-a) p_L
 the point of the line between the feet that moves least:

@@ -163,7 +163,7 @@ def library_specs() -> list[ClipSpec]:
 
 
 @dataclass
-class Stance:
+class GaitStance:
     """One stance of a foot in a generated clip: its times and (once placed) its
     footprint."""
 
@@ -183,7 +183,7 @@ class GaitClip:
     spec: ClipSpec
     fps: float
     basis: np.ndarray  # (F, B, 4, 4)
-    stances: list[Stance]
+    stances: list[GaitStance]
     hips_drop: np.ndarray  # (F,) m lowered to keep the legs in reach
 
 
@@ -228,7 +228,7 @@ def _timeline(spec: ClipSpec, fps: float, size: float = 1.0):
     D = g.duty * T
     if spec.kind == "idle":
         t = np.arange(round(IDLE_DURATION * fps) + 1) / fps
-        return t, np.zeros(len(t)), [Stance(k, -np.inf, np.inf, 0.0) for k in range(2)], T
+        return t, np.zeros(len(t)), [GaitStance(k, -np.inf, np.inf, 0.0) for k in range(2)], T
     if spec.kind == "cycle":
         dur = spec.cycles * T
     elif spec.kind in ("start", "stop"):
@@ -255,7 +255,7 @@ def _timeline(spec: ClipSpec, fps: float, size: float = 1.0):
     return t, v, stances, T
 
 
-def _steady_stances(spec: ClipSpec, T: float, D: float, dur: float) -> list[Stance]:
+def _steady_stances(spec: ClipSpec, T: float, D: float, dur: float) -> list[GaitStance]:
     """The stances of steady walking or running (time order) from ``STANCE_MARGIN``
     cycles before the clip to as long after its ``dur`` s: the lead foot's centred at
     FIRST_CENTER T + j T, the other's half a cycle later (cycle ``T`` s), each down for
@@ -266,10 +266,10 @@ def _steady_stances(spec: ClipSpec, T: float, D: float, dur: float) -> list[Stan
                for j in range(-STANCE_MARGIN, int(dur / T) + STANCE_MARGIN + 1) for k in (0, 1)]
     centers.sort(key=lambda kc: kc[1])
     P = g.passing * D
-    return [Stance(k, c - P, c - P + D, c, clearance=g.clearance) for k, c in centers]
+    return [GaitStance(k, c - P, c - P + D, c, clearance=g.clearance) for k, c in centers]
 
 
-def _jump_stances(stances: list[Stance], flight: float, T: float, D: float, size: float) -> None:
+def _jump_stances(stances: list[GaitStance], flight: float, T: float, D: float, size: float) -> None:
     """Make a jump of steady ``stances`` (in place): take off from the first left stance
     centred after TAKEOFF_AFTER cycles (``T`` s), fly ``flight`` s, land on the right.
     The stances from the landing on come later by the flight's excess over a steady
@@ -388,7 +388,7 @@ class _Course:
 
     t: np.ndarray  # (F,) s, frame times from 0
     v: np.ndarray  # (F,) m/s, speed along the path
-    stances: list  # Stance, time order
+    stances: list  # GaitStance, time order
     cycle: float  # s, the gait's cycle rounded to whole frames
     root: np.ndarray  # (F, 2) m, the path's point (the hips' ground point before sway)
     heading: np.ndarray  # (F,) rad
@@ -651,7 +651,7 @@ def _foot_track(t, stances, foot: _FootRest, g: Gait, T: float):
     return out, bend
 
 
-def _rolling(st: Stance, tq, foot: _FootRest, g: Gait, nominal: float) -> np.ndarray:
+def _rolling(st: GaitStance, tq, foot: _FootRest, g: Gait, nominal: float) -> np.ndarray:
     """(n, 4, 4) the foot planted on stance ``st``'s footprint at times ``tq`` (n,) s
     inside it: heel strike with the toes up (the gait's strike pitch), pivoting on the
     back of the heel to flat over its heel-rocker share of the stance; flat; then the
@@ -680,7 +680,7 @@ def _rolling(st: Stance, tq, foot: _FootRest, g: Gait, nominal: float) -> np.nda
     return m
 
 
-def _swing(tq, a: Stance, b: Stance, foot: _FootRest, g: Gait, nominal: float) -> tuple[np.ndarray, np.ndarray]:
+def _swing(tq, a: GaitStance, b: GaitStance, foot: _FootRest, g: Gait, nominal: float) -> tuple[np.ndarray, np.ndarray]:
     """The foot between stances ``a`` and ``b`` at times ``tq`` (n,) s: (n, 4, 4) matrices
     moving on a smoothstep from its toe-off pose to its heel-strike pose, lifted by ``b``'s
     clearance (peaking early: the foot leaves briskly, and lands softly), turning
@@ -719,7 +719,7 @@ def _pitch_of(m, rest_foot) -> np.ndarray:
     return np.arctan2(-fwd[:, 2], np.hypot(fwd[:, 0], fwd[:, 1]))
 
 
-def _placed(st: Stance, pitch, pivot, rest_foot, heel_g) -> np.ndarray:
+def _placed(st: GaitStance, pitch, pivot, rest_foot, heel_g) -> np.ndarray:
     """(n, 4, 4) the rest foot (``rest_foot`` (4, 4), its ground point under the ankle
     ``heel_g`` (3,)) laid on stance st's footprint (that heel ground point on st.pos,
     turned to st.heading), pitched by ``pitch`` (n,) radians (positive: heel up) about

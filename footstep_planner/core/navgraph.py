@@ -486,9 +486,45 @@ class DistanceField:
 
     @staticmethod
     def build(ground, obstacles, goal, cell, clearance, jump_reach, step_height) -> "DistanceField":
+        """The walking distance (m) to ``goal`` from every cell of a grid of ``cell``
+        metres over the ground's bounds: walkable cells (ground under the centre, body
+        clear of obstacles by ``clearance``), joined 8-connected and, across gaps, by
+        bridges up to ``jump_reach`` long; Dijkstra from the goal's cell."""
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import dijkstra
 
+        grid = _Grid.over(ground, cell, step_height)
+        has_ground, blocked = grid.ground_and_blocked(ground, obstacles, clearance)
+        walk = has_ground & ~blocked
+        edges = grid.neighbour_edges(walk)
+        if jump_reach > 0:
+            edges += grid.bridges(walk, ~has_ground, blocked, jump_reach)
+        rows, cols, vals = (np.concatenate(e) for e in zip(*edges))
+        n = grid.nx * grid.ny
+        graph = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
+        gi = int(np.clip(np.floor((goal[0] - grid.lo[0]) / cell), 0, grid.nx - 1))
+        gj = int(np.clip(np.floor((goal[1] - grid.lo[1]) / cell), 0, grid.ny - 1))
+        d = dijkstra(graph, directed=False, indices=grid.ids[gi, gj])
+        # 5 % short, and a cell's own size short, so the heuristic stays a lower bound
+        d = np.maximum(0.95 * d - 1.5 * cell, 0.0)
+        return DistanceField(grid.lo, cell, (grid.nx, grid.ny), d.reshape(grid.nx, grid.ny), graph)
+
+
+@dataclass
+class _Grid:
+    """The distance field's cells: origin ``lo`` (2,), ``cell`` m, ``nx`` x ``ny`` cells,
+    and their ids (nx, ny)."""
+
+    lo: np.ndarray
+    cell: float
+    nx: int
+    ny: int
+    ids: np.ndarray
+    top: np.ndarray  # (nx * ny, 3) a point above each cell's centre
+    ray: float  # m: from there down past the ground's lowest point
+
+    @staticmethod
+    def over(ground, cell: float, step_height: float) -> "_Grid":
         lo, hi = ground.mesh.bounds()
         lo = lo[:2] - cell
         nx, ny = (np.ceil((hi[:2] + cell - lo) / cell)).astype(int)
@@ -496,19 +532,26 @@ class DistanceField:
         cy = lo[1] + (np.arange(ny) + 0.5) * cell
         xx, yy = np.meshgrid(cx, cy, indexing="ij")
         top = np.c_[xx.ravel(), yy.ravel(), np.full(xx.size, hi[2] + step_height)]
-        hit = ground.ray_down(top, hi[2] - ground.mesh.bounds()[0][2] + 2 * step_height)
-        has_ground = hit.hit.reshape(nx, ny)
-        blocked = np.zeros((nx, ny), bool)
+        ray = hi[2] - ground.mesh.bounds()[0][2] + 2 * step_height
+        return _Grid(lo, cell, int(nx), int(ny), np.arange(nx * ny).reshape(nx, ny), top, ray)
+
+    def ground_and_blocked(self, ground, obstacles, clearance: float):
+        """(has ground (nx, ny), blocked (nx, ny)): ground under each cell's centre, and an
+        obstacle within the clearance of the body (at 0.5 and 1.3 m above the ground)."""
+        hit = ground.ray_down(self.top, self.ray)
+        has_ground = hit.hit.reshape(self.nx, self.ny)
+        blocked = np.zeros((self.nx, self.ny), bool)
         if obstacles is not None and obstacles.mesh.n:
             idx = np.flatnonzero(has_ground.ravel())
             for level in (0.5, 1.3):
-                probe = np.c_[top[idx, :2], hit.z[idx] + level]
+                probe = np.c_[self.top[idx, :2], hit.z[idx] + level]
                 _, d = obstacles.nearest(probe, max_dist=clearance)
                 blocked.ravel()[idx[d < clearance * 0.9]] = True
-        walk = has_ground & ~blocked
-        # 8-connected edges between walkable cells
-        rows, cols, vals = [], [], []
-        ids = np.arange(nx * ny).reshape(nx, ny)
+        return has_ground, blocked
+
+    def neighbour_edges(self, walk: np.ndarray) -> list[tuple]:
+        """(rows, cols, lengths) of the edges between 8-connected walkable cells."""
+        nx, ny, ids, out = self.nx, self.ny, self.ids, []
         for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):
             a = walk[max(0, -di):nx - max(0, di), max(0, -dj):ny - max(0, dj)]
             b = walk[max(0, di):, max(0, dj):][:a.shape[0], :a.shape[1]] if dj >= 0 else \
@@ -517,36 +560,27 @@ class DistanceField:
             ib = ids[max(0, di):, max(0, dj):][:a.shape[0], :a.shape[1]] if dj >= 0 else \
                 ids[max(0, di):, :ny + dj][:a.shape[0], :a.shape[1]]
             m = a & b
-            rows.append(ia[m])
-            cols.append(ib[m])
-            vals.append(np.full(m.sum(), np.hypot(di, dj) * cell))
-        # bridges across gaps (missing ground, not obstacles) for jumps
-        if jump_reach > 0:
-            void = ~has_ground
-            border = walk & (np.pad(void, 1)[2:, 1:-1] | np.pad(void, 1)[:-2, 1:-1]
-                             | np.pad(void, 1)[1:-1, 2:] | np.pad(void, 1)[1:-1, :-2])
-            bi, bj = np.nonzero(border)
-            r = int(np.ceil(jump_reach / cell))
-            offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1)
-                    if 1 < np.hypot(a, b) * cell <= jump_reach]
-            for a, b in offs:
-                ti, tj = bi + a, bj + b
-                ok = (ti >= 0) & (ti < nx) & (tj >= 0) & (tj < ny)
-                ti, tj, si, sj = ti[ok], tj[ok], bi[ok], bj[ok]
-                ok = border[ti, tj]
-                # the straight line between may only cross void or walkable cells
-                for t in np.linspace(0.2, 0.8, 4):
-                    mi = np.rint(si + t * a).astype(int)
-                    mj = np.rint(sj + t * b).astype(int)
-                    ok &= ~blocked[mi, mj]
-                rows.append(ids[si[ok], sj[ok]])
-                cols.append(ids[ti[ok], tj[ok]])
-                vals.append(np.full(ok.sum(), np.hypot(a, b) * cell))
-        rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-        graph = coo_matrix((vals, (rows, cols)), shape=(nx * ny, nx * ny)).tocsr()
-        gi = int(np.clip(np.floor((goal[0] - lo[0]) / cell), 0, nx - 1))
-        gj = int(np.clip(np.floor((goal[1] - lo[1]) / cell), 0, ny - 1))
-        d = dijkstra(graph, directed=False, indices=ids[gi, gj])
-        # 5 % short, and a cell's own size short, so the heuristic stays a lower bound
-        d = np.maximum(0.95 * d - 1.5 * cell, 0.0)
-        return DistanceField(lo, cell, (int(nx), int(ny)), d.reshape(nx, ny), graph)
+            out.append((ia[m], ib[m], np.full(m.sum(), np.hypot(di, dj) * self.cell)))
+        return out
+
+    def bridges(self, walk: np.ndarray, void: np.ndarray, blocked: np.ndarray, jump_reach: float) -> list[tuple]:
+        """(rows, cols, lengths) of straight bridges up to ``jump_reach`` between walkable
+        cells on the border of a gap (missing ground), never across an obstacle."""
+        nx, ny = self.nx, self.ny
+        border = walk & (np.pad(void, 1)[2:, 1:-1] | np.pad(void, 1)[:-2, 1:-1]
+                         | np.pad(void, 1)[1:-1, 2:] | np.pad(void, 1)[1:-1, :-2])
+        bi, bj = np.nonzero(border)
+        r = int(np.ceil(jump_reach / self.cell))
+        offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1)
+                if 1 < np.hypot(a, b) * self.cell <= jump_reach]
+        out = []
+        for a, b in offs:
+            ti, tj = bi + a, bj + b
+            ok = (ti >= 0) & (ti < nx) & (tj >= 0) & (tj < ny)
+            ti, tj, si, sj = ti[ok], tj[ok], bi[ok], bj[ok]
+            ok = border[ti, tj]
+            for t in np.linspace(0.2, 0.8, 4):  # the line between crosses void or walkable cells only
+                ok &= ~blocked[np.rint(si + t * a).astype(int), np.rint(sj + t * b).astype(int)]
+            out.append((self.ids[si[ok], sj[ok]], self.ids[ti[ok], tj[ok]],
+                        np.full(ok.sum(), np.hypot(a, b) * self.cell)))
+        return out

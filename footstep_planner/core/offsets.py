@@ -21,8 +21,8 @@ swings the body by tenths of a radian on real walks.
 
 The torque sign: ``r x F`` is the torque of the force F pulling at the foot, and it turns
 the foot towards the target. The thesis prints ``F x r`` (the Unity, left-handed
-convention); in a right-handed world that turns the foot away (see
-``../shared/docs/pipeline-notes.md`` item 3). The rotation: the thesis writes
+convention); in a right-handed world that turns the foot away (``test_offsets`` pins
+that one iteration reduces the pull). The rotation: the thesis writes
 ``q <- exp(beta T) q`` with the full 3-D torque; our body turns about +Z only (its tilt
 belongs to the pose), so only ``T_z`` is used. The normalisation by ``|r_h|^2`` is our
 reading of beta: turning by ``dpsi`` moves the foot by ``dpsi (ez x r)``, and
