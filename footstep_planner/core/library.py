@@ -4,7 +4,9 @@ Proposed from the clip analysis, editable by the user, stored as JSON on the arm
 
 - A *turning group* per gait (walk, run) holds the cyclic clips of that gait, each with
   its curvature tau (1/m, positive turning left); the planner blends the two clips that
-  bracket the path's tau.
+  bracket the path's tau. Beyond the group's range a plan step may still turn: the
+  steps of its outermost clip are bent into arcs (core.steps, ``bend_curvature``); their
+  labels "group@tau" lie outside the range (``Library.bend_of``).
 - The *speed group* blends the walk group (s = 0) with the run group (s = 1).
 - *Special clips* (jumps, starts, stops, idles) are played whole, never blended with
   the groups; each carries the gait it is entered and left in ("stand", "walk", "run").
@@ -62,6 +64,13 @@ class TurnGroup:
                 return out
         raise AssertionError("unreachable")
 
+    def bend(self, tau: float) -> float:
+        """How far (1/m, signed) ``tau`` lies beyond the clips' own turning range: the
+        curvature a step of ``tau`` is bent by beyond the clip that plays it (0 inside
+        the range)."""
+        lo, hi = self.tau_range()
+        return float(tau - min(max(tau, lo), hi)) if self.clips else 0.0
+
 
 @dataclass
 class SpecialClip:
@@ -88,6 +97,19 @@ class Library:
     def clips(self) -> list[str]:
         names = [c.clip for g in self.turn_groups.values() for c in g.clips]
         return names + [sp.clip for sp in self.specials]
+
+    def bend_of(self, label: str) -> float:
+        """The bend (1/m, ``TurnGroup.bend``) of a plan step's label: non-zero only for a
+        "<group name>@<tau>" beyond that group's clips, a step the planner bent."""
+        if "@" not in label:
+            return 0.0
+        gname, tau = label.rsplit("@", 1)
+        group = next((g for g in self.turn_groups.values() if g.name == gname), None)
+        try:
+            bend = group.bend(float(tau)) if group is not None else 0.0
+        except ValueError:
+            return 0.0
+        return bend if abs(bend) >= 1e-3 else 0.0  # within the label's precision: inside
 
     def to_dict(self) -> dict:
         return {

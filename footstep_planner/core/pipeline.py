@@ -30,6 +30,7 @@ from .library import Library
 from .refinement import Refined, refine
 from .settings import Settings
 from .smoothing import Smoothed, smooth_footprints
+from .steps import bend_chain
 from .surface import FootShape, Ground, footprint_support
 from .timing import StageTimer
 from .trajectory import transfer_body
@@ -273,13 +274,15 @@ def planted_ranges(S: Schedule, pb: Playback) -> list[tuple[float, float, float]
 
 
 def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Settings, snap,
-              timer: StageTimer, key: str) -> Pass:
-    """One round: play the schedule, refine the played footprints towards the desired
-    ones (stage ``refinement<key>``), carry the played body onto them
-    (``body_trajectory<key>``)."""
+              timer: StageTimer, key: str, bends=None) -> Pass:
+    """One round: play the schedule, refine the played footprints (each step bent by
+    ``bends`` (N-1,) 1/m, as the planner bent it) towards the desired ones (stage
+    ``refinement<key>``), carry the played body onto them (``body_trajectory<key>``)."""
     with timer(f"refinement{key}"):
         played = playback(schedule, tracks, start=(desired_pos[0], desired_head[0]), forward=forward)
-        refined = refine(played.footprints, played.footprint_heading, desired_pos, desired_head,
+        fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
+        orig = bend_chain(played.footprints, played.footprint_heading, bends, fwd)
+        refined = refine(*orig, desired_pos, desired_head,
                          settings.refinement_iterations, snap, height=getattr(snap, "height", None))
     with timer(f"body_trajectory{key}"):
         body_pos, body_head = transfer_body(played.footprints, played.footprint_heading, refined.position,
@@ -330,17 +333,19 @@ def synthesize(footsteps, library: Library, analyses: list[ClipAnalysis] | dict[
             tracks = _tracks_of(library, analyses)
         cyc = cyclic_clips(library)
         steps = plan_steps(footsteps, library, cyc)
+        bends = np.array([library.bend_of(f.label) for f in footsteps[1:]])  # steps bent beyond the clips
         with timer("smoothing"):  # 3.3
             smoothed = _smooth(footsteps, settings, snap, goal)
         # 3.5 / 3.6 with the plan's clips
         sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time)
-        first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1")
+        first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1",
+                          bends)
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
             curves = _tau_curves(library, cyc, sch1, first, settings)
             pins = speed_pins(steps, tracks)
             loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
             sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco)
-        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal)
+        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends)
         tau_final = np.interp(sch2.u, sch1.u, curves.tau)
         s_final = loco.speed(sch2.u, sch2.n)
     seconds = timer.seconds
@@ -441,17 +446,17 @@ def _blend_group_schedule(steps: list[PlanStep], tracks, cyc: list[str], fps: fl
 
 
 def _final_pass(sch2: Schedule, tracks, first: Pass, forward, settings: Settings, snap, timer: StageTimer,
-                goal) -> Pass:
+                goal, bends=None) -> Pass:
     """The blend groups' pass. With a goal, the path's end is moved by where the first
     pass's body ended, and once more if the blend groups still miss it by more than
     GOAL_TOLERANCE."""
     desired, heading = first.refined.position, first.refined.heading
     if goal is not None:
         desired = ease_end(desired, heading, np.asarray(goal, float)[:2] - first.body_pos[-1, :2], snap)
-    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2")
+    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends)
     if goal is not None:
         miss = np.asarray(goal, float)[:2] - final.body_pos[-1, :2]
         if np.linalg.norm(miss) > GOAL_TOLERANCE:
             desired = ease_end(desired, heading, miss, snap)
-            final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2")
+            final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends)
     return final

@@ -5,8 +5,12 @@ A step carries a foot from a footprint of one foot to the next footprint of the 
 ``fwd``/``left`` metres in the frame of the footprint it starts from (forward = the
 footprint's heading, left = 90 degrees counter-clockwise), ``turn`` radians of heading
 change, and ``duration`` seconds between their stance times. Turning groups give steps
-for blends between their clips too, so radii between the library's clips are reachable.
-A jump step flies: it may cross a gap, and only a jump step may.
+for blends between their clips too, so radii between the library's clips are reachable,
+and *bent* steps beyond them (``bent_step``): the step of the group's outermost clip on
+that side, bent along arcs up to ``bend_curvature`` (1/m) either way, so a library of one
+straight walk still turns (labelled "group@tau", synthesized with that clip; the IK puts
+the feet on the bent footprints). A jump step flies: it may cross a gap, and only a jump
+step may.
 """
 
 from __future__ import annotations
@@ -18,6 +22,11 @@ import numpy as np
 from .analysis import ClipAnalysis, Footprint
 from .errors import FootstepError
 from .library import Library
+from .settings import Settings
+
+#: 1/m: bent steps are added at curvatures at most this far apart, from the end of a
+#: turning group's own range out to the bend limit.
+BEND_SPACING = 0.2
 
 
 class StepError(FootstepError):
@@ -60,9 +69,10 @@ def relative(a: Footprint, b: Footprint, forward: np.ndarray) -> tuple[float, fl
     return float(d @ f), float(d @ left), float(turn)
 
 
-def clip_steps(a: ClipAnalysis, window: tuple[float, float] | None = None) -> list[tuple]:
+def clip_steps(a: ClipAnalysis, window: tuple[float, float] | None = None, early: float = 0.0) -> list[tuple]:
     """The steps of one clip: consecutive footprints of alternating feet (inside
-    ``window`` seconds, default the best cycle widened to hold two steps each foot)."""
+    ``window`` seconds, default the best cycle widened to hold two steps each foot,
+    starting ``early`` cycles before it)."""
     prints = a.footprints()
     fwd = a.motion.rest_forward
     if window is None:
@@ -71,7 +81,8 @@ def clip_steps(a: ClipAnalysis, window: tuple[float, float] | None = None) -> li
     for p, q in zip(prints[:-1], prints[1:]):
         if p.foot == q.foot or p.strike_part is None and p.time <= 0:
             continue
-        if window[0] - 1e-6 <= p.time and q.time <= window[1] + 0.6 * (a.cycle or 0) + 1e-6:
+        if window[0] - early * (a.cycle or 0) - 1e-6 <= p.time \
+                and q.time <= window[1] + 0.6 * (a.cycle or 0) + 1e-6:
             out.append((p.foot, *relative(p, q, fwd), q.time - p.time))
     return out
 
@@ -86,22 +97,121 @@ def _mean_by_foot(steps):
     return out
 
 
+def _sinc_half(x):
+    """sin(x/2) / (x/2), 1 at 0: a chord over its arc for an arc turning by x radians."""
+    return np.sinc(x / (2 * np.pi))
+
+
+def bent_step(m: dict, foot: int, curvature: float | None = None, by: float = 0.0) -> np.ndarray:
+    """The step of a clip from ``foot`` (its two feet's mean steps ``m``: foot ->
+    (fwd, left, turn, duration)) bent along an arc of ``curvature`` (1/m, + left; None:
+    the clip's own curvature ``by`` more).
+
+    The two feet straddle the clip's centre line: each foot's heading is the centre
+    line's turned by a toe-out (equal and opposite for the two feet, from the difference
+    of their steps' turns), and each footprint lies the same distance either side of it.
+    The centre line between the step's footprints is an arc (straight for a straight
+    clip) of the clip's own heading change per step (the mean of its feet's turns); the
+    bent step keeps that arc's length, the footprints' offsets from it, the toe-out and
+    the duration, and turns the arc to ``curvature``. At the clip's own curvature the step
+    is unchanged. Returns (fwd, left, turn, duration)."""
+    f, l, t, dur = (float(x) for x in m[foot])
+    theta = 0.5 * (float(m[0][2]) + float(m[1][2]))  # the centre line's turn per step
+    toe = 0.25 * (float(m[1][2]) - float(m[0][2]))  # the left foot's toe-out (the right's: -toe)
+    da, db = (toe, -toe) if foot == 0 else (-toe, toe)
+    # the step in the centre line's frame at the first footprint
+    c, s = np.cos(da), np.sin(da)
+    qx, qy = c * f - s * l, s * f + c * l
+    # the footprints sit at -h and +h from the centre line (the chord turns by theta / 2)
+    h = 0.5 * (qy - qx * np.tan(0.5 * theta))
+    chord = np.hypot(qx + h * np.sin(theta), qy - h * np.cos(theta) - h)
+    arc = chord / _sinc_half(theta)
+    phi = theta + by * arc if curvature is None else curvature * arc
+    # the centre line's end along the bent arc, the second footprint +h from it
+    ex, ey = arc * _sinc_half(phi) * np.cos(0.5 * phi), arc * _sinc_half(phi) * np.sin(0.5 * phi)
+    bx, by_ = ex - h * np.sin(phi), ey + h * np.cos(phi) + h
+    c, s = np.cos(-da), np.sin(-da)
+    return np.array([c * bx - s * by_, s * bx + c * by_, phi + db - da, dur])
+
+
+def bend_chain(position: np.ndarray, heading: np.ndarray, bends: np.ndarray | None, forward: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Footprints (N, 3) with headings (N,) (rad from ``forward``, feet alternating)
+    re-chained with each step j (footprint j to j + 1) bent ``bends[j]`` (1/m) more than
+    it turns (``bent_step``, the toe-out from it and its neighbour step): what a clip
+    bent as the planner bent it leaves. The first footprint stays; heights are kept
+    relative. Unchanged (the same arrays) without bends (None or all 0)."""
+    pos, head = np.asarray(position, float), np.asarray(heading, float)
+    n = len(pos)
+    if bends is None or n < 3 or not np.any(bends):
+        return pos, head
+    bends = np.asarray(bends, float)
+    fa = np.arctan2(forward[1], forward[0])
+    ang = head + fa
+    d = pos[1:, :2] - pos[:-1, :2]
+    c, s = np.cos(ang[:-1]), np.sin(ang[:-1])
+    rel = np.c_[c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], np.diff(head), np.zeros(n - 1)]
+    out_p, out_h = pos.copy(), head.copy()
+    for j in range(n - 1):
+        nb = j + 1 if j + 1 < n - 1 else j - 1  # the other foot's step
+        step = rel[j]
+        if bends[j] != 0.0:
+            step = bent_step({0: rel[j], 1: rel[nb]}, 0, by=bends[j])
+        a = out_h[j] + fa
+        f_, l_ = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
+        out_p[j + 1, :2] = out_p[j, :2] + step[0] * f_ + step[1] * l_
+        out_p[j + 1, 2] = out_p[j, 2] + pos[j + 1, 2] - pos[j, 2]
+        out_h[j + 1] = out_h[j] + step[2]
+    return out_p, out_h
+
+
+def bend_curvatures(lo: float, hi: float, limit: float, reach: tuple[float, float] | None = None
+                    ) -> list[float]:
+    """Curvatures (1/m) of the bent steps of a turning group whose clips turn from ``lo``
+    to ``hi``: from beyond each end of that range out to +-``limit``, at most
+    BEND_SPACING apart; none on a side that ``reach`` (the curvatures the whole library's
+    clips turn, default the group's own) already covers to ``limit``."""
+    rlo, rhi = reach or (lo, hi)
+    out = []
+    for end, far, covered in ((hi, limit, rhi), (lo, -limit, rlo)):
+        span = far - end
+        if (far - covered) * np.sign(far) >= 1e-3 and span * np.sign(far) >= 1e-3:  # labels: tau to 1e-3
+            n = int(np.ceil(abs(span) / BEND_SPACING - 1e-6))
+            out += [end + span * i / n for i in range(1, n + 1)]
+    return out
+
+
 def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_interval: int = 3,
-                  jump_tolerance: float = 0.1) -> StepSet:
+                  jump_tolerance: float = 0.1,
+                  bend_curvature: float = Settings.bend_curvature) -> StepSet:
     """Steps of every cyclic clip of the library's turning groups, of blends between
-    neighbouring clips of a group, and of the jumps (take-off to landing, within
-    ``jump_tolerance`` of their length and 10 degrees of their direction: the
-    refinement stage bends the clip that far)."""
+    neighbouring clips of a group, of its outermost clips bent beyond the group's range
+    out to +-``bend_curvature`` on a side where no clip of the library turns that
+    tightly (``bent_step``, ``bend_curvatures``; 0: none: a library that turns keeps its
+    own turns, and where it turns only walking, runs do not bend), and of the jumps
+    (take-off to landing, within ``jump_tolerance`` of their length and 10 degrees of
+    their direction: the refinement stage bends the clip that far)."""
     by = {a.name: a for a in analyses}
     rows = []  # foot, fwd, left, turn, duration, gait, jump, label
+    groups = []
     for gait, group in library.turn_groups.items():
-        per_clip = []
-        for c in group.clips:
-            if c.clip not in by:
-                continue
-            m = _mean_by_foot(clip_steps(by[c.clip]))
-            if len(m) == 2:
-                per_clip.append((c.clip, c.tau, m))
+        # a group none of whose clips has steps of both feet in its best cycle (a cycle
+        # that starts a hair after a stance loses that step: the mannequin's walk) takes
+        # its clips' steps from a quarter cycle earlier
+        for early in (0.0, 0.25):
+            per_clip = []
+            for c in group.clips:
+                if c.clip not in by:
+                    continue
+                m = _mean_by_foot(clip_steps(by[c.clip], early=early))
+                if len(m) == 2:
+                    per_clip.append((c.clip, c.tau, m))
+            if per_clip:
+                groups.append((gait, group, per_clip))
+                break
+    taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]
+    reach = (min(taus), max(taus)) if taus else (0.0, 0.0)
+    for gait, group, per_clip in groups:
         for name, tau, m in per_clip:
             for foot, v in m.items():
                 rows.append((foot, *v, gait, False, name))
@@ -110,6 +220,11 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
                 for foot in (0, 1):
                     v = (1 - w) * ma[foot] + w * mb[foot]
                     rows.append((foot, *v, gait, False, f"{group.name}@{(1 - w) * ta + w * tb:+.3f}"))
+        if bend_curvature > 0:
+            for k in bend_curvatures(per_clip[0][1], per_clip[-1][1], bend_curvature, reach):
+                _, _, m = per_clip[-1] if k > per_clip[-1][1] else per_clip[0]
+                for foot in (0, 1):
+                    rows.append((foot, *bent_step(m, foot, k), gait, False, f"{group.name}@{k:+.3f}"))
     for sp in library.specials:
         a = by.get(sp.clip)
         if sp.kind != "jump" or a is None or not a.jump_flights:
