@@ -75,13 +75,14 @@ def _scene_options(character_required: bool) -> argparse.ArgumentParser:
 
 def _add_import_clips(sub) -> None:
     p = sub.add_parser(
-        "import-clips", help="import BVH files as Actions of one armature and save a .blend",
-        description="Import several BVH files of one skeleton as one armature carrying one "
-                    "Action per file, in metres, Z up, keyed at the scene's frame rate whatever "
-                    "the files' rate. With --blend/--into, the clips are added to an existing "
+        "import-clips", help="import BVH or FBX files as Actions of one armature and save a .blend",
+        description="Import several BVH or FBX files (Mixamo downloads too; a mix is fine) of one "
+                    "skeleton as one armature carrying one Action per file, in metres, Z up, with "
+                    "an identity object transform, keyed at the scene's frame rate whatever the "
+                    "files' rate. With --blend/--into, the clips are added to an existing "
                     "armature; nothing of the file's is replaced.")
     p.set_defaults(run=_import_clips)
-    p.add_argument("clips", nargs="+", metavar="CLIP.bvh")
+    p.add_argument("clips", nargs="+", metavar="CLIP.bvh|CLIP.fbx")
     p.add_argument("--out", required=True, metavar="LIB.blend", help="file to save")
     p.add_argument("--blend", metavar="IN.blend", help="start from this file (default: the "
                    "file Blender has open, or an empty scene)")
@@ -89,7 +90,8 @@ def _add_import_clips(sub) -> None:
     p.add_argument("--name", help="name of a new armature (default: the first file's name)")
     p.add_argument("--fps", type=float, help="scene frame rate to key at (default: the "
                    "scene's; an empty scene takes the first file's rate)")
-    p.add_argument("--scale", type=float, help="metres per BVH unit (default: guessed)")
+    p.add_argument("--scale", type=float, help="metres per BVH unit (default: guessed; FBX "
+                   "files carry their unit)")
 
 
 def _add_analyze(sub) -> None:
@@ -249,21 +251,22 @@ def _goal_and_start(scene, goal: str | None, heading_deg, start: str | None):
 
 
 def _characters_to_analyze(args) -> tuple[list, bool]:
-    """The armatures ``analyze`` works on, and whether they came from BVH files: one per
-    BVH file (imported into an empty scene), or those of a .blend (or the open file)."""
-    from .clips import import_bvh_clips
+    """The armatures ``analyze`` works on, and whether they came from clip files: one per
+    BVH or FBX file (imported into an empty scene), or those of a .blend (or the open
+    file)."""
+    from .clips import CLIP_EXTENSIONS, clip_fps, import_clips
 
-    bvhs = [p for p in args.inputs if p.lower().endswith(".bvh")]
+    files = [p for p in args.inputs if p.lower().endswith(CLIP_EXTENSIONS)]
     blends = [p for p in args.inputs if p.lower().endswith(".blend")]
-    other = [p for p in args.inputs if p not in bvhs and p not in blends]
+    other = [p for p in args.inputs if p not in files and p not in blends]
     if other:
-        raise CliError(f"{other[0]}: neither a .bvh nor a .blend file")
-    if bvhs and blends or len(blends) > 1:
-        raise CliError("give BVH files, or one .blend, not both")
-    if bvhs:
-        empty_scene(args.fps or _bvh_fps(bvhs[0]))
+        raise CliError(f"{other[0]}: neither a .bvh, an .fbx nor a .blend file")
+    if files and blends or len(blends) > 1:
+        raise CliError("give BVH or FBX files, or one .blend, not both")
+    if files:
+        empty_scene(args.fps or clip_fps(files[0]))
         # one armature per file: files of different skeletons are fine
-        return [import_bvh_clips([path])[0] for path in bvhs], True
+        return [import_clips([path])[0] for path in files], True
     if blends:
         open_blend(blends[0])
     if args.fps:
@@ -334,16 +337,16 @@ def _read_jobs(path: str) -> list[dict]:
 # -- the verbs ----------------------------------------------------------------------
 
 def _import_clips(args) -> int:
-    from .clips import import_bvh_clips
+    from .clips import clip_fps, import_clips
 
     if args.blend:
         open_blend(args.blend)
     elif bpy.data.filepath == "" and not args.into:
-        empty_scene(args.fps or _bvh_fps(args.clips[0]))
+        empty_scene(args.fps or clip_fps(args.clips[0]))
     if args.fps and args.blend:
         set_scene_fps(bpy.context.scene, args.fps)
     target = find_armature(args.into) if args.into else None
-    ob, actions = import_bvh_clips(args.clips, target=target, name=args.name, scale=args.scale)
+    ob, actions = import_clips(args.clips, target=target, name=args.name, scale=args.scale)
     if not ob.animation_data:
         ob.animation_data_create()
     if ob.animation_data.action is None and actions:

@@ -31,14 +31,15 @@ class _OnCharacter:
 
 
 class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
-    """Import BVH files as clips (one Action each) of the character, or of a new armature"""
+    """Import BVH or FBX files (Mixamo too) as clips (one Action each) of the character, or
+    of a new armature in metres, Z up"""
 
     bl_idname = "footstep.import_clips"
-    bl_label = "Import BVH Clips"
+    bl_label = "Import Clips (BVH, FBX)"
     bl_options = {"REGISTER", "UNDO"}
 
     filename_ext = ".bvh"
-    filter_glob: StringProperty(default="*.bvh", options={"HIDDEN"})
+    filter_glob: StringProperty(default="*.bvh;*.fbx", options={"HIDDEN"})
     files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
     directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
     target: EnumProperty(name="Into", items=[
@@ -47,12 +48,12 @@ class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
 
     def execute(self, context):
         from .character import analyze_and_propose
-        from .clips import import_bvh_clips
+        from .clips import import_clips
 
         paths = [os.path.join(self.directory, f.name) for f in self.files if f.name] or [self.filepath]
         target = character(context) if self.target == "CHARACTER" else None
         try:
-            ob, actions = import_bvh_clips(paths, target=target)
+            ob, actions = import_clips(paths, target=target)
             if context.scene.footstep.character is None:
                 context.scene.footstep.character = ob
             result = analyze_and_propose(ob, _settings(context))
