@@ -42,3 +42,17 @@ def test_polyline_and_crosses():
     assert geo.polyline_segments(np.zeros((1, 3))).shape == (0, 3)
     c = geo.crosses(np.array([[1.0, 1.0, 0.0]]), size=0.1)
     assert c.shape == (4, 3) and np.isclose(np.linalg.norm(c[0] - c[1]), 0.2)
+
+
+def test_the_facing_arrow_points_along_minus_y_turned_by_the_z_rotation():
+    from footstep_planner.core.overlay import facing_arrow
+
+    for z, want in ((0.0, (0, -1)), (np.pi / 2, (1, 0)), (np.pi, (0, 1)), (-np.pi / 2, (-1, 0))):
+        seg = facing_arrow([1.0, 2.0, 0.5], z, length=0.6)
+        assert seg.shape == (6, 3)
+        shaft = seg[1] - seg[0]
+        np.testing.assert_allclose(shaft[:2] / 0.6, want, atol=1e-12)
+        assert np.allclose(seg[:, 2], seg[0, 2]) and seg[0, 2] > 0.5  # flat, just above the ground
+        # the head's two strokes start at the tip and lean back either side of the shaft
+        assert np.allclose(seg[2], seg[1]) and np.allclose(seg[4], seg[1])
+        assert (seg[3] - seg[1]) @ shaft < 0 and (seg[5] - seg[1]) @ shaft < 0

@@ -204,3 +204,18 @@ def test_the_goal_empty_faces_the_way_to_arrive(fp, turn):
         assert math.degrees(math.acos(np.clip(got @ want, -1, 1))) <= math.degrees(
             setup.planner.settings.goal_heading_tolerance) + 1e-6
     assert planning.goal_of(scene, None)[1] is None  # the 3D cursor has no heading
+
+
+def test_the_overlay_draws_the_way_start_and_goal_face(fp):
+    """The overlay's arrows for Start and Goal point along each empty's -Y axis turned by
+    its rotation: the headings the path starts and arrives with."""
+    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("obstacles")
+    overlay = import_module(fp.__name__ + ".blender.overlay")
+    fs = scene.footstep
+    fs.start, fs.goal = scene.objects["Start"], scene.objects["Goal"]
+    seg = overlay._facing_arrows(scene, fs)
+    assert seg.shape == (12, 3)
+    for ob, arrow in zip((fs.start, fs.goal), (seg[:6], seg[6:])):
+        shaft = arrow[1] - arrow[0]
+        want = np.array(ob.matrix_world.to_3x3().col[1])[:2] * -1  # its -Y axis
+        np.testing.assert_allclose(shaft[:2] / np.linalg.norm(shaft[:2]), want / np.linalg.norm(want), atol=1e-6)

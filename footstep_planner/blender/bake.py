@@ -1,11 +1,17 @@
 """The result baked into the character: one slotted Action per bake, in an NLA track the
-planner owns, and the quality of what was baked, measured on the baked action itself.
+planner owns, and the scene read back as Blender plays it.
 
 What the planner owns is marked: its actions carry the custom property ``OWNED_PROP``
 (the character's name) and its NLA tracks are named ``TRACK_PREFIX`` + the plan's name,
 holding only such actions; its timeline markers start with ``MARKER_PREFIX``. A re-bake
 removes those and nothing else: the user's actions, tracks, strips, keyframes and
 markers are never touched.
+
+So that what plays is what was baked: Blender plays a character's active action over
+its NLA stack, so a bake *stashes* the active action the way Blender does (a muted NLA
+track ``[Action Stash]`` holding it, the active slot cleared) and records it on its own
+action; ``clear`` gives it back as it was. The scene's frame range grows to cover the
+bake (never shrinks), and ``clear`` puts it back when it is still as the bake left it.
 """
 
 from __future__ import annotations
@@ -16,7 +22,8 @@ from scipy.spatial.transform import Rotation
 
 from ..core.errors import FootstepError
 from ..core.ik import IKResult, body_frames
-from ..core.rig import Rig, forward_kinematics
+from ..core.quat import continuous
+from ..core.rig import Rig
 from .scene import scene_fps
 
 OWNED_PROP = "footstep_bake"
@@ -28,6 +35,14 @@ REST_PROP = "footstep_rest_matrix"
 BODY_PROP = "footstep_body_on"
 TRACK_PREFIX = "Footstep: "
 MARKER_PREFIX = "FP "
+#: The user's active action the bake stashed: its name, its slot's identifier, the name
+#: of the stash track the bake made.
+STASH_PROP = "footstep_stashed_action"
+STASH_SLOT_PROP = "footstep_stashed_slot"
+STASH_TRACK_PROP = "footstep_stash_track"
+#: The scene's frame range before the bake grew it, and the range it grew it to.
+RANGE_PROP = "footstep_frame_range"
+STASH_TRACK = "[Action Stash]"
 
 
 class BakeError(FootstepError):
@@ -66,6 +81,10 @@ def clear(ob, scene=None) -> int:
     tracks = owned_tracks(ob)
     acts = {st.action for tr in tracks for st in tr.strips}
     rest = next((a.get(REST_PROP) for a in acts if a.get(REST_PROP) is not None), None)
+    for act in acts:
+        _unstash(ob, act)
+        if scene is not None:
+            _give_back_range(scene, act)
     for tr in tracks:
         ob.animation_data.nla_tracks.remove(tr)
     if rest is not None and len(rest) == 16:  # the object's own transform, as it was
@@ -82,6 +101,65 @@ def clear(ob, scene=None) -> int:
     return len(tracks)
 
 
+def _stash_active(ob, act) -> None:
+    """Stash ``ob``'s active action (not one of the planner's) as Blender does, in a muted
+    NLA track of its own at the bottom of the stack, and clear the active action so the
+    baked track plays; ``act`` (the bake's action) records what to give back."""
+    ad = ob.animation_data
+    user = ad.action if ad is not None else None
+    if user is None or user.get(OWNED_PROP) is not None:
+        return
+    slot = ad.action_slot
+    track = ad.nla_tracks.new()  # (on top of the stack: muted, it plays nowhere)
+    track.name = STASH_TRACK
+    start = int(np.floor(user.frame_range[0]))
+    strip = track.strips.new(user.name, start, user)
+    if slot is not None:
+        strip.action_slot = slot
+    track.mute = True
+    act[STASH_PROP] = user.name
+    act[STASH_SLOT_PROP] = slot.identifier if slot is not None else ""
+    act[STASH_TRACK_PROP] = track.name
+    bpy.context.view_layer.update()  # (clearing the action of a never-evaluated armature crashes)
+    ad.action = None
+
+
+def _unstash(ob, act) -> None:
+    """Give back the active action a bake stashed (unless the user has set another since),
+    and remove the stash track the bake made."""
+    name = act.get(STASH_PROP)
+    ad = ob.animation_data
+    if not name or ad is None:
+        return
+    user = bpy.data.actions.get(name)
+    track = ad.nla_tracks.get(act.get(STASH_TRACK_PROP, ""))
+    if track is not None and len(track.strips) == 1 and track.strips[0].action == user:
+        ad.nla_tracks.remove(track)
+    if user is not None and ad.action is None:
+        ad.action = user
+        slot = user.slots.get(act.get(STASH_SLOT_PROP, "")) if act.get(STASH_SLOT_PROP) else None
+        if slot is not None:
+            ad.action_slot = slot
+
+
+def _grow_range(scene, act, first: int, last: int) -> None:
+    """Grow the scene's frame range to cover frames ``first`` to ``last`` (never shrink it);
+    ``act`` records the range before and after."""
+    before = (scene.frame_start, scene.frame_end)
+    after = (min(before[0], first), max(before[1], last))
+    if after != before:
+        scene.frame_start, scene.frame_end = after
+        act[RANGE_PROP] = [*before, *after]
+
+
+def _give_back_range(scene, act) -> None:
+    """The scene's frame range as it was before the bake grew it, if it is still as the
+    bake left it."""
+    rng = act.get(RANGE_PROP)
+    if rng is not None and len(rng) == 4 and (scene.frame_start, scene.frame_end) == (int(rng[2]), int(rng[3])):
+        scene.frame_start, scene.frame_end = int(rng[0]), int(rng[1])
+
+
 def _euler(q_xyzw: np.ndarray, mode: str) -> np.ndarray:
     """(F, 3) Euler angles in Blender's rotation_mode order, unwrapped over frames."""
     # Blender's "XYZ" applies X first: extrinsic x-y-z, which scipy spells "xyz"
@@ -93,10 +171,8 @@ def _euler(q_xyzw: np.ndarray, mode: str) -> np.ndarray:
 
 
 def _wxyz(q_xyzw: np.ndarray) -> np.ndarray:
-    q = np.roll(q_xyzw, 1, axis=-1)
-    flip = np.cumprod(np.where(np.sum(q[1:] * q[:-1], axis=-1) < 0, -1.0, 1.0), axis=0)
-    q[1:] *= flip[..., None]
-    return q
+    """(F, 4) Blender's (w, x, y, z) of scipy quaternions, without sign flips between frames."""
+    return continuous(np.roll(q_xyzw, 1, axis=-1))
 
 
 BODY_ON = ("OBJECT", "ROOT")
@@ -119,13 +195,16 @@ def root_bone(ob, rig: Rig) -> int:
 
 
 def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start: int,
-         footsteps=None, planted=None, markers: bool = False, body_on: str = "OBJECT"):
+         footsteps=None, planted=None, markers: bool = False, body_on: str = "OBJECT",
+         frame_range: bool = True):
     """Key ``res`` into a new Action on the armature ``ob`` in a new NLA track of the
     planner's, starting at ``frame_start``: the body on the object's transform
     (``body_on="OBJECT"``) or on the rig's root bone (``"ROOT"``, the object stays put),
     every bone's rotation, and the hips' location. The planner's earlier bake of this
-    character is replaced. ``planted`` holds (strike, stance, liftoff) seconds per
-    footprint of ``footsteps``, for the optional markers."""
+    character is replaced. The character's active action is stashed (see the module's
+    doc) and, with ``frame_range``, the scene's frame range grows to cover the bake.
+    ``planted`` holds (strike, stance, liftoff) seconds per footprint of ``footsteps``,
+    for the optional markers."""
     _check(ob, rig, body_on)
     basis = _root_carries_body(ob, rig, res, spin) if body_on == "ROOT" else res.basis
     rest = _own_rest(ob)  # (read before clearing frees the old action, and its property with it)
@@ -135,6 +214,9 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
         _key_body(keys, ob, res.body_pos, spin + res.body_heading)
     _key_bones(keys, ob, basis)
     track = _add_track(ob, name, act, slot, frame_start)
+    _stash_active(ob, act)
+    if frame_range:
+        _grow_range(scene, act, int(frame_start), int(frame_start) + res.frames - 1)
     if markers and footsteps is not None and planted is not None:
         _add_markers(scene, footsteps, planted, frame_start)
     return act, track
@@ -256,61 +338,49 @@ def _add_markers(scene, footsteps, planted, frame_start: int) -> None:
         scene.timeline_markers.new(f"{MARKER_PREFIX}{i} {'LR'[f.foot]}", frame=int(round(frame_start + st * rate)))
 
 
-def evaluate(ob, rig: Rig, act, frame_start: int, frames: int):
-    """The baked action evaluated as Blender plays it: (world bone matrices (F, B, 4, 4),
-    body positions (F, 3), body yaw (F,), bone rotations (F, B, 4) (x, y, z, w)). The
-    action's curves are evaluated per frame onto a copy of the pose state, which is
-    restored; the object's own transform comes from the action's object curves."""
-    pbones = ob.pose.bones
-    B = len(pbones)
-    saved = np.empty(B * 16, dtype=np.float32)
-    pbones.foreach_get("matrix_basis", saved)
-    basis = np.empty((frames, B, 4, 4))
+def evaluate_played(scene, ob, rig: Rig, frame_start: int, frames: int, root: int | None = None):
+    """``ob`` as Blender plays the scene, read through the depsgraph at ``frames`` frames
+    from ``frame_start`` (``scene.frame_set``: every NLA track, the active action, the
+    constraints, as they are): (world bone matrices (F, B, 4, 4), body positions (F, 3),
+    body yaw (F,) unwrapped, bone rotations relative to rest (F, B, 4) scipy x, y, z, w).
+    The body is the object's frame, or with ``root`` that bone's frame with its rest
+    put back. The scene's current frame is restored."""
+    B = len(rig.names)
+    pose = np.empty((frames, B, 4, 4))
+    obm = np.empty((frames, 4, 4))
     buf = np.empty(B * 16, dtype=np.float32)
+    saved = scene.frame_current, scene.frame_subframe
+    depsgraph = bpy.context.evaluated_depsgraph_get()
     try:
-        for i in range(frames):
-            ob.pose.apply_pose_from_action(act, evaluation_time=float(frame_start + i))
-            pbones.foreach_get("matrix_basis", buf)
-            basis[i] = buf.reshape(B, 4, 4).transpose(0, 2, 1)
+        for i in range(frames):  # (one depsgraph evaluation per frame: what playing does)
+            scene.frame_set(int(frame_start) + i)
+            ev = ob.evaluated_get(depsgraph)
+            ev.pose.bones.foreach_get("matrix", buf)
+            pose[i] = buf.reshape(B, 4, 4).transpose(0, 2, 1)
+            obm[i] = np.array(ev.matrix_world)
     finally:
-        pbones.foreach_set("matrix_basis", saved)
-    slot = act.slots[0]
-    cbag = act.layers[0].strips[0].channelbag(slot)
-    fr = frame_start + np.arange(frames, dtype=np.float64)
-
-    def curve(path, i):
-        fc = cbag.fcurves.find(path, index=i)
-        return np.array([fc.evaluate(f) for f in fr])
-
-    pose = forward_kinematics(rig, basis)
-    if act.get(BODY_PROP) == "ROOT":
-        # the object stays put; the body is the root bone's frame (its rest put back)
-        r = root_bone(ob, rig)
-        obm = np.tile(own_matrix_world(ob), (frames, 1, 1))
-        body = obm @ pose[:, r] @ np.linalg.inv(rig.rest[r])
-        world = obm[:, None] @ pose
-        loc = body[:, :3, 3]
-        yaw = np.arctan2(body[:, 1, 0], body[:, 0, 0])
-        q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(frames, B, 4)
-        return world, loc, np.unwrap(yaw), q
-    loc = np.stack([curve("location", i) for i in range(3)], axis=1)
-    mode = ob.rotation_mode
-    if mode == "QUATERNION":
-        qw = np.stack([curve("rotation_quaternion", i) for i in range(4)], axis=1)
-        rot = Rotation.from_quat(np.roll(qw, -1, axis=1))
-    elif mode == "AXIS_ANGLE":
-        aa = np.stack([curve("rotation_axis_angle", i) for i in range(4)], axis=1)
-        rot = Rotation.from_rotvec(aa[:, 1:] * aa[:, :1])
-    else:
-        e = np.stack([curve("rotation_euler", i) for i in range(3)], axis=1)
-        rot = Rotation.from_euler(mode.lower(), e[:, ["XYZ".index(a) for a in mode]])
-    yaw = rot.as_euler("xyz")[:, 2]
-    obm = np.tile(np.eye(4), (frames, 1, 1))
-    obm[:, :3, :3] = rot.as_matrix()
-    obm[:, :3, 3] = loc
+        scene.frame_set(saved[0], subframe=saved[1])
     world = obm[:, None] @ pose
-    q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(frames, B, 4)
-    return world, loc, np.unwrap(yaw), q
+    body = obm if root is None else obm @ pose[:, root] @ np.linalg.inv(rig.rest[root])
+    yaw = np.unwrap(np.arctan2(body[:, 1, 0], body[:, 0, 0]))
+    return world, body[:, :3, 3].copy(), yaw, local_rotations(rig, pose)
 
 
-__all__ = ["bake", "clear", "evaluate", "own_matrix_world", "owned_tracks", "root_bone", "BakeError"]
+def local_rotations(rig: Rig, pose: np.ndarray) -> np.ndarray:
+    """(F, B, 4) each bone's rotation relative to its rest pose (scipy x, y, z, w) from
+    armature-space pose matrices (F, B, 4, 4): the rotation part of
+    rest_b^-1 rest_parent pose_parent^-1 pose_b (rest_b^-1 pose_b for a root bone), what
+    the bone's own keys would be with default inheritance."""
+    F, B = pose.shape[:2]
+    parents = np.asarray(rig.parents)
+    inv_rest = np.linalg.inv(rig.rest)
+    has = parents >= 0
+    rel = inv_rest.copy()
+    rel[has] = inv_rest[has] @ rig.rest[parents[has]]
+    parent_inv = np.tile(np.eye(4), (F, B, 1, 1))
+    parent_inv[:, has] = np.linalg.inv(pose[:, parents[has]])
+    local = rel[None] @ parent_inv @ pose
+    return Rotation.from_matrix(local[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
+
+
+__all__ = ["bake", "clear", "evaluate_played", "local_rotations", "own_matrix_world", "owned_tracks", "root_bone", "BakeError"]

@@ -143,6 +143,8 @@ def _add_bake(sub) -> None:
     p.add_argument("--markers", action="store_true", help="add a timeline marker at each footstep")
     p.add_argument("--body-on", choices=("object", "root"), default="object",
                    help="key the body on the armature object (default) or on the rig's root bone")
+    p.add_argument("--keep-frame-range", action="store_true",
+                   help="leave the scene's frame range as it is (by default it grows to cover the bake)")
     p.add_argument("--job", metavar="JOBS.json", help="several jobs, run one after another")
     p.add_argument("--out", metavar="OUT.blend", help="save the baked scene here")
     p.add_argument("--report", metavar="REPORT.json", help="write the report here (with --job: "
@@ -445,7 +447,8 @@ def _bake(args) -> int:
             doc = planning.run(scene, ob, goal, heading, start, settings.replace(**job.get("settings", {})),
                                _names(args.traversable),
                                _names(args.obstacles), name=job.get("name"), frame_start=job.get("frame_start"),
-                               markers=args.markers, body_on=str(job.get("body_on") or args.body_on).upper())
+                               markers=args.markers, body_on=str(job.get("body_on") or args.body_on).upper(),
+                               frame_range=not args.keep_frame_range)
         except EXPECTED as ex:
             failed += 1
             print(f"footstep: error: job {n + 1} ({job.get('character')} to "

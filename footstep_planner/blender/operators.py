@@ -203,7 +203,8 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
         fs = context.scene.footstep
         goal, heading = _goal(context)
         return planning.run_steps(context.scene, character(context), goal, heading, fs.start,
-                                  _settings(context), markers=self.markers, body_on=fs.body_on)
+                                  _settings(context), markers=self.markers, body_on=fs.body_on,
+                                  frame_range=fs.grow_frame_range)
 
     def _finish(self, context, doc):
         import json
@@ -217,10 +218,10 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
                           f"{q['goal']['distance_m'] * 100:.1f} cm; synthesis {st['synthesis_ms']:.0f} ms, "
                           f"IK {st['ik_ms']:.0f} ms, bake {st['bake_ms']:.0f} ms")
         self.report({"INFO"}, fs.last_report)
-        ad = character(context).animation_data
-        if ad is not None and ad.action is not None:
-            self.report({"WARNING"}, f"the character's active action {ad.action.name!r} plays over the baked "
-                        "track: clear it in the Action Editor to see the bake")
+        stashed = doc.get("stashed_action")
+        if stashed:
+            self.report({"INFO"}, f"the character's active action {stashed!r} is stashed in a muted NLA track "
+                        "so the bake plays; Clear gives it back")
 
     def execute(self, context):
         try:

@@ -1,5 +1,6 @@
 """The viewport overlay for review: the planned footprints coloured by foot and clip, the
-body trajectory, and optionally the footprints the search sampled. The geometry comes from
+body trajectory, optionally the footprints the search sampled, and arrows for the way
+the Start (or the character) and the Goal face. The geometry comes from
 ``core/overlay.py``; this module only keeps the last run's arrays and draws them."""
 
 from __future__ import annotations
@@ -54,8 +55,22 @@ def _draw():
         if len(data[key]):
             sh.uniform_float("color", colour)
             batch_for_shader(sh, "LINES", {"pos": data[key]}).draw(sh)
+    arrows = _facing_arrows(scene, fs)
+    if len(arrows):
+        sh.uniform_float("color", geo.MARKER)
+        batch_for_shader(sh, "LINES", {"pos": arrows}).draw(sh)
     gpu.state.depth_test_set("NONE")
     gpu.state.blend_set("NONE")
+
+
+def _facing_arrows(scene, fs) -> np.ndarray:
+    """Arrows showing the way the Start (else the character) and the Goal face: the
+    heading the path starts and arrives with."""
+    from .planning import facing_rotation
+
+    out = [geo.facing_arrow(np.array(ob.matrix_world.translation), facing_rotation(ob))
+           for ob in (fs.start or fs.character, fs.goal) if ob is not None]
+    return np.concatenate(out).astype(np.float32) if out else np.zeros((0, 3), np.float32)
 
 
 def register():

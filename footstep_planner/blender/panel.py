@@ -47,6 +47,7 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
         row.operator("footstep.build_graph", icon="OUTLINER_DATA_LIGHTPROBE")
         row.operator("footstep.plan", icon="TRACKING_FORWARDS")
         box.prop(fs, "body_on")
+        box.prop(fs, "grow_frame_range")
         row = box.row(align=True)
         row.operator("footstep.bake", icon="REC")
         row.operator("footstep.clear", icon="TRASH")

@@ -87,6 +87,9 @@ def object_geometry(ground, obstacles) -> dict:
 
 
 def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
+    """What a plan needs from the scene: the tagged surfaces, the character's clips
+    analysed, its library and steps, its forward, and the Planner built from them."""
+    settings = settings or Settings()
     depsgraph = bpy.context.evaluated_depsgraph_get()
     ground, obst = scene_surfaces(scene, depsgraph, traversable, obstacles)
     clips = analyze_character(ob, settings)
@@ -94,40 +97,42 @@ def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
         why = "; ".join(clips.errors.values()) or "it has no actions"
         raise PlanError(f"character {ob.name!r} has no usable clips ({why})")
     library = library_for(ob, clips)
-    steps = library_steps(library, clips.analyses)
+    steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature)
     forward = world_forward(ob, clips.analyses)
     cache = _CACHES.setdefault(scene.name, FootprintCache())
     cache.update(object_geometry(ground, obst))
     planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses),
-                      settings=settings or Settings(), cache=cache)
+                      settings=settings, cache=cache)
     return PlanSetup(planner, clips.analyses, library, forward, clips.rig)
 
 
-def _heading(vec_xy, forward) -> float:
-    return float(np.arctan2(vec_xy[1], vec_xy[0]) - np.arctan2(forward[1], forward[0]))
-
-
 def character_footprints(ob, s: PlanSetup) -> list[Footstep]:
-    """Where the character's feet are now (the evaluated pose at the current frame),
-    dropped onto the ground."""
-    from .scene import rig_from_armature
+    """Both feet standing where the character stands: under its hips at rest, placed by
+    its object's own transform (not the one a bake of the planner's animates it to, nor
+    the pose its active clip has at the current frame), facing its forward. The same
+    scene gives the same start, so re-baking gives the same footprints."""
+    from .bake import own_matrix_world
 
-    rig = rig_from_armature(ob)
-    ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    m = np.array(ev.matrix_world)
+    m = own_matrix_world(ob)
+    hips = s.rig.rest[s.rig.role_index("hips")][:, 3]
+    return standing_footprints(m @ hips, 0.0, s, f"character {ob.name!r}")
+
+
+def standing_footprints(position, heading: float, s: PlanSetup, what: str, width: float = 0.1) -> list[Footstep]:
+    """Both feet side by side, ``width`` either side of ``position`` (3,), turned
+    ``heading`` (the planner's frame), dropped onto the ground; PlanError naming ``what``
+    when there is no traversable surface under a foot."""
+    ang = heading + np.arctan2(s.forward[1], s.forward[0])
+    left = np.array([-np.sin(ang), np.cos(ang), 0.0])
+    p = np.asarray(position, float)[:3]
     out = []
-    for k, side in enumerate("lr"):
-        foot, toe = rig.foot_chain(side)
-        pb = ev.pose.bones[rig.names[foot]]
-        ankle = m @ np.append(np.array(pb.head), 1.0)
-        ball = m @ np.append(np.array(ev.pose.bones[rig.names[toe]].head if toe is not None else pb.tail), 1.0)
-        mid = 0.5 * (ankle[:3] + ball[:3])
-        hit = s.planner.ground.ray_down(np.array([[mid[0], mid[1], mid[2] + 0.5]]), 3.0)
+    for k, sign in ((0, 1), (1, -1)):
+        q = p + sign * width * left
+        hit = s.planner.ground.ray_down(np.array([[q[0], q[1], q[2] + 0.5]]), 3.0)
         if not hit.hit[0]:
-            raise PlanError(f"character {ob.name!r}: its {'left' if k == 0 else 'right'} foot "
-                            f"({mid[0]:.2f}, {mid[1]:.2f}) is not above a traversable surface")
-        pos = np.array([mid[0], mid[1], hit.z[0]])
-        out.append(Footstep(k, pos, _heading(ball[:2] - ankle[:2], s.forward), 0.0, "start", "walk"))
+            raise PlanError(f"{what} stands at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}), not above a traversable "
+                            "surface: move it onto a traversable mesh, or pick a Start")
+        out.append(Footstep(k, np.array([q[0], q[1], hit.z[0]]), heading, 0.0, "start", "walk"))
     return out
 
 
@@ -152,21 +157,11 @@ def rotation_heading(z_rotation: float, forward) -> float:
     return float(z_rotation) - np.pi / 2 - float(np.arctan2(forward[1], forward[0]))
 
 
-def marker_footprints(marker, s: PlanSetup, width: float = 0.1) -> list[Footstep]:
+def marker_footprints(marker, s: PlanSetup) -> list[Footstep]:
     """Both feet standing at an object (an empty), side by side, facing the way it faces
     (see ``FACING``)."""
-    p = np.array(marker.matrix_world.translation)
-    psi = rotation_heading(facing_rotation(marker), s.forward)
-    ang = psi + np.arctan2(s.forward[1], s.forward[0])
-    left = np.array([-np.sin(ang), np.cos(ang), 0.0])
-    out = []
-    for k, sign in ((0, 1), (1, -1)):
-        q = p + sign * width * left
-        hit = s.planner.ground.ray_down(np.array([[q[0], q[1], q[2] + 0.5]]), 3.0)
-        if not hit.hit[0]:
-            raise PlanError(f"start {marker.name!r} is not above a traversable surface")
-        out.append(Footstep(k, np.array([q[0], q[1], hit.z[0]]), psi, 0.0, "start", "walk"))
-    return out
+    return standing_footprints(np.array(marker.matrix_world.translation),
+                               rotation_heading(facing_rotation(marker), s.forward), s, f"start {marker.name!r}")
 
 
 def goal_of(scene, name: str | None):
@@ -274,13 +269,16 @@ def solve(planned: Planned, settings: Settings) -> Solved:
     return Solved(ik, spin, timer.seconds["pose_blend"], timer.seconds["ik"])
 
 
-def measure(ob, planned: Planned, solved: Solved, act, frame_start: int, goal, goal_heading, fps: float) -> dict:
-    """The quality of the baked action (see ``core.report.measure_bake``), read from
-    Blender's evaluation of it."""
+def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal, goal_heading, fps: float,
+            body_on: str = "OBJECT") -> dict:
+    """The quality of the scene as Blender plays it (``bake.evaluate_played``: the bake
+    with every other track and the active action as they are), measured by
+    ``core.report.measure_bake``."""
     from . import bake as baking
 
     s, syn, frames = planned.setup, planned.synthesis, solved.ik.frames
-    world, body_pos, body_yaw, bone_rot = baking.evaluate(ob, s.rig, act, frame_start, frames)
+    root = baking.root_bone(ob, s.rig) if body_on == "ROOT" else None
+    world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, s.rig, frame_start, frames, root)
     sched = syn.final.schedule
     walk = _walk_motion(s)
     stances = report.planted_stances(sched.feet, syn.planted(), *syn.footprints, fps, frames)
@@ -292,12 +290,12 @@ def measure(ob, planned: Planned, solved: Solved, act, frame_start: int, goal, g
 
 def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
         obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
-        progress=None, body_on: str = "OBJECT") -> dict:
+        progress=None, body_on: str = "OBJECT", frame_range: bool = True) -> dict:
     """Plan, synthesize, IK and bake ``ob`` walking to ``goal``; returns the report
     (plan, stage times in the layout of thesis Table 4.1, quality of the baked result).
     ``progress(fraction, stage)`` is called between stages."""
     steps = run_steps(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
-                      name, frame_start, markers, body_on)
+                      name, frame_start, markers, body_on, frame_range)
     while True:
         try:
             fraction, stage = next(steps)
@@ -309,7 +307,7 @@ def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, tr
 
 def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
               obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
-              body_on: str = "OBJECT"):
+              body_on: str = "OBJECT", frame_range: bool = True):
     """``run`` one stage at a time: a generator yielding (fraction done, next stage) and
     returning the report. Nothing in the scene changes before the last stage (the bake),
     so a caller may stop it at any yield and leave the scene as it was."""
@@ -328,12 +326,17 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     timer = StageTimer()
     with timer("bake"):
         act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
-                                 result.footsteps, syn.planted(), markers, body_on)
+                                 result.footsteps, syn.planted(), markers, body_on, frame_range)
     yield 0.85, "quality"
-    qual = measure(ob, planned, solved, act, frame_start, goal, planned.goal_heading, fps)
+    qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on)
     stages = stage_row(len(result.footsteps), result.seconds, syn, pose_blend=solved.pose_seconds,
                        ik=solved.ik_seconds, bake=timer.seconds["bake"])
-    return report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,
-                              frame_start=frame_start, frames=solved.ik.frames, fps=fps, action=act.name,
-                              track=track.name, stages=stages, quality=qual)
+    doc = report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,
+                             frame_start=frame_start, frames=solved.ik.frames, fps=fps, action=act.name,
+                             track=track.name, stages=stages, quality=qual)
+    doc["stashed_action"] = act.get(baking.STASH_PROP)
+    walk, rig = _walk_motion(planned.setup), planned.setup.rig
+    doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")], walk.heel_local,
+                                     walk.toe_local)
+    return doc
 

@@ -78,6 +78,9 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
     plan_json: StringProperty(name="Plan", description="The last plan (JSON)", options={"HIDDEN"})
     settings: PointerProperty(type=FOOTSTEP_PG_settings)
     show_settings: BoolProperty(name="Settings", default=False)
+    grow_frame_range: BoolProperty(name="Grow frame range", default=True,
+                                   description="Make the scene's frame range cover the bake (it never "
+                                               "shrinks; Clear puts it back)")
     body_on: EnumProperty(name="Body on", default="OBJECT", items=[
         ("OBJECT", "Object", "Key the body's motion on the armature object"),
         ("ROOT", "Root bone", "Key the body's motion on the rig's root bone; the object stays put")])

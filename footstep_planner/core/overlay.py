@@ -20,6 +20,7 @@ RIGHT = (0.95, 0.2, 0.15)
 JUMP = (1.0, 0.8, 0.1)
 BODY = (1.0, 0.5, 0.0, 1.0)
 SAMPLED = (0.6, 0.6, 0.6, 0.6)
+MARKER = (0.2, 0.85, 0.3, 1.0)  # the Start and Goal facing arrows
 LIFT = 0.01  # m above the surface, so the overlay is not hidden in the floor
 
 
@@ -83,3 +84,15 @@ def crosses(points, size: float = 0.04) -> np.ndarray:
     d = np.array([[size, 0, 0], [-size, 0, 0], [0, size, 0], [0, -size, 0]])
     out = p[:, None, :] + d[None] + [0.0, 0.0, LIFT]
     return out.reshape(-1, 3)
+
+
+def facing_arrow(position, z_rotation: float, length: float = 0.6, head: float = 0.15) -> np.ndarray:
+    """(6, 3) segment end points of an arrow on the ground at ``position`` (3,) pointing
+    the way something turned ``z_rotation`` (rad) about Z from facing -Y faces (the
+    convention of the Start and Goal empties and of Blender's characters)."""
+    p = np.asarray(position, float) + [0.0, 0.0, LIFT]
+    d = np.array([np.sin(z_rotation), -np.cos(z_rotation), 0.0])  # -Y turned by z_rotation
+    side = np.array([-d[1], d[0], 0.0])
+    tip = p + length * d
+    back = tip - head * d
+    return np.array([p, tip, tip, back + 0.6 * head * side, tip, back - 0.6 * head * side])

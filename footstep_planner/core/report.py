@@ -87,6 +87,14 @@ def measure_bake(world: np.ndarray, bone_rot: np.ndarray, body_pos: np.ndarray, 
     return qual
 
 
+def feet_points(bones: Sequence[str], heel_local: np.ndarray, toe_local: np.ndarray) -> dict:
+    """What ``measure_bake`` measures on each foot, for anyone to measure it again: the left
+    and right foot bones' names and the heel and toe points (homogeneous, in each foot
+    bone's own space, metres)."""
+    return {"bones": list(bones), "heel_local": np.round(np.asarray(heel_local, float), 6).tolist(),
+            "toe_local": np.round(np.asarray(toe_local, float), 6).tolist()}
+
+
 def plan_report(result: PlanResult, syn: Synthesis, character: str, goal, frame_start: float,
                 synthesis: bool = True, **later_stages) -> dict:
     """A plan's report: the search's footprints and figures, the character, the goal, the
