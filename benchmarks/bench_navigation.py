@@ -48,7 +48,7 @@ def main():
     def run(sc, ob):
         goal = np.array(sc.objects["Goal"].location)
         t = time.perf_counter()
-        setup = planning.setup(sc, ob)
+        setup = planning.plan_setup(sc, ob)
         t_setup = time.perf_counter() - t
         start = planning.marker_footprints(sc.objects["Start"], setup)
         pl = setup.planner
@@ -72,7 +72,7 @@ def main():
         build(name)
         sc, ob = with_character()
         setup, first, cached, mem, t_setup = run(sc, ob)
-        print(f"{name:10s} {setup.planner.steps.n:5d} {len(first.footsteps):10d} {first.expanded:8d} "
+        print(f"{name:10s} {setup.planner.steps.n:5d} {len(first.footprints):10d} {first.expanded:8d} "
               f"{first.field_seconds * 1e3:8.0f} {(first.seconds - first.field_seconds) * 1e3:9.0f} "
               f"{(cached.seconds - cached.field_seconds) * 1e3:9.0f} {mem / 2**20:7.1f}")
     print(f"(setup, clip analysis of the library: {t_setup * 1e3:.0f} ms, once per character)")
@@ -102,7 +102,7 @@ def main():
         _marker(sc, "Goal", (size - 1.5, size - 1.5, 0.0), np.pi * 0.75)
         sc2, ob = with_character()
         setup, first, cached, mem, _ = run(sc2, ob)
-        print(f"{size:4.0f}x{size:<3.0f} {placed:7d} {len(first.footsteps):10d} {first.expanded:8d} "
+        print(f"{size:4.0f}x{size:<3.0f} {placed:7d} {len(first.footprints):10d} {first.expanded:8d} "
               f"{first.field_seconds * 1e3:8.0f} {(first.seconds - first.field_seconds) * 1e3:9.0f} "
               f"{(cached.seconds - cached.field_seconds) * 1e3:9.0f} {mem / 2**20:7.1f}")
     print(f"(machine: {os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}; "

@@ -28,7 +28,7 @@ def repeat_path(footsteps, k):
     """The path laid end to end k times: each copy turned and moved so its first footprint
     falls where the previous copy's last one stands (the copies' own first footprint,
     of the same foot, is dropped)."""
-    from footstep_planner.core.navgraph import Footstep
+    from footstep_planner.core.navgraph import PathFootprint
 
     out = list(footsteps)
     for _ in range(k - 1):
@@ -39,7 +39,7 @@ def repeat_path(footsteps, k):
         t0 = out[-1].time
         for f in footsteps[1:]:
             p = a.position[:2] + rot @ (f.position[:2] - b.position[:2])
-            out.append(Footstep(f.foot, np.array([p[0], p[1], a.position[2] + f.position[2] - b.position[2]]),
+            out.append(PathFootprint(f.foot, np.array([p[0], p[1], a.position[2] + f.position[2] - b.position[2]]),
                                 f.heading + d, t0 + f.time, f.label, f.gait, f.jump))
     return out
 
@@ -81,7 +81,7 @@ def main():
         floor_snap = surface_snap(floor, None, setup.forward, pl.foot)
         for fps in [float(x) for x in args.fps.split(",")]:
             for k in (1, 4, 16):
-                path = result.footsteps if k == 1 else repeat_path(result.footsteps, k)
+                path = result.footprints if k == 1 else repeat_path(result.footprints, k)
                 snap = scene_snap if k == 1 else floor_snap
                 best = None
                 for _ in range(args.repeat):

@@ -12,7 +12,7 @@ import pytest
 
 from footstep_planner.core.analysis import analyze_clip
 from footstep_planner.core.library import propose_library
-from footstep_planner.core.navgraph import Footstep, PlanError, Planner
+from footstep_planner.core.navgraph import PathFootprint, PlanError, Planner
 from footstep_planner.core.pipeline import label_weights, surface_snap, synthesize
 from footstep_planner.core.settings import Settings
 from footstep_planner.core.steps import bend_chain, bent_step, library_steps
@@ -43,8 +43,8 @@ def start(x, y, heading=EAST):
     ang = heading + np.arctan2(FWD[1], FWD[0])
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
     p = np.array([x, y, 0.0])
-    return [Footstep(0, p + 0.1 * left, heading, 0.0, "start", "walk"),
-            Footstep(1, p - 0.1 * left, heading, 0.0, "start", "walk")]
+    return [PathFootprint(0, p + 0.1 * left, heading, 0.0, "start", "walk"),
+            PathFootprint(1, p - 0.1 * left, heading, 0.0, "start", "walk")]
 
 
 def corridor():
@@ -57,14 +57,14 @@ GOAL = np.array([5.0, 6.5, 0.0])  # round the bend
 
 def chain(steps, label, n, foot=0):
     """Footprints walking ``n`` steps of ``label`` from the origin, heading 0."""
-    fs = [Footstep(foot, np.zeros(3), 0.0, 0.0, "start", "walk")]
+    fs = [PathFootprint(foot, np.zeros(3), 0.0, 0.0, "start", "walk")]
     for _ in range(n):
         f = fs[-1]
         j = int(np.flatnonzero((steps.label == label) & (steps.foot == f.foot))[0])
         ang = f.heading + np.arctan2(FWD[1], FWD[0])
         fw, lf = np.array([np.cos(ang), np.sin(ang)]), np.array([-np.sin(ang), np.cos(ang)])
         p = f.position[:2] + steps.fwd[j] * fw + steps.left[j] * lf
-        fs.append(Footstep(1 - f.foot, np.array([p[0], p[1], 0.0]), f.heading + float(steps.turn[j]),
+        fs.append(PathFootprint(1 - f.foot, np.array([p[0], p[1], 0.0]), f.heading + float(steps.turn[j]),
                            f.time + float(steps.duration[j]), label, "walk"))
     return fs
 
@@ -168,7 +168,7 @@ def test_one_walk_plans_round_a_bend_that_it_cannot_pass_without_bending():
     with pytest.raises(PlanError, match="cannot be reached"):
         straight.plan(start(0, 0), GOAL)
     pl, r = corridor_plan()
-    fs = r.footsteps
+    fs = r.footprints
     assert np.linalg.norm(fs[-1].position[:2] - GOAL[:2]) <= pl.settings.goal_radius
     assert [f.foot for f in fs[1:]] == [1 - f.foot for f in fs[:-1]]
     sup = footprint_support(pl.ground, None, np.array([f.position for f in fs[1:]]),
@@ -190,8 +190,8 @@ def run(footsteps, ground, goal=None):
 
 def test_the_motion_of_the_bent_plan_follows_its_footprints_round_the_bend():
     pl, r = corridor_plan()
-    planned = np.array([f.position for f in r.footsteps])
-    syn, snap = run(r.footsteps, pl.ground)
+    planned = np.array([f.position for f in r.footprints])
+    syn, snap = run(r.footprints, pl.ground)
     pos, head = syn.footprints
     for arr in (syn.body_position, syn.body_heading, syn.weights, syn.clip_time, syn.tau_final, pos, head):
         assert np.isfinite(arr).all()
@@ -199,11 +199,11 @@ def test_the_motion_of_the_bent_plan_follows_its_footprints_round_the_bend():
     assert snap(pos, head)[1].all()  # every footprint on the corridor
     # the body turns the corner: about a quarter turn, at about the bend's curvature
     turned = np.degrees(np.unwrap(syn.body_heading)[-1] - syn.body_heading[0])
-    h = np.unwrap([f.heading for f in r.footsteps])
+    h = np.unwrap([f.heading for f in r.footprints])
     assert turned == pytest.approx(np.degrees(h[-4:].mean() - h[0]), abs=15)  # the last steps' heading
     assert 0.5 < syn.tau_final.max() < 1.0 and syn.tau_final.min() > -0.5
     # with the goal, the body ends on it
-    syn, _ = run(r.footsteps, pl.ground, goal=GOAL)
+    syn, _ = run(r.footprints, pl.ground, goal=GOAL)
     assert np.linalg.norm(syn.body_position[-1, :2] - GOAL[:2]) < 0.02
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from footstep_planner.core.navgraph import Footstep, PlanError, Planner
+from footstep_planner.core.navgraph import PathFootprint, PlanError, Planner
 from footstep_planner.core.settings import Settings
 from footstep_planner.core.steps import StepSet
 from footstep_planner.core.surface import FootShape, MeshGround, TriMesh, footprint_support
@@ -34,12 +34,12 @@ def start(x, y, heading=EAST):
     ang = heading + np.arctan2(FWD[1], FWD[0])
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
     p = np.array([x, y, 0.0])
-    return [Footstep(0, p + 0.1 * left, heading, 0, "start", "walk"),
-            Footstep(1, p - 0.1 * left, heading, 0, "start", "walk")]
+    return [PathFootprint(0, p + 0.1 * left, heading, 0, "start", "walk"),
+            PathFootprint(1, p - 0.1 * left, heading, 0, "start", "walk")]
 
 
 def check_path(planner, result, goal):
-    fs = result.footsteps
+    fs = result.footprints
     assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= planner.settings.goal_radius
     pos = np.array([f.position for f in fs[1:]])
     sup = footprint_support(planner.ground, planner.obstacles, pos, np.array([f.heading for f in fs[1:]]),
@@ -58,7 +58,7 @@ def test_open_floor_reaches_the_goal_and_weighting_is_bounded():
     check_path(p2, w2, goal)
     assert w1.cost <= w2.cost + 1e-9 <= 2.0 * w1.cost + 1e-9
     assert w2.expanded <= w1.expanded
-    assert not any(f.jump for f in w1.footsteps + w2.footsteps)  # jumps are for gaps only
+    assert not any(f.jump for f in w1.footprints + w2.footprints)  # jumps are for gaps only
 
 
 def test_a_wall_is_walked_around():
@@ -69,7 +69,7 @@ def test_a_wall_is_walked_around():
     r = pl.plan(start(0, 0), goal)
     check_path(pl, r, goal)
     # every step that crosses the wall's line does so beyond the wall's end (y > 2)
-    xs = [(a.position, b.position) for a, b in zip(r.footsteps[:-1], r.footsteps[1:])
+    xs = [(a.position, b.position) for a, b in zip(r.footprints[:-1], r.footprints[1:])
           if (a.position[0] - 4.15) * (b.position[0] - 4.15) <= 0]
     assert xs
     for a, b in xs:
@@ -90,7 +90,7 @@ def test_gaps_are_jumped_only_where_a_jump_reaches(gap, jumps):
         return
     r = pl.plan(start(0, 0), goal)
     check_path(pl, r, goal)
-    crossing = [(a, b) for a, b in zip(r.footsteps[:-1], r.footsteps[1:])
+    crossing = [(a, b) for a, b in zip(r.footprints[:-1], r.footprints[1:])
                 if a.position[0] < 5 < 5 + gap < b.position[0]]
     assert len(crossing) == 1 and crossing[0][1].jump and crossing[0][0].gait == "run"
 
@@ -113,7 +113,7 @@ def test_arrival_heading():
     pl = Planner(g, None, steps(), FWD, settings=FASTEST)
     goal = np.array([8.0, 0.0, 0.0])
     r = pl.plan(start(0, 0), goal, goal_heading=0.0)  # arrive facing -Y
-    assert abs(np.angle(np.exp(1j * r.footsteps[-1].heading))) <= pl.settings.goal_heading_tolerance
+    assert abs(np.angle(np.exp(1j * r.footprints[-1].heading))) <= pl.settings.goal_heading_tolerance
 
 
 def test_the_support_cache_serves_the_next_plan():
@@ -124,7 +124,7 @@ def test_the_support_cache_serves_the_next_plan():
     a = pl.plan(start(0, 0), goal)
     n = len(pl.cache.table)
     b = pl.plan(start(0, 0), goal)
-    assert len(pl.cache.table) == n and [f.label for f in a.footsteps] == [f.label for f in b.footsteps]
+    assert len(pl.cache.table) == n and [f.label for f in a.footprints] == [f.label for f in b.footprints]
     # the geometry changed: answers are dropped
     pl.cache.update({"floor": ("v2", np.array([-2, -6, 0.0]), np.array([12, 6, 0.0]))})
     left = np.array([k[:2] for k in pl.cache.table], dtype=float).reshape(-1, 2) * 0.02

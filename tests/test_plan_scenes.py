@@ -14,7 +14,7 @@ pytestmark = needs_cmu
 def _check(fp, result, setup, goal):
     core = import_module(fp.__name__ + ".core.surface")
     pl = setup.planner
-    fs = result.footsteps
+    fs = result.footprints
     assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= pl.settings.goal_radius
     sup = core.footprint_support(pl.ground, pl.obstacles, np.array([f.position for f in fs]),
                                  np.array([f.heading for f in fs]), setup.forward, pl.foot,
@@ -27,13 +27,13 @@ def _check(fp, result, setup, goal):
 def test_every_sample_scene_reaches_its_goal(fp, name):
     scene, result, setup, goal = _plan(fp, name)
     _check(fp, result, setup, goal)
-    labels = set(f.label for f in result.footsteps)
+    labels = set(f.label for f in result.footprints)
     assert labels - {"start"}  # carried by the library's clips and blends
 
 
 def test_jumps_jumps_both_gaps_and_only_them(fp):
     scene, result, setup, goal = _plan(fp, "jumps")
-    jumps = [(a, b) for a, b in zip(result.footsteps[:-1], result.footsteps[1:]) if b.jump]
+    jumps = [(a, b) for a, b in zip(result.footprints[:-1], result.footprints[1:]) if b.jump]
     assert len(jumps) == 2
     assert all(b.label == "cmu_49_05_run_leap_run" and a.gait == "run" for a, b in jumps)
     (a1, b1), (a2, b2) = jumps
@@ -43,7 +43,7 @@ def test_jumps_jumps_both_gaps_and_only_them(fp):
 
 def test_obstacles_passes_the_doorway_and_climbs_the_step(fp):
     scene, result, setup, goal = _plan(fp, "obstacles")
-    fs = result.footsteps
+    fs = result.footprints
     through = [(a.position, b.position) for a, b in zip(fs[:-1], fs[1:])
                if a.position[0] < 6.15 <= b.position[0]]
     assert len(through) == 1
@@ -162,7 +162,7 @@ def test_the_wall_is_stepped_around(fp):
     goal = np.array([-4.0, 4.5, 0.0])
     result, s = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
     _check(fp, result, s, goal)
-    for a, b in zip(result.footsteps[:-1], result.footsteps[1:]):
+    for a, b in zip(result.footprints[:-1], result.footprints[1:]):
         if (a.position[1] - 2.15) * (b.position[1] - 2.15) <= 0:  # a step across the wall's line
             x = a.position[0] + (2.15 - a.position[1]) / (b.position[1] - a.position[1]) * (b.position[0] - a.position[0])
             assert x < -6.2 or x > -1.8
@@ -177,9 +177,9 @@ def test_up_the_ramp_to_its_landing(fp):
     goal = np.array([run + 1.2, -8.0, 0.8])
     result, s = planning.plan(scene, ob, goal, start_marker=scene.objects["Start"])
     _check(fp, result, s, goal)
-    on_ramp = [f for f in result.footsteps if 0.2 < f.position[0] < run - 0.2]
+    on_ramp = [f for f in result.footprints if 0.2 < f.position[0] < run - 0.2]
     assert on_ramp and all(0.0 < f.position[2] < 0.8 for f in on_ramp)
-    assert result.footsteps[-1].position[2] == pytest.approx(0.8, abs=1e-3)
+    assert result.footprints[-1].position[2] == pytest.approx(0.8, abs=1e-3)
 
 
 @pytest.mark.parametrize("turn", [0.0, 0.5 * math.pi, -0.5 * math.pi])
@@ -198,7 +198,7 @@ def test_the_goal_empty_faces_the_way_to_arrive(fp, turn):
     result, setup = planning.plan(scene, ob, goal, heading, scene.objects["Start"])
     want = np.array([np.cos(heading - math.pi / 2), np.sin(heading - math.pi / 2)])  # -Y turned by heading
     fwd = setup.forward
-    for f in result.footsteps[-1:]:
+    for f in result.footprints[-1:]:
         a = f.heading + math.atan2(fwd[1], fwd[0])
         got = np.array([math.cos(a), math.sin(a)])
         assert math.degrees(math.acos(np.clip(got @ want, -1, 1))) <= math.degrees(

@@ -12,7 +12,7 @@ from footstep_planner.core.analysis import analyze_clip
 from footstep_planner.core.blend_groups import speed_parameter
 from footstep_planner.core.blending import BlendError, PlanStep, make_track
 from footstep_planner.core.library import propose_library
-from footstep_planner.core.navgraph import Footstep
+from footstep_planner.core.navgraph import PathFootprint
 from footstep_planner.core.pipeline import STAGES, speed_pins, surface_snap, synthesize
 from footstep_planner.core.settings import Settings
 from footstep_planner.core.surface import FootShape, MeshGround, TriMesh
@@ -58,7 +58,7 @@ def arc_footsteps(n, curvature, label="walk", step=0.7, width=0.18, gait="walk")
     left = np.c_[-np.sin(h + fa), np.cos(h + fa)]
     side = np.where(np.arange(n) % 2 == 0, 0.5, -0.5) * width
     p = c + side[:, None] * left
-    return [Footstep(i % 2, np.array([p[i, 0], p[i, 1], 0.0]), float(h[i]), 0.55 * i,
+    return [PathFootprint(i % 2, np.array([p[i, 0], p[i, 1], 0.0]), float(h[i]), 0.55 * i,
                      "start" if i == 0 else label, gait) for i in range(n)]
 
 
@@ -137,7 +137,7 @@ def test_outputs_are_finite_and_footprints_stay_on_the_surface():
     rot = np.array([[np.cos(h), -np.sin(h)], [np.sin(h), np.cos(h)]])
     for k, f in enumerate(tail[2:], start=1):
         p = a[:2] + rot @ (f.position[:2] - tail[1].position[:2])
-        fs.append(Footstep(1 - fs[-1].foot, np.array([p[0], p[1], 0.0]), h + f.heading - tail[1].heading,
+        fs.append(PathFootprint(1 - fs[-1].foot, np.array([p[0], p[1], 0.0]), h + f.heading - tail[1].heading,
                            fs[-1].time + 0.55, f.label, "walk"))
     syn = run(fs)
     for arr in (syn.body_position, syn.body_heading, syn.weights, syn.clip_time, syn.tau_final,
@@ -197,6 +197,6 @@ def test_a_path_of_one_footprint_or_an_unknown_clip_is_refused():
     fs = arc_footsteps(6, 0.0)
     with pytest.raises(BlendError, match="single footprint"):
         run(fs[:1])
-    bad = fs[:3] + [Footstep(1, fs[3].position, 0.0, 2.0, "moonwalk", "walk")]
+    bad = fs[:3] + [PathFootprint(1, fs[3].position, 0.0, 2.0, "moonwalk", "walk")]
     with pytest.raises(BlendError, match="moonwalk"):
         run(bad)

@@ -34,7 +34,7 @@ def jumps(fp):
 
 def test_jumps_runs_into_each_leap_and_walks_away(fp, jumps):
     scene, result, setup, syn = jumps
-    fs = result.footsteps
+    fs = result.footprints
     leaps = [j for j in range(len(fs) - 1) if fs[j + 1].jump]
     assert len(leaps) == 2
     S = syn.final.schedule
@@ -70,12 +70,12 @@ def test_jumps_weights_footprints_and_frames(fp, jumps):
     # the leap clip plays whole across its step, at full weight
     leap = syn.clips.index("cmu_49_05_run_leap_run")
     S = syn.final.schedule
-    for j in [j for j in range(len(result.footsteps) - 1) if result.footsteps[j + 1].jump]:
+    for j in [j for j in range(len(result.footprints) - 1) if result.footprints[j + 1].jump]:
         inside = (S.t >= S.footprint_times[j]) & (S.t <= S.footprint_times[j + 1])
         assert np.all(S.weights[inside, leap] == 1.0)
     # footprints stay near the plan (the synthesis bends the path, it does not reroute it;
     # around a leap the refinement gives the jump its clip's own length back)
-    planned = np.array([f.position for f in result.footsteps])
+    planned = np.array([f.position for f in result.footprints])
     assert np.linalg.norm(pos[:, :2] - planned[:, :2], axis=1).max() < 0.75
 
 

@@ -195,7 +195,7 @@ def root_bone(ob, rig: Rig) -> int:
 
 
 def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start: int,
-         footsteps=None, planted=None, markers: bool = False, body_on: str = "OBJECT",
+         path=None, planted=None, markers: bool = False, body_on: str = "OBJECT",
          frame_range: bool = True):
     """Key ``res`` into a new Action on the armature ``ob`` in a new NLA track of the
     planner's, starting at ``frame_start``: the body on the object's transform
@@ -203,7 +203,7 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
     every bone's rotation, and the hips' location. The planner's earlier bake of this
     character is replaced. The character's active action is stashed (see the module's
     doc) and, with ``frame_range``, the scene's frame range grows to cover the bake.
-    ``planted`` holds (strike, stance, liftoff) seconds per footprint of ``footsteps``,
+    ``planted`` holds (strike, stance, liftoff) seconds per footprint of ``path``,
     for the optional markers."""
     _check(ob, rig, body_on)
     basis = _root_carries_body(ob, rig, res, spin) if body_on == "ROOT" else res.basis
@@ -217,8 +217,8 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
     _stash_active(ob, act)
     if frame_range:
         _grow_range(scene, act, int(frame_start), int(frame_start) + res.frames - 1)
-    if markers and footsteps is not None and planted is not None:
-        _add_markers(scene, footsteps, planted, frame_start)
+    if markers and path is not None and planted is not None:
+        _add_markers(scene, path, planted, frame_start)
     return act, track
 
 
@@ -331,10 +331,10 @@ def _add_track(ob, name: str, act, slot, frame_start: int):
     return track
 
 
-def _add_markers(scene, footsteps, planted, frame_start: int) -> None:
+def _add_markers(scene, path, planted, frame_start: int) -> None:
     """A timeline marker ``FP <n> <L|R>`` at each footprint's stance frame."""
     rate = scene_fps(scene)
-    for i, (f, (_, st, _)) in enumerate(zip(footsteps, planted)):
+    for i, (f, (_, st, _)) in enumerate(zip(path, planted)):
         scene.timeline_markers.new(f"{MARKER_PREFIX}{i} {'LR'[f.foot]}", frame=int(round(frame_start + st * rate)))
 
 

@@ -135,7 +135,7 @@ class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
         doc = plan_report(result, syn, ob.name, goal, context.scene.frame_current, synthesis=False)
         fs.plan_json = json.dumps(doc)
         st = doc["stages"]
-        fs.last_report = (f"{len(result.footsteps)} footprints, {len(syn.t)} frames; search "
+        fs.last_report = (f"{len(result.footprints)} footprints, {len(syn.t)} frames; search "
                           f"{result.seconds * 1e3:.0f} ms, synthesis {st['synthesis_ms']:.0f} ms "
                           f"(smoothing {st['smoothing_ms']:.0f}, refinement {st['refinement_ms']:.0f}, "
                           f"body {st['body_trajectory_ms']:.0f}, blend groups {st['blend_groups_ms']:.0f})")
@@ -167,8 +167,8 @@ class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
         try:
             goal, _ = _goal(context)
             t0 = time.perf_counter()
-            s = planning.setup(context.scene, ob, _settings(context))
-            pl = s.planner
+            setup = planning.plan_setup(context.scene, ob, _settings(context))
+            pl = setup.planner
             field = pl.distance_field(goal)
             secs = time.perf_counter() - t0
         except FootstepError as ex:
@@ -176,7 +176,7 @@ class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
             return {"CANCELLED"}
         reach = int(np.isfinite(field.dist).sum())
         context.scene.footstep.last_report = (
-            f"graph: {len(s.analyses)} clips, {pl.steps.n} footsteps ({int(pl.steps.jump.sum())} jumps); "
+            f"graph: {len(setup.analyses)} clips, {pl.steps.n} footsteps ({int(pl.steps.jump.sum())} jumps); "
             f"distance map {reach} cells; {secs * 1e3:.0f} ms")
         self.report({"INFO"}, context.scene.footstep.last_report)
         return {"FINISHED"}

@@ -15,9 +15,9 @@ LAST: dict[str, dict] = {}
 _HANDLE = None
 
 
-def remember(scene, footsteps, positions, headings, forward, foot, body=None, sampled=None) -> None:
-    tri, col = geo.footprint_triangles(positions, headings, forward, foot, [f.foot for f in footsteps],
-                                       [f.label for f in footsteps], [f.jump for f in footsteps])
+def remember(scene, path, positions, headings, forward, foot, body=None, sampled=None) -> None:
+    tri, col = geo.footprint_triangles(positions, headings, forward, foot, [f.foot for f in path],
+                                       [f.label for f in path], [f.jump for f in path])
     LAST[scene.name] = {
         "triangles": tri.astype(np.float32), "colours": col.astype(np.float32),
         "body": geo.polyline_segments(body).astype(np.float32) if body is not None else np.zeros((0, 3), np.float32),

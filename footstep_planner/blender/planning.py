@@ -18,7 +18,7 @@ from ..core.analysis import ClipAnalysis
 from ..core.ik import IKResult, solve_ik
 from ..core.library import Library
 from ..core.rig import Rig
-from ..core.navgraph import FootprintCache, Footstep, PlanError, PlanResult, Planner
+from ..core.navgraph import FootprintCache, PathFootprint, PlanError, PlanResult, Planner
 from ..core.pipeline import Synthesis, stage_row, surface_snap
 from ..core.pipeline import synthesize as _synthesize
 from ..core.settings import Settings
@@ -86,7 +86,7 @@ def object_geometry(ground, obstacles) -> dict:
     return out
 
 
-def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
+def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
     """What a plan needs from the scene: the tagged surfaces, the character's clips
     analysed, its library and steps, its forward, and the Planner built from them."""
     settings = settings or Settings()
@@ -106,7 +106,7 @@ def setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
     return PlanSetup(planner, clips.analyses, library, forward, clips.rig)
 
 
-def character_footprints(ob, s: PlanSetup) -> list[Footstep]:
+def character_footprints(ob, setup: PlanSetup) -> list[PathFootprint]:
     """Both feet standing where the character stands: under its hips at rest, placed by
     its object's own transform (not the one a bake of the planner's animates it to, nor
     the pose its active clip has at the current frame), facing its forward. The same
@@ -114,25 +114,26 @@ def character_footprints(ob, s: PlanSetup) -> list[Footstep]:
     from .bake import own_matrix_world
 
     m = own_matrix_world(ob)
-    hips = s.rig.rest[s.rig.role_index("hips")][:, 3]
-    return standing_footprints(m @ hips, 0.0, s, f"character {ob.name!r}")
+    hips = setup.rig.rest[setup.rig.role_index("hips")][:, 3]
+    return standing_footprints(m @ hips, 0.0, setup, f"character {ob.name!r}")
 
 
-def standing_footprints(position, heading: float, s: PlanSetup, what: str, width: float = 0.1) -> list[Footstep]:
+def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
+                        width: float = 0.1) -> list[PathFootprint]:
     """Both feet side by side, ``width`` either side of ``position`` (3,), turned
     ``heading`` (the planner's frame), dropped onto the ground; PlanError naming ``what``
     when there is no traversable surface under a foot."""
-    ang = heading + np.arctan2(s.forward[1], s.forward[0])
+    ang = heading + np.arctan2(setup.forward[1], setup.forward[0])
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
     p = np.asarray(position, float)[:3]
     out = []
     for k, sign in ((0, 1), (1, -1)):
         q = p + sign * width * left
-        hit = s.planner.ground.ray_down(np.array([[q[0], q[1], q[2] + 0.5]]), 3.0)
+        hit = setup.planner.ground.ray_down(np.array([[q[0], q[1], q[2] + 0.5]]), 3.0)
         if not hit.hit[0]:
             raise PlanError(f"{what} stands at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}), not above a traversable "
                             "surface: move it onto a traversable mesh, or pick a Start")
-        out.append(Footstep(k, np.array([q[0], q[1], hit.z[0]]), heading, 0.0, "start", "walk"))
+        out.append(PathFootprint(k, np.array([q[0], q[1], hit.z[0]]), heading, 0.0, "start", "walk"))
     return out
 
 
@@ -157,11 +158,12 @@ def rotation_heading(z_rotation: float, forward) -> float:
     return float(z_rotation) - np.pi / 2 - float(np.arctan2(forward[1], forward[0]))
 
 
-def marker_footprints(marker, s: PlanSetup) -> list[Footstep]:
+def marker_footprints(marker, setup: PlanSetup) -> list[PathFootprint]:
     """Both feet standing at an object (an empty), side by side, facing the way it faces
     (see ``FACING``)."""
     return standing_footprints(np.array(marker.matrix_world.translation),
-                               rotation_heading(facing_rotation(marker), s.forward), s, f"start {marker.name!r}")
+                               rotation_heading(facing_rotation(marker), setup.forward), setup,
+                               f"start {marker.name!r}")
 
 
 def goal_of(scene, name: str | None):
@@ -181,20 +183,20 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     """The footprints from the start (``start_marker``, else the character's feet) to
     ``goal``, arriving facing ``goal_heading`` (a Z rotation, rad, see ``FACING``) when
     one is given."""
-    s = setup(scene, ob, settings, traversable, obstacles)
-    start = marker_footprints(start_marker, s) if start_marker is not None else character_footprints(ob, s)
-    heading = None if goal_heading is None else rotation_heading(goal_heading, s.forward)
-    return s.planner.plan(start, goal, heading), s
+    setup = plan_setup(scene, ob, settings, traversable, obstacles)
+    start = marker_footprints(start_marker, setup) if start_marker is not None else character_footprints(ob, setup)
+    heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
+    return setup.planner.plan(start, goal, heading), setup
 
 
-def synthesize(scene, result: PlanResult, s: PlanSetup, settings=None, goal=None) -> Synthesis:
+def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=None) -> Synthesis:
     """Thesis 3.3 to 3.7 on a planned path: the body trajectory and every clip's weight
     and time per scene frame, footprints kept on the tagged surfaces."""
-    pl = s.planner
-    snap = surface_snap(pl.ground, pl.obstacles, s.forward, pl.foot, clearance=pl.clearance,
+    pl = setup.planner
+    snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
-    return _synthesize(result.footsteps, s.library, s.analyses, settings or Settings(),
-                       fps=scene_fps(scene), forward=s.forward, snap=snap, goal=goal)
+    return _synthesize(result.footprints, setup.library, setup.analyses, settings or Settings(),
+                       fps=scene_fps(scene), forward=setup.forward, snap=snap, goal=goal)
 
 
 @dataclass
@@ -213,12 +215,12 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     shows the result."""
     from . import overlay
 
-    result, s = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles)
-    syn = synthesize(scene, result, s, settings, goal=goal)
-    overlay.remember(scene, result.footsteps, *syn.footprints, s.forward, s.planner.foot, syn.body_position,
+    result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles)
+    syn = synthesize(scene, result, setup, settings, goal=goal)
+    overlay.remember(scene, result.footprints, *syn.footprints, setup.forward, setup.planner.foot, syn.body_position,
                      result.explored_positions if result.explored else None)
-    heading = None if goal_heading is None else rotation_heading(goal_heading, s.forward)
-    return Planned(result, s, syn, heading)
+    heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
+    return Planned(result, setup, syn, heading)
 
 
 def body_spin(forward, analyses) -> float:
@@ -228,9 +230,9 @@ def body_spin(forward, analyses) -> float:
     return float(np.arctan2(forward[1], forward[0]) - np.arctan2(rest[1], rest[0]))
 
 
-def _walk_motion(s: PlanSetup):
+def _walk_motion(setup: PlanSetup):
     """The clip whose heel and toe points stand for the character's (its first cycle)."""
-    return next((a for a in s.analyses if a.kind == "cycle"), s.analyses[0]).motion
+    return next((a for a in setup.analyses if a.kind == "cycle"), setup.analyses[0]).motion
 
 
 @dataclass
@@ -246,26 +248,26 @@ class Solved:
 def solve(planned: Planned, settings: Settings) -> Solved:
     """Thesis 3.8: the clips' bone rotations blended per frame, then the feet pinned to
     the footprints (on the surface, along its normal) by the IK."""
-    syn, s = planned.synthesis, planned.setup
+    syn, setup = planned.synthesis, planned.setup
     timer = StageTimer()
     with timer("pose_blend"):
         quat, hips = blend_pose(syn.final.schedule, syn.tracks)
-        basis = pose_bases(s.rig, quat, hips)
-    pl = s.planner
+        basis = pose_bases(setup.rig, quat, hips)
+    pl = setup.planner
     pos, head = syn.footprints
-    sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot, clearance=pl.clearance)
+    sup = footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot, clearance=pl.clearance)
     normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
-    walk = _walk_motion(s)
-    spin = body_spin(s.forward, s.analyses)
+    walk = _walk_motion(setup)
+    spin = body_spin(setup.forward, setup.analyses)
 
     def ground_z(points):
         hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, 0.3], 0.6)
         return np.where(hit.hit, hit.z, np.nan)
 
     with timer("ik"):
-        ik = solve_ik(s.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
+        ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
                       walk.heel_local, walk.toe_local, syn.final.schedule.feet, syn.planted(), pos, head, normal,
-                      s.forward, settings, ground_z=ground_z)
+                      setup.forward, settings, ground_z=ground_z)
     return Solved(ik, spin, timer.seconds["pose_blend"], timer.seconds["ik"])
 
 
@@ -276,16 +278,16 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
     ``core.report.measure_bake``."""
     from . import bake as baking
 
-    s, syn, frames = planned.setup, planned.synthesis, solved.ik.frames
-    root = baking.root_bone(ob, s.rig) if body_on == "ROOT" else None
-    world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, s.rig, frame_start, frames, root)
+    setup, syn, frames = planned.setup, planned.synthesis, solved.ik.frames
+    root = baking.root_bone(ob, setup.rig) if body_on == "ROOT" else None
+    world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, setup.rig, frame_start, frames, root)
     sched = syn.final.schedule
-    walk = _walk_motion(s)
+    walk = _walk_motion(setup)
     stances = report.planted_stances(sched.feet, syn.planted(), *syn.footprints, fps, frames)
     allowance = report.source_steps(syn.tracks, sched.clips, sched.weights, fps)
     return report.measure_bake(world, bone_rot, body_pos, body_yaw - solved.spin,
-                               [s.rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local,
-                               s.planner.ground, stances, goal, goal_heading, allowance, s.rig.names)
+                               [setup.rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local,
+                               setup.planner.ground, stances, goal, goal_heading, allowance, setup.rig.names)
 
 
 def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
@@ -326,10 +328,10 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     timer = StageTimer()
     with timer("bake"):
         act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
-                                 result.footsteps, syn.planted(), markers, body_on, frame_range)
+                                 result.footprints, syn.planted(), markers, body_on, frame_range)
     yield 0.85, "quality"
     qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on)
-    stages = stage_row(len(result.footsteps), result.seconds, syn, pose_blend=solved.pose_seconds,
+    stages = stage_row(len(result.footprints), result.seconds, syn, pose_blend=solved.pose_seconds,
                        ik=solved.ik_seconds, bake=timer.seconds["bake"])
     doc = report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,
                              frame_start=frame_start, frames=solved.ik.frames, fps=fps, action=act.name,

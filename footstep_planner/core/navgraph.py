@@ -68,7 +68,10 @@ class PlanError(FootstepError):
 
 
 @dataclass(frozen=True)
-class Footstep:
+class PathFootprint:
+    """A footprint of a planned path: the foot (0 left, 1 right) planted there, where and
+    turned how, when, and the step (its clip, or blend) that carried the foot there."""
+
     foot: int  # 0 left, 1 right
     position: np.ndarray  # (3,) on the surface
     heading: float  # yaw relative to the rig's rest forward
@@ -97,7 +100,7 @@ class SearchNode(NamedTuple):
 class PlanResult:
     """A search's path and everything about it: counts, times (s) and the explored nodes."""
 
-    footsteps: list[Footstep]
+    footprints: list[PathFootprint]
     expanded: int
     generated: int
     seconds: float
@@ -114,7 +117,7 @@ class PlanResult:
         return {
             "footprints": [{"foot": "LR"[f.foot], "position": [round(float(v), 4) for v in f.position],
                             "heading": round(float(f.heading), 4), "time": round(f.time, 4),
-                            "clip": f.label, "gait": f.gait, "jump": f.jump} for f in self.footsteps],
+                            "clip": f.label, "gait": f.gait, "jump": f.jump} for f in self.footprints],
             "search": {"expanded": self.expanded, "generated": self.generated,
                        "seconds": round(self.seconds, 4), "field_seconds": round(self.field_seconds, 4),
                        "cost": round(self.cost, 4)},
@@ -235,7 +238,7 @@ class Planner:
         return ground, clear
 
     # ------------------------------------------------------------------ the search
-    def plan(self, start: list[Footstep], goal: np.ndarray, goal_heading: float | None = None) -> PlanResult:
+    def plan(self, start: list[PathFootprint], goal: np.ndarray, goal_heading: float | None = None) -> PlanResult:
         """A footstep path from ``start`` (the character's current footprints, in any
         order: the search may step off either) to ``goal`` (x, y, z), arriving turned
         within the goal heading tolerance of ``goal_heading`` (rad, like the footprints'
@@ -278,7 +281,7 @@ class Planner:
                 raise PlanError(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}, {goal[2]:.2f}) is off every "
                                 "traversable surface")
 
-    def _refuse_unreachable(self, dist: "DistanceField", start: list[Footstep], goal: np.ndarray) -> None:
+    def _refuse_unreachable(self, dist: "DistanceField", start: list[PathFootprint], goal: np.ndarray) -> None:
         """PlanError before any search when the walking-distance map has no way from the
         start to the goal."""
         if not np.isfinite(dist.at_many(np.array([f.position for f in start], float))).any():
@@ -436,7 +439,7 @@ class Planner:
         for n in chain:
             if n.step >= 0:
                 tnow += float(self.steps.duration[n.step])
-            out.append(Footstep(n.foot, n.position, n.heading, tnow,
+            out.append(PathFootprint(n.foot, n.position, n.heading, tnow,
                                 "start" if n.step < 0 else str(self.steps.label[n.step]),
                                 n.gait, bool(n.step >= 0 and self.steps.jump[n.step])))
         return PlanResult(out, search.expanded, search.generated, seconds, chain[-1].cost, field_seconds,

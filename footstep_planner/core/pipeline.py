@@ -63,7 +63,7 @@ class Pass:
 
 @dataclass
 class Synthesis:
-    footsteps: list  # the plan (navgraph.Footstep)
+    plan: list  # the planned path (navgraph.PathFootprint)
     settings: Settings
     clips: list[str]  # the weight columns
     smoothed: Smoothed
@@ -121,7 +121,7 @@ class Synthesis:
             "clips": list(self.clips),
             "footprints": [{"foot": "LR"[int(S.feet[i])], "position": r4(pos[i]),
                             "heading": round(float(head[i]), 4),
-                            "planned": r4(self.footsteps[i].position),
+                            "planned": r4(self.plan[i].position),
                             "smoothed": r4(self.smoothed.position[i]),
                             "played": r4(self.final.played.footprints[i]),
                             "frame": fr(planted[i][1]),
@@ -232,10 +232,10 @@ def _clip_tau(library: Library, clip: str) -> float:
     return 0.0
 
 
-def plan_steps(footsteps, library: Library, cyclic: list[str]) -> list[PlanStep]:
+def plan_steps(path, library: Library, cyclic: list[str]) -> list[PlanStep]:
     specials = {s.clip for s in library.specials}
     out = []
-    for a, b in zip(footsteps[:-1], footsteps[1:]):
+    for a, b in zip(path[:-1], path[1:]):
         if b.label in specials:
             out.append(PlanStep(a.foot, b.label, None))
         else:
@@ -315,27 +315,27 @@ def ease_end(pos: np.ndarray, heading: np.ndarray, off, snap: SnapFn | None = No
     return moved
 
 
-def synthesize(footsteps, library: Library, analyses: list[ClipAnalysis] | dict[str, ClipTrack],
+def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, ClipTrack],
                settings: Settings | None = None, fps: float = 30.0, forward=None,
                snap: SnapFn | None = None, goal=None) -> Synthesis:
-    """Synthesize the motion of a footstep path (``navgraph.Footstep`` list, feet
+    """Synthesize the motion of a planned path (``navgraph.PathFootprint`` list, feet
     alternating). ``analyses`` are the library's clips analysed (or their tracks);
     ``snap`` keeps footprints on the surface (see ``surface_snap``); ``forward`` is
     the world direction of heading 0 (default the clips' rest forward). With ``goal``
     the path's end is moved so that the body ends on it (the planner stops anywhere
     within its goal radius; see ``ease_end``)."""
     settings = settings or Settings()
-    if len(footsteps) < 2:
+    if len(path) < 2:
         raise BlendError("the path has a single footprint: the character is already at its goal")
     timer = StageTimer()
     with timer("total"):
         with timer("tracks"):
             tracks = _tracks_of(library, analyses)
         cyc = cyclic_clips(library)
-        steps = plan_steps(footsteps, library, cyc)
-        bends = np.array([library.bend_of(f.label) for f in footsteps[1:]])  # steps bent beyond the clips
+        steps = plan_steps(path, library, cyc)
+        bends = np.array([library.bend_of(f.label) for f in path[1:]])  # steps bent beyond the clips
         with timer("smoothing"):  # 3.3
-            smoothed = _smooth(footsteps, settings, snap, goal)
+            smoothed = _smooth(path, settings, snap, goal)
         # 3.5 / 3.6 with the plan's clips
         sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time)
         first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1",
@@ -351,7 +351,7 @@ def synthesize(footsteps, library: Library, analyses: list[ClipAnalysis] | dict[
     seconds = timer.seconds
     seconds["refinement"] = seconds["refinement_1"] + seconds["refinement_2"]
     seconds["body_trajectory"] = seconds["body_trajectory_1"] + seconds["body_trajectory_2"]
-    return Synthesis(footsteps=list(footsteps), settings=settings, clips=sch2.clips, smoothed=smoothed,
+    return Synthesis(plan=list(path), settings=settings, clips=sch2.clips, smoothed=smoothed,
                      first=first, tau_plan=curves.plan, tau_raw=curves.raw, tau=curves.tau, final=final,
                      tau_final=tau_final, s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks)
 
@@ -368,11 +368,11 @@ def _tracks_of(library: Library, analyses) -> dict[str, ClipTrack]:
     return {c: make_track(by[c]) for c in library.clips()}
 
 
-def _smooth(footsteps, settings: Settings, snap, goal) -> Smoothed:
+def _smooth(path, settings: Settings, snap, goal) -> Smoothed:
     """3.3: the planned footprints smoothed; with a goal, the path's end first eased so
     that the body ends between the last two feet on it."""
-    pos0 = np.array([f.position for f in footsteps], float)
-    head0 = np.unwrap(np.array([f.heading for f in footsteps], float))
+    pos0 = np.array([f.position for f in path], float)
+    head0 = np.unwrap(np.array([f.heading for f in path], float))
     if goal is not None:
         pos0 = ease_end(pos0, head0, np.asarray(goal, float)[:2] - 0.5 * (pos0[-1, :2] + pos0[-2, :2]), snap)
     return smooth_footprints(pos0, head0, settings.smoothing_iterations, snap,

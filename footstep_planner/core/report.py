@@ -103,7 +103,7 @@ def plan_report(result: PlanResult, syn: Synthesis, character: str, goal, frame_
     doc = result.to_dict()
     doc["character"] = character
     doc["goal"] = _r4(goal)
-    doc["stages"] = stage_row(len(result.footsteps), result.seconds, syn, **later_stages)
+    doc["stages"] = stage_row(len(result.footprints), result.seconds, syn, **later_stages)
     if synthesis:
         doc["synthesis"] = syn.to_dict(frame0=float(frame_start))
     return doc

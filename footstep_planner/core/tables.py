@@ -58,12 +58,12 @@ def format_plan(character: str, goal, result, syn, frame0: float, rate: float, s
     """A plan (``result``, a PlanResult) and its synthesis (``syn``): one line per
     footprint with the frame it is planted at (``frame0`` + seconds x ``rate``), the
     search's figures, the stage times and the range of tau and s."""
-    lines = [f"{character}: {len(result.footsteps)} footprints to ({goal[0]:.2f}, {goal[1]:.2f}, "
+    lines = [f"{character}: {len(result.footprints)} footprints to ({goal[0]:.2f}, {goal[1]:.2f}, "
              f"{goal[2]:.2f}) in {syn.t[-1]:.2f} s of motion ({len(syn.t)} frames)",
              f"{'#':>3s} {'foot':4s} {'x':>7s} {'y':>7s} {'z':>6s} {'head':>6s} {'frame':>7s}  clip"]
     planted = syn.planted()
     pos, head = syn.footprints
-    for i, f in enumerate(result.footsteps):
+    for i, f in enumerate(result.footprints):
         fr = frame0 + planted[i][1] * rate
         lines.append(f"{i:3d} {'LR'[f.foot]:4s} {pos[i, 0]:7.2f} {pos[i, 1]:7.2f} {pos[i, 2]:6.2f} "
                      f"{math.degrees(head[i]):6.0f} {fr:7.1f}  {f.label}{' (jump)' if f.jump else ''}")
