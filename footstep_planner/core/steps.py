@@ -192,12 +192,33 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     (take-off to landing, within ``jump_tolerance`` of their length and 10 degrees of
     their direction: the refinement stage bends the clip that far)."""
     by = {a.name: a for a in analyses}
+    groups = _group_steps(library, by)
+    taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]
+    reach = (min(taus), max(taus)) if taus else (0.0, 0.0)
     rows = []  # foot, fwd, left, turn, duration, gait, jump, label
+    for gait, group, per_clip in groups:
+        rows += _cyclic_rows(gait, group, per_clip, blends_per_interval)
+        if bend_curvature > 0:
+            rows += _bent_rows(gait, group, per_clip, bend_curvature, reach)
+    for sp in library.specials:
+        rows += _jump_rows(sp, by.get(sp.clip), jump_tolerance)
+    if not rows:
+        raise StepError("the clip library gives no steps: it needs walk or run clips "
+                        "with at least two steps of each foot")
+    cols = list(zip(*rows))
+    return StepSet(fwd=np.array(cols[1], float), left=np.array(cols[2], float),
+                   turn=np.array(cols[3], float), duration=np.array(cols[4], float),
+                   foot=np.array(cols[0], int), gait=np.array(cols[5], object),
+                   jump=np.array(cols[6], bool), label=np.array(cols[7], object))
+
+
+def _group_steps(library: Library, by: dict) -> list[tuple]:
+    """(gait, group, [(clip, tau, {foot: mean step (4,)})]) of each turning group with
+    clips giving steps of both feet. A group none of whose clips has steps of both feet
+    in its best cycle (a cycle that starts a hair after a stance loses that step: the
+    mannequin's walk) takes its clips' steps from a quarter cycle earlier."""
     groups = []
     for gait, group in library.turn_groups.items():
-        # a group none of whose clips has steps of both feet in its best cycle (a cycle
-        # that starts a hair after a stance loses that step: the mannequin's walk) takes
-        # its clips' steps from a quarter cycle earlier
         for early in (0.0, 0.25):
             per_clip = []
             for c in group.clips:
@@ -209,44 +230,48 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
             if per_clip:
                 groups.append((gait, group, per_clip))
                 break
-    taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]
-    reach = (min(taus), max(taus)) if taus else (0.0, 0.0)
-    for gait, group, per_clip in groups:
-        for name, tau, m in per_clip:
-            for foot, v in m.items():
-                rows.append((foot, *v, gait, False, name))
-        for (na, ta, ma), (nb, tb, mb) in zip(per_clip[:-1], per_clip[1:]):
-            for w in np.linspace(0, 1, blends_per_interval + 2)[1:-1]:
-                for foot in (0, 1):
-                    v = (1 - w) * ma[foot] + w * mb[foot]
-                    rows.append((foot, *v, gait, False, f"{group.name}@{(1 - w) * ta + w * tb:+.3f}"))
-        if bend_curvature > 0:
-            for k in bend_curvatures(per_clip[0][1], per_clip[-1][1], bend_curvature, reach):
-                _, _, m = per_clip[-1] if k > per_clip[-1][1] else per_clip[0]
-                for foot in (0, 1):
-                    rows.append((foot, *bent_step(m, foot, k), gait, False, f"{group.name}@{k:+.3f}"))
-    for sp in library.specials:
-        a = by.get(sp.clip)
-        if sp.kind != "jump" or a is None or not a.jump_flights:
-            continue
-        t0, t1 = a.jump_flights[0]
-        prints = a.footprints()
-        take = [f for f in prints if f.time < t0]
-        land = [f for f in prints if f.time > t1]
-        if take and land and sp.entry_gait == "run":
-            p, q = take[-1], land[0]
-            fwd, left, turn = relative(p, q, a.motion.rest_forward)
-            # the jump within its tolerance: a little shorter or longer, a little turned
-            for scale in (1 - jump_tolerance, 1.0, 1 + jump_tolerance):
-                for dturn in np.radians([-10.0, 0.0, 10.0]):
-                    c, sn = np.cos(dturn), np.sin(dturn)
-                    rows.append((p.foot, scale * (c * fwd - sn * left), scale * (sn * fwd + c * left),
-                                 turn + dturn, q.time - p.time, "run", True, sp.clip))
-    if not rows:
-        raise StepError("the clip library gives no steps: it needs walk or run clips "
-                        "with at least two steps of each foot")
-    cols = list(zip(*rows))
-    return StepSet(fwd=np.array(cols[1], float), left=np.array(cols[2], float),
-                   turn=np.array(cols[3], float), duration=np.array(cols[4], float),
-                   foot=np.array(cols[0], int), gait=np.array(cols[5], object),
-                   jump=np.array(cols[6], bool), label=np.array(cols[7], object))
+    return groups
+
+
+def _cyclic_rows(gait: str, group, per_clip: list[tuple], blends_per_interval: int) -> list[tuple]:
+    """Step rows of a group's clips and of ``blends_per_interval`` blends between each
+    two neighbours (labelled ``<group>@<tau>``)."""
+    rows = [(foot, *v, gait, False, name) for name, tau, m in per_clip for foot, v in m.items()]
+    for (na, ta, ma), (nb, tb, mb) in zip(per_clip[:-1], per_clip[1:]):
+        for w in np.linspace(0, 1, blends_per_interval + 2)[1:-1]:
+            for foot in (0, 1):
+                v = (1 - w) * ma[foot] + w * mb[foot]
+                rows.append((foot, *v, gait, False, f"{group.name}@{(1 - w) * ta + w * tb:+.3f}"))
+    return rows
+
+
+def _bent_rows(gait: str, group, per_clip: list[tuple], bend_curvature: float, reach) -> list[tuple]:
+    """Step rows of the group's outermost clips bent beyond its range (``bent_step``)."""
+    rows = []
+    for k in bend_curvatures(per_clip[0][1], per_clip[-1][1], bend_curvature, reach):
+        _, _, m = per_clip[-1] if k > per_clip[-1][1] else per_clip[0]
+        for foot in (0, 1):
+            rows.append((foot, *bent_step(m, foot, k), gait, False, f"{group.name}@{k:+.3f}"))
+    return rows
+
+
+def _jump_rows(sp, a: ClipAnalysis | None, jump_tolerance: float) -> list[tuple]:
+    """Step rows of a running jump clip: take-off to landing, a little shorter or longer
+    (``jump_tolerance``) and a little turned (10 degrees)."""
+    if sp.kind != "jump" or a is None or not a.jump_flights or sp.entry_gait != "run":
+        return []
+    t0, t1 = a.jump_flights[0]
+    prints = a.footprints()
+    take = [f for f in prints if f.time < t0]
+    land = [f for f in prints if f.time > t1]
+    if not (take and land):
+        return []
+    p, q = take[-1], land[0]
+    fwd, left, turn = relative(p, q, a.motion.rest_forward)
+    rows = []
+    for scale in (1 - jump_tolerance, 1.0, 1 + jump_tolerance):
+        for dturn in np.radians([-10.0, 0.0, 10.0]):
+            c, sn = np.cos(dturn), np.sin(dturn)
+            rows.append((p.foot, scale * (c * fwd - sn * left), scale * (sn * fwd + c * left),
+                         turn + dturn, q.time - p.time, "run", True, sp.clip))
+    return rows
