@@ -205,14 +205,21 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
     doc) and, with ``frame_range``, the scene's frame range grows to cover the bake.
     ``planted`` holds (strike, stance, liftoff) seconds per footprint of ``path``,
     for the optional markers."""
+    from . import rigify
+
     _check(ob, rig, body_on)
-    basis = _root_carries_body(ob, rig, res, spin) if body_on == "ROOT" else res.basis
+    on_controls = rigify.is_rigify(ob)
+    basis = _root_carries_body(ob, rig, res, spin) if body_on == "ROOT" and not on_controls else res.basis
     rest = _own_rest(ob)  # (read before clearing frees the old action, and its property with it)
     clear(ob, scene)
-    act, slot, keys = _new_action(ob, name, rest, body_on, frame_start + np.arange(res.frames, dtype=np.float64))
+    frames = frame_start + np.arange(res.frames, dtype=np.float64)
+    act, slot, keys = _new_action(ob, name, rest, body_on, frames)
     if body_on == "OBJECT":
         _key_body(keys, ob, res.body_pos, spin + res.body_heading)
-    _key_bones(keys, ob, basis)
+    if on_controls:
+        _key_rigify_controls(ob, rig, act, slot, frames, res, spin, body_on)
+    else:
+        _key_bones(keys, ob, basis)
     track = _add_track(ob, name, act, slot, frame_start)
     _stash_active(ob, act)
     if frame_range:
@@ -223,7 +230,10 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
 
 
 def _check(ob, rig: Rig, body_on: str) -> None:
-    if tuple(pb.name for pb in ob.pose.bones) != tuple(rig.names):
+    from . import rigify
+
+    names = tuple(pb.name for pb in ob.pose.bones)
+    if names != tuple(rig.names) and not (rigify.is_rigify(ob) and set(rig.names) <= set(names)):
         raise BakeError(f"armature {ob.name!r} changed since it was read (bones differ)")
     if body_on not in BODY_ON:
         raise BakeError(f"the body goes on one of {', '.join(BODY_ON)}, not {body_on!r}")
@@ -319,6 +329,22 @@ def _key_bones(keys: _Keys, ob, basis: np.ndarray) -> None:
             keys(f"{path}location", basis[:, b, :3, 3], pb.name)
 
 
+def _key_rigify_controls(ob, rig: Rig, act, slot, frames: np.ndarray, res: IKResult, spin: float,
+                         body_on: str) -> None:
+    """Key a Rigify rig's controls (``rigify.key_controls``: FK legs and arms, torso and
+    spine, the IK/FK switches set to FK) so that its DEF bones, the planner's skeleton,
+    follow the IK's pose; with the body on the rig (``ROOT``) the torso carries it and
+    the object stays put."""
+    from ..core.rig import forward_kinematics
+    from . import rigify
+
+    pose = forward_kinematics(rig, res.basis)  # armature space, the body at the object
+    if body_on == "ROOT":
+        carry = np.linalg.inv(own_matrix_world(ob))[None] @ body_frames(res.body_pos, spin + res.body_heading)
+        pose = carry[:, None] @ pose
+    rigify.key_controls(ob, (act, slot), frames, {name: pose[:, b] for b, name in enumerate(rig.names)})
+
+
 def _add_track(ob, name: str, act, slot, frame_start: int):
     """A new NLA track of the planner's playing ``act`` from ``frame_start``."""
     ad = ob.animation_data_create()
@@ -346,9 +372,10 @@ def evaluate_played(scene, ob, rig: Rig, frame_start: int, frames: int, root: in
     The body is the object's frame, or with ``root`` that bone's frame with its rest
     put back. The scene's current frame is restored."""
     B = len(rig.names)
+    pick = [ob.pose.bones.find(n) for n in rig.names]  # (a Rigify rig's skeleton is some of its bones)
     pose = np.empty((frames, B, 4, 4))
     obm = np.empty((frames, 4, 4))
-    buf = np.empty(B * 16, dtype=np.float32)
+    buf = np.empty(len(ob.pose.bones) * 16, dtype=np.float32)
     saved = scene.frame_current, scene.frame_subframe
     depsgraph = bpy.context.evaluated_depsgraph_get()
     try:
@@ -356,7 +383,7 @@ def evaluate_played(scene, ob, rig: Rig, frame_start: int, frames: int, root: in
             scene.frame_set(int(frame_start) + i)
             ev = ob.evaluated_get(depsgraph)
             ev.pose.bones.foreach_get("matrix", buf)
-            pose[i] = buf.reshape(B, 4, 4).transpose(0, 2, 1)
+            pose[i] = buf.reshape(-1, 4, 4)[pick].transpose(0, 2, 1)
             obm[i] = np.array(ev.matrix_world)
     finally:
         scene.frame_set(saved[0], subframe=saved[1])

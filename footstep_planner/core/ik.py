@@ -508,10 +508,19 @@ def two_bone(H: np.ndarray, K0: np.ndarray, A0: np.ndarray, A: np.ndarray, L1: f
 
 def chain_bases(rig: Rig, chain: list, parent_rot: np.ndarray, arm: dict, basis: np.ndarray) -> None:
     """Set the rotations of pose bases ``basis`` (F, B, 4, 4), in place, from armature-space
-    rotations: ``arm`` maps each bone of ``chain`` (parents first, each the next one's
-    parent) to its wanted armature-space rotation (F, 3, 3); ``parent_rot`` (F or 1, 3, 3)
-    is the first bone's parent's."""
+    rotations: ``arm`` maps each bone of ``chain`` (parents first, each an ancestor of the
+    next) to its wanted armature-space rotation (F, 3, 3); ``parent_rot`` (F or 1, 3, 3)
+    is the first bone's parent's. Bones between two of the chain (a Rigify leg's split
+    halves, thigh.001 between thigh and shin) keep their bases and turn with the chain."""
+    known = {int(rig.parents[chain[0]]): parent_rot}
     for b in chain:
+        p, between = int(rig.parents[b]), []
+        while p not in known and p >= 0:
+            between.append(p)
+            p = int(rig.parents[p])
+        rot = known.get(p, parent_rot)
+        for q in reversed(between):  # their armature rotation, following the chain
+            rot = np.einsum("fij,jk,fkl->fil", rot, rig.rest_rel[q, :3, :3], basis[:, q, :3, :3])
         rr = rig.rest_rel[b, :3, :3]
-        basis[:, b, :3, :3] = np.einsum("ji,fjk->fik", rr, np.einsum("fji,fjk->fik", parent_rot, arm[b]))
-        parent_rot = arm[b]
+        basis[:, b, :3, :3] = np.einsum("ji,fjk->fik", rr, np.einsum("fji,fjk->fik", rot, arm[b]))
+        known[b] = arm[b]
