@@ -216,12 +216,6 @@ def set_scene_fps(scene, fps: float) -> None:
     scene.render.fps_base = scene.render.fps / fps
 
 
-def _bvh_fps(path: str) -> float:
-    from ..core.bvh import read_skeleton
-
-    return read_skeleton(path).fps
-
-
 def find_armature(name: str):
     ob = bpy.data.objects.get(name)
     if ob is None:
@@ -389,7 +383,7 @@ def _analyze(args) -> int:
             doc = {"clips": [d for c in doc["characters"] for d in c["clips"]], "errors": failed}
         print(json.dumps(doc, indent=1))
     elif from_bvh:
-        print(format_table("BVH clips", [a for _, analyses, _ in out for a in analyses]))
+        print(format_table("clip files", [a for _, analyses, _ in out for a in analyses]))
     else:
         for ob, analyses, lib in out:
             print(format_table(ob.name, analyses))

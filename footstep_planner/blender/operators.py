@@ -297,7 +297,7 @@ CLASSES = (FOOTSTEP_OT_import_clips, FOOTSTEP_OT_analyze_clips, FOOTSTEP_OT_plan
 
 
 def _menu_import(self, context):
-    self.layout.operator(FOOTSTEP_OT_import_clips.bl_idname, text="BVH Clips for Footstep Planner (.bvh)")
+    self.layout.operator(FOOTSTEP_OT_import_clips.bl_idname, text="Clips for Footstep Planner (.bvh, .fbx)")
 
 
 def register():
