@@ -48,7 +48,7 @@ _USAGE_OF_KIND = {"jump": "JUMP", "start": "START", "stop": "STOP", "idle": "IDL
 
 
 def summary(a: ClipAnalysis) -> str:
-    parts = [a.kind, a.gait, f"{a.speed:.2f} m/s"]
+    parts = [a.kind, a.gait_text, f"{a.speed:.2f} m/s"]
     if a.stride is not None:
         parts.append(f"stride {a.stride:.2f} m")
     if a.cycle is not None:

@@ -25,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from . import inplace
 from .clip import FOOT_NAMES, ClipMotion
 from .settings import Settings
 from .errors import FootstepError
@@ -93,6 +94,12 @@ class ClipAnalysis:
     balance: np.ndarray = field(repr=False)  # (2, N) toe weight per clip sample
     contact: np.ndarray = field(repr=False)  # (2, N) bool per clip sample
     motion: ClipMotion = field(repr=False, default=None)
+    in_place: bool = False  # an in-place clip: ``motion`` holds its reconstructed root motion
+
+    @property
+    def gait_text(self) -> str:
+        """The gait, marked "(in place)" for an in-place clip: "walk (in place)"."""
+        return f"{self.gait} (in place)" if self.in_place else self.gait
 
     def footprints(self) -> list[Footprint]:
         return [st.footprint for st in sorted(self.stances, key=lambda st: st.stance)]
@@ -117,7 +124,7 @@ class ClipAnalysis:
         return {
             "name": self.name, "fps": _r(self.fps), "frames": self.frames,
             "duration": _r(self.duration), "source_fps": m.source_fps,
-            "kind": self.kind, "gait": self.gait, "start": self.starts_at_rest,
+            "kind": self.kind, "gait": self.gait, "in_place": self.in_place, "start": self.starts_at_rest,
             "stop": self.ends_at_rest, "entry_gait": self.entry_gait, "exit_gait": self.exit_gait,
             "speed": _r(self.speed), "stride": _r(self.stride), "cycle": _r(self.cycle),
             "cadence": _r(self.cadence, 1), "tau": _r(self.tau),
@@ -250,10 +257,41 @@ class _Cycle(NamedTuple):
 
 def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAnalysis:
     """Analyse one clip. Raises AnalysisError (naming the clip) when no foot ever touches
-    the ground, or a locomotion clip is too short to hold one gait cycle."""
+    the ground, or a locomotion clip is too short to hold one gait cycle.
+
+    An in-place clip (its hips stay over one spot while its feet step, ``core.inplace``)
+    is analysed on its root motion reconstructed from its planted feet; its analysis says
+    ``in_place`` and its ``motion`` is the reconstructed clip. AnalysisError when its feet
+    are never planted."""
     s = settings or Settings()
     _check_analysable(motion)
     d = _resample(motion, s)
+    if inplace.check_in_place(motion, s, d.motion).in_place:
+        return _analyze_in_place(motion, d.motion, s)
+    return _analyze(motion, s, d)
+
+
+def _analyze_in_place(motion: ClipMotion, dense: ClipMotion, s: Settings) -> ClipAnalysis:
+    """The analysis of an in-place clip (``dense``: at the analysis rate): its root motion
+    reconstructed from the feet ``inplace.slide_weights`` finds planted, then again from
+    the stances Johansen's rules find on that, and analysed as a travelling clip."""
+    moved = inplace.reconstruct(motion, *inplace.slide_weights(dense, s), dense, s)
+    if moved is None:
+        raise AnalysisError(
+            f"clip {motion.name!r} is in place (its hips stay while its feet step) but its feet "
+            f"are never planted: no heel or toe stays low while moving steadily backwards under "
+            f"the body for {inplace.MIN_PLANT:.2f} s, so its root motion cannot be reconstructed")
+    first = _analyze(moved, s)
+    moved = inplace.reconstruct(motion, *inplace.stance_weights(dense.times, first.stances), dense, s)
+    out = first if moved is None else _analyze(moved, s)
+    out.in_place = True
+    return out
+
+
+def _analyze(motion: ClipMotion, s: Settings, d: _Dense | None = None) -> ClipAnalysis:
+    """analyze_clip of a clip whose root travels (or stands): Johansen's analysis (``d``:
+    the clip resampled by ``_resample``, if at hand)."""
+    d = _resample(motion, s) if d is None else d
     feet = [_foot_stances(d.motion, k, d.body_speed_s, s) for k in range(2)]
     stances = _all_stances(feet, motion.name)
     contact = _contact_mask(d, feet)

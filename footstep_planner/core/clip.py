@@ -56,6 +56,16 @@ class ClipMotion:
         """(N, 4, 4) root frames: translation root_pos, rotation root_heading about Z."""
         return root_frames(self.root_pos, self.root_heading)
 
+    def moved(self, yaw: np.ndarray, shift: np.ndarray) -> "ClipMotion":
+        """The clip carried by a planar rigid motion per sample: turned by ``yaw`` (N,)
+        radians about the armature's Z axis, then moved by ``shift`` (N, 2) m in XY. The
+        root, its heading and the heel and toe points move; the pose (bone rotations,
+        the hips in the root frame) is the clip's own."""
+        yaw = np.asarray(yaw, dtype=np.float64)
+        return replace(self, root_pos=_turn_shift(self.root_pos, yaw, shift),
+                       root_heading=self.root_heading + yaw,
+                       heel=_turn_shift(self.heel, yaw, shift), toe=_turn_shift(self.toe, yaw, shift))
+
     def resample(self, fps: float) -> "ClipMotion":
         """The same clip at another rate: cubic splines for positions and headings, and the
         nearest sample for bone rotations (only used for pose comparisons)."""
@@ -74,6 +84,16 @@ class ClipMotion:
             heel=spline(self.heel, axis=1),
             toe=spline(self.toe, axis=1),
         )
+
+
+def _turn_shift(p: np.ndarray, yaw: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """Points (..., N, 3) turned by ``yaw`` (N,) about Z, then moved by ``shift`` (N, 2)."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    shift = np.asarray(shift, dtype=np.float64)
+    out = np.array(p, dtype=np.float64, copy=True)
+    out[..., 0] = c * p[..., 0] - s * p[..., 1] + shift[:, 0]
+    out[..., 1] = s * p[..., 0] + c * p[..., 1] + shift[:, 1]
+    return out
 
 
 def root_frames(pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
