@@ -13,15 +13,9 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-#: mannequin bone -> Mixamo joint (no prefix); the heel markers have no Mixamo joint
-MIXAMO = {"spine": "Hips", "spine.001": "Spine", "spine.002": "Spine1", "spine.003": "Spine2",
-          "spine.004": "Neck", "spine.005": "Head", "spine.006": "HeadTop_End"}
-for _s, _side in (("L", "Left"), ("R", "Right")):
-    MIXAMO.update({f"thigh.{_s}": f"{_side}UpLeg", f"shin.{_s}": f"{_side}Leg", f"foot.{_s}": f"{_side}Foot",
-                   f"toe.{_s}": f"{_side}ToeBase", f"shoulder.{_s}": f"{_side}Shoulder",
-                   f"upper_arm.{_s}": f"{_side}Arm", f"forearm.{_s}": f"{_side}ForeArm",
-                   f"hand.{_s}": f"{_side}Hand"})
-PREFIX = "mixamorig:"
+from benchmarks import mixamo_like
+from benchmarks.mixamo_like import MIXAMO, PREFIX
+
 FRAMES = (1, 6, 13, 20, 27, 34, 41)  # where bone positions are compared
 CLIPS = ("walk", "run")
 
@@ -57,12 +51,6 @@ def test_mixamo_names_map_to_roles_with_or_without_the_prefix(prefix):
 
 # -- the files --------------------------------------------------------------------------
 
-def _curves(act):
-    for layer in act.layers:
-        for strip in layer.strips:
-            for cb in strip.channelbags:
-                yield from cb.fcurves
-
 
 def _heads(ob, frames, names=None):
     """World heads {bone: (F, 3)} of ``ob``'s bones through the depsgraph at ``frames``
@@ -91,88 +79,8 @@ def _vertices(ob):
     return co.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3]
 
 
-def _play(ob, act):
-    ob.animation_data_create()
-    ob.animation_data.action = act
-    ob.animation_data.action_slot = act.slots[0]
 
 
-def _export(path, objects, act, frames):
-    """One clip per file, as Mixamo writes them: Y up, centimetres, every frame keyed."""
-    import bpy
-
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = frames
-    for o in bpy.data.objects:
-        o.select_set(o in objects)
-    if act is not None:
-        _play(objects[0], act)
-    # without a skinned mesh (no bind pose) the file's rest pose is the pose at export:
-    # the clip's first frame, as in a Mixamo download without skin
-    scene.frame_set(frames[0])
-    bpy.ops.export_scene.fbx(
-        filepath=path, use_selection=True, object_types={o.type for o in objects}, axis_up="Y",
-        axis_forward="-Z", global_scale=1.0, apply_unit_scale=True, apply_scale_options="FBX_SCALE_NONE",
-        add_leaf_bones=False, bake_anim=act is not None, bake_anim_use_all_actions=False,
-        bake_anim_use_nla_strips=False, bake_anim_force_startend_keying=True,
-        bake_anim_simplify_factor=0.0)
-    return path
-
-
-def _in_place(ob, act, hips):
-    """A copy of ``act`` with the hips' horizontal travel removed (as a Mixamo "in place"
-    download)."""
-    import bpy
-
-    new = act.copy()
-    new.name = act.name + "_in_place"
-    rest = np.array(ob.data.bones[hips].matrix_local)[:3, :3]
-    base = f'pose.bones["{bpy.utils.escape_identifier(hips)}"].location'
-    fcs = sorted((fc for fc in _curves(new) if fc.data_path == base), key=lambda fc: fc.array_index)
-    co = [np.empty(2 * len(fc.keyframe_points)) for fc in fcs]
-    for fc, c in zip(fcs, co):
-        fc.keyframe_points.foreach_get("co", c)
-    world = np.stack([c[1::2] for c in co], axis=1) @ rest.T
-    world[:, :2] = world[0, :2]
-    loc = world @ rest
-    for i, (fc, c) in enumerate(zip(fcs, co)):
-        c[1::2] = loc[:, i]
-        fc.keyframe_points.foreach_set("co", c)
-        fc.update()
-    return new
-
-
-def _mixamoize(ob, body):
-    """Rename ``ob``'s bones as Mixamo does (heel markers deleted) and put its rest pose
-    and location keys in centimetres, Y up, under an object turned 90 degrees about X
-    and scaled 0.01: every bone and vertex stays where it was in the world."""
-    import bpy
-    from mathutils import Matrix
-
-    view = bpy.context.view_layer
-    view.objects.active = ob
-    bpy.ops.object.mode_set(mode="EDIT")
-    for eb in [eb for eb in ob.data.edit_bones if eb.name.startswith("heel")]:
-        ob.data.edit_bones.remove(eb)
-    bpy.ops.object.mode_set(mode="OBJECT")
-    for old, new in MIXAMO.items():
-        ob.data.bones[old].name = PREFIX + new
-    for act in bpy.data.actions:
-        for fc in _curves(act):
-            for old, new in MIXAMO.items():
-                fc.data_path = fc.data_path.replace(f'pose.bones["{old}"]', f'pose.bones["{PREFIX + new}"]')
-            if fc.data_path.endswith(".location"):
-                for attr in ("co", "handle_left", "handle_right"):
-                    xy = np.empty(2 * len(fc.keyframe_points))
-                    fc.keyframe_points.foreach_get(attr, xy)
-                    xy[1::2] *= 100.0
-                    fc.keyframe_points.foreach_set(attr, xy)
-                fc.update()
-    g = Matrix.Rotation(np.pi / 2, 4, "X") @ Matrix.Scale(0.01, 4)
-    ob.data.transform(g.inverted())
-    body.data.transform(g.inverted())
-    ob.matrix_world = g
-    view.update()
 
 
 @pytest.fixture(scope="module")
@@ -189,27 +97,27 @@ def mixamo(fp, tmp_path_factory):
     ob, body = mannequin.build()
     acts = {a.name: a for a in mannequin.generate_clips(ob, names=list(CLIPS))}
     analysis = {a.name: (a.speed, a.stride, a.gait) for a in character.analyze_character(ob).analyses}
-    acts["walk_in_place"] = _in_place(ob, acts["walk"], "spine")
+    acts["walk_in_place"] = mixamo_like.in_place(ob, acts["walk"], "spine")
     names = list(MIXAMO)
     heads = {}
     for name, act in acts.items():
-        _play(ob, act)
+        mixamo_like.play(ob, act)
         h = _heads(ob, FRAMES, names)
         heads[name] = {PREFIX + MIXAMO[n]: v for n, v in h.items()}
-    _play(ob, acts["walk"])
+    mixamo_like.play(ob, acts["walk"])
     bpy.context.scene.frame_set(20)
     deformed = _vertices(body)
-    _mixamoize(ob, body)
-    _play(ob, acts["walk"])
+    mixamo_like.mixamoize(ob, body)
+    mixamo_like.play(ob, acts["walk"])
     assert max(np.abs(v - heads["walk"][n]).max() for n, v in _heads(ob, FRAMES).items()) < 1e-4
     out = tmp_path_factory.mktemp("mixamo")
     files = {}
     for name, act in acts.items():
         objects = [ob, body] if name == "walk" else [ob]
-        files[name] = _export(str(out / f"{name}.fbx"), objects, act, (1, int(act.frame_range[1])))
-    files["no_armature"] = _export(str(out / "no_armature.fbx"), [body], None, (1, 2))
+        files[name] = mixamo_like.export(str(out / f"{name}.fbx"), objects, act, (1, int(act.frame_range[1])))
+    files["no_armature"] = mixamo_like.export(str(out / "no_armature.fbx"), [body], None, (1, 2))
     twin, _ = mannequin.build(name="Twin")
-    files["two_armatures"] = _export(str(out / "two_armatures.fbx"), [ob, twin], acts["run"], (1, 10))
+    files["two_armatures"] = mixamo_like.export(str(out / "two_armatures.fbx"), [ob, twin], acts["run"], (1, 10))
     # a skeleton with no legs: a snake, four bones in a row
     snake = bpy.data.objects.new("Snake", bpy.data.armatures.new("Snake"))
     scene.collection.objects.link(snake)
@@ -229,7 +137,7 @@ def mixamo(fp, tmp_path_factory):
     fc.keyframe_points.insert(1, 0.0)
     fc.keyframe_points.insert(10, 0.2)
     scene.render.fps = 30  # (a file at another rate)
-    files["legless"] = _export(str(out / "legless.fbx"), [snake], legless, (1, 10))
+    files["legless"] = mixamo_like.export(str(out / "legless.fbx"), [snake], legless, (1, 10))
     scene.render.fps = 24
     with open(files["walk"], "rb") as fh:
         head = fh.read(3000)
@@ -295,7 +203,7 @@ def test_the_files_come_into_blender_as_mixamo_files_do(fp, empty_scene, mixamo)
     assert ob.scale[:] == pytest.approx([0.01] * 3)
     assert 90 < ob.data.bones[PREFIX + "Hips"].head_local[1] < 100  # cm, Y up
     assert bpy.context.scene.render.fps == 24
-    hips = [fc for fc in _curves(ob.animation_data.action)
+    hips = [fc for fc in mixamo_like.curves(ob.animation_data.action)
             if fc.data_path == f'pose.bones["{PREFIX}Hips"].location']
     assert max(abs(k.co[1]) for fc in hips for k in fc.keyframe_points) > 20  # cm of travel
 
@@ -322,7 +230,7 @@ def test_import_gives_one_armature_in_metres_z_up_and_leaves_the_users_data(fp, 
     # the user's things as they were
     assert bpy.context.view_layer.objects.active == empty and empty.select_get()
     assert not ob.select_get() and arm.animation_data.action == mine
-    assert [tuple(k.co) for k in next(iter(_curves(mine))).keyframe_points] == [(1, 0.5), (10, pytest.approx(0.7))]
+    assert [tuple(k.co) for k in next(iter(mixamo_like.curves(mine))).keyframe_points] == [(1, 0.5), (10, pytest.approx(0.7))]
     assert empty_scene.render.fps == 24 and empty_scene.render.fps_base == 1.0
     # identity transform, metres, Z up, feet near the ground
     assert np.allclose(np.array(ob.matrix_world), np.eye(4), atol=1e-6)
@@ -350,7 +258,7 @@ def test_import_gives_one_armature_in_metres_z_up_and_leaves_the_users_data(fp, 
     z = np.array([v.co.z for v in body.data.vertices])
     assert -0.05 < z.min() < 0.05 and 1.7 < z.max() < 1.8
     # ... and deformed by the walk as the original body was
-    _play(ob, acts[0])
+    mixamo_like.play(ob, acts[0])
     empty_scene.frame_set(20)
     assert np.abs(_vertices(body) - mixamo["body_at_20"]).max() < 0.01
 
@@ -376,7 +284,7 @@ def test_a_scene_at_another_rate_keys_the_clip_at_its_rate(fp, empty_scene, mixa
     empty_scene.render.fps = 30
     ob, (act,) = clips.import_clips([mixamo["files"]["walk_in_place"]])
     assert empty_scene.render.fps == 30 and act["footstep_source_fps"] == pytest.approx(24)
-    xs = np.array([k.co[0] for k in next(iter(_curves(act))).keyframe_points])
+    xs = np.array([k.co[0] for k in next(iter(mixamo_like.curves(act))).keyframe_points])
     assert xs[0] == pytest.approx(1) and np.diff(xs) == pytest.approx(1.25, abs=1e-4)
     want = mixamo["heads"]["walk_in_place"]
     got = _heads(ob, [1 + (f - 1) * 1.25 for f in FRAMES], list(want))
@@ -463,7 +371,7 @@ def test_bvh_and_fbx_of_one_skeleton_mix(fp, empty_scene, mixamo, tmp_path):
 
     clips = _clips(fp)
     ob, (_, run) = clips.import_clips([mixamo["files"]["walk"], mixamo["files"]["run"]])
-    _play(ob, run)
+    mixamo_like.play(ob, run)
     bvh = str(tmp_path / "run_bvh.bvh")
     bpy.context.view_layer.objects.active = ob
     from mathutils import Matrix
@@ -474,7 +382,48 @@ def test_bvh_and_fbx_of_one_skeleton_mix(fp, empty_scene, mixamo, tmp_path):
     bpy.context.scene.render.fps = 24
     ob, acts = clips.import_clips([mixamo["files"]["walk"], bvh])
     assert [a.name for a in acts] == ["walk", "run_bvh"]
-    _play(ob, acts[1])
+    mixamo_like.play(ob, acts[1])
     want = mixamo["heads"]["run"]
     got = _heads(ob, FRAMES, list(want))
     assert max(np.abs(got[n] - want[n]).max() for n in want) < 0.01
+
+
+def test_a_mixamo_character_with_in_place_clips_bakes_from_the_command_line(fp, tmp_path, capsys):
+    """Mixamo-style in-place walk, run and turn clips, imported with import-clips into a
+    scene, analysed as in place, planned and baked by the bake verb on Turns: the report
+    (the scene as played) shows planted feet and the goal reached."""
+    import bpy
+
+    files = mixamo_like.write_character(str(tmp_path))
+    import_module(fp.__name__ + ".blender.sample_scenes").build("turns")
+    bpy.context.scene.render.fps = 30
+    scene_path = str(tmp_path / "turns.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=scene_path)
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    with_clips, baked, report = (str(tmp_path / n) for n in ("with_clips.blend", "baked.blend", "r.json"))
+    assert cli(["import-clips", "--blend", scene_path, "--name", "Mixamo", "--out", with_clips, *files]) == 0
+    capsys.readouterr()
+    assert cli(["analyze", with_clips, "--character", "Mixamo", "--json"]) == 0
+    out = capsys.readouterr().out
+    doc = json.loads(out[out.index("{"):])  # (after Blender's own "Read blend" line)
+    clips = [c for c in _walk_dicts(doc) if "in_place" in c]
+    assert len(clips) == 4 and all(c["in_place"] for c in clips)
+    assert {c["gait"] for c in clips} == {"walk", "run"}
+    assert cli(["bake", with_clips, "--character", "Mixamo", "--goal", "Goal", "--start", "Start",
+                "--out", baked, "--report", report]) == 0
+    with open(report) as fh:
+        q = json.load(fh)["quality"]
+    assert q["foot_skate"]["max_mm"] < 5.0 and q["footprint_error"]["max_mm"] < 5.0
+    assert q["goal"]["distance_m"] < 0.05
+    bpy.ops.wm.read_homefile(use_empty=True)
+
+
+def _walk_dicts(x):
+    """Every dict inside a JSON document."""
+    if isinstance(x, dict):
+        yield x
+        for v in x.values():
+            yield from _walk_dicts(v)
+    elif isinstance(x, list):
+        for v in x:
+            yield from _walk_dicts(v)
