@@ -184,7 +184,7 @@ def main():
               f"{st['pose_blend_ms']:7.1f} {st['ik_ms']:7.1f} {st['ik_ms'] / st['frames']:9.4f} {st['bake_ms']:7.1f} {total:7.1f}")
     print("thesis (C#, i7-4790K): jumps 51 fp 1384 frames, IK 159 ms (0.115 ms/frame), total 204 ms; "
           "turns 43 fp 1314 frames, IK 185 ms, total 248 ms")
-    print("\nquality of the baked result (measured on the baked armature)")
+    print("\nquality of the baked result (the scene as Blender plays it, through the depsgraph)")
     head = (f"{'scene':10s} {'skate mean':>10s} {'skate max':>10s} {'fp err max':>10s} {'penetr.':>8s} "
             f"{'float':>6s} {'goal cm':>8s} {'pops made':>9s} {'worst over clip':>15s}")
     print(head + "\n" + "-" * len(head))
