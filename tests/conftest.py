@@ -60,12 +60,28 @@ def box(lo, hi, name="box"):
     return TriMesh(v, np.array(tris), np.zeros(12, np.int64), (name,))
 
 
+def standing(x, y, heading, forward):
+    """Both feet standing side by side 0.1 m either side of (x, y), turned ``heading``
+    from ``forward`` (x, y): the start footprints of a plan (core PathFootprint)."""
+    import numpy as np
+
+    from footstep_planner.core.navgraph import PathFootprint
+
+    ang = heading + np.arctan2(forward[1], forward[0])
+    left = np.array([-np.sin(ang), np.cos(ang), 0.0])
+    p = np.array([x, y, 0.0])
+    return [PathFootprint(0, p + 0.1 * left, heading, 0.0, "start", "walk"),
+            PathFootprint(1, p - 0.1 * left, heading, 0.0, "start", "walk")]
+
+
 def scene_with_cmu(fp, name, fps=30):
-    """Sample scene ``name`` built, with the CMU library imported as armature "CMU"."""
+    """Sample scene ``name`` built in an empty file, with the CMU library imported as
+    armature "CMU"."""
     from importlib import import_module
 
     import bpy
 
+    bpy.ops.wm.read_homefile(use_empty=True)
     import_module(fp.__name__ + ".blender.sample_scenes").build(name)
     scene = bpy.context.scene
     scene.render.fps = fps

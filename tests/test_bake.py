@@ -8,21 +8,13 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import LIBRARY, cmu, needs_cmu
+from conftest import needs_cmu, scene_with_cmu
 
 pytestmark = needs_cmu
 
 
 def _scene(fp, name, fps=30):
-    import bpy
-
-    bpy.ops.wm.read_homefile(use_empty=True)
-    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
-    scene = bpy.context.scene
-    scene.render.fps = fps
-    clips = import_module(fp.__name__ + ".blender.clips")
-    ob, _ = clips.import_bvh_clips([cmu(n) for n in LIBRARY], name="CMU")
-    return scene, ob
+    return scene_with_cmu(fp, name, fps)
 
 
 def _run(fp, scene, ob, **kw):

@@ -17,7 +17,7 @@ from footstep_planner.core.pipeline import label_weights, surface_snap, synthesi
 from footstep_planner.core.settings import Settings
 from footstep_planner.core.steps import bend_chain, bent_step, library_steps
 from footstep_planner.core.surface import FootShape, MeshGround, TriMesh, footprint_support
-from conftest import plane
+from conftest import plane, standing
 from synth import synthetic_gait
 
 FWD = np.array([0.0, -1.0])  # the synthetic rig's rest forward
@@ -40,11 +40,7 @@ def label_tau(label):
 
 
 def start(x, y, heading=EAST):
-    ang = heading + np.arctan2(FWD[1], FWD[0])
-    left = np.array([-np.sin(ang), np.cos(ang), 0.0])
-    p = np.array([x, y, 0.0])
-    return [PathFootprint(0, p + 0.1 * left, heading, 0.0, "start", "walk"),
-            PathFootprint(1, p - 0.1 * left, heading, 0.0, "start", "walk")]
+    return standing(x, y, heading, FWD)
 
 
 def corridor():

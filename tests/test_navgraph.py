@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from footstep_planner.core.navgraph import PathFootprint, PlanError, Planner
+from footstep_planner.core.navgraph import PlanError, Planner
 from footstep_planner.core.settings import Settings
 from footstep_planner.core.steps import StepSet
 from footstep_planner.core.surface import FootShape, MeshGround, TriMesh, footprint_support
-from conftest import box, plane
+from conftest import box, plane, standing
 
 FWD = np.array([0.0, -1.0])
 EAST = np.pi / 2
@@ -31,11 +31,7 @@ def steps(with_jump=True, jump_len=1.7):
 
 
 def start(x, y, heading=EAST):
-    ang = heading + np.arctan2(FWD[1], FWD[0])
-    left = np.array([-np.sin(ang), np.cos(ang), 0.0])
-    p = np.array([x, y, 0.0])
-    return [PathFootprint(0, p + 0.1 * left, heading, 0, "start", "walk"),
-            PathFootprint(1, p - 0.1 * left, heading, 0, "start", "walk")]
+    return standing(x, y, heading, FWD)
 
 
 def check_path(planner, result, goal):
