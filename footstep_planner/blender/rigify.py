@@ -305,37 +305,58 @@ def deform_chain(ob) -> dict:
     controls: dict = {}
     body: list[str] = []
     if spine is not None:
-        roles["hips"] = spine["deform"][0]
-        roles["spine"] = list(spine["deform"])
-        body += spine["deform"]
-        fk, p = spine["fk"], spine["pivot"]
-        for k, d in enumerate(spine["deform"]):
-            # DEF-spine.k takes its frame from tweak_spine.k: under spine_fk.(k-1) below the pivot
-            # (spine_fk for k=0), under MCH-pivot (50 % spine_fk.(p-1), 50 % spine_fk.p) at it
-            near = [fk[0]] if k == 0 else [fk[k - 1], fk[k]] if k <= p else [fk[k]]
-            controls[d] = [spine["torso"]] + near
-        if spine["head"] is not None:
-            h = spine["head"]
-            roles["neck"], roles["head"] = h["deform"][0], h["deform"][-1]
-            body += h["deform"]
-            for d in h["deform"][:-1]:
-                controls[d] = [h["neck"], h["head"]]
-            controls[h["deform"][-1]] = [h["head"]]
+        _spine_entries(spine, roles, controls, body)
     for lb in limbs.values():
-        keys = (["thigh", "shin", "foot", "toe"] if lb["kind"] == "leg" else
-                ["upper_arm", "forearm", "hand"] if lb["kind"] == "arm" else
-                [o[4:].rsplit(".", 1)[0] for o in lb["org"]])
-        suffix = "." + lb["side"] if lb["side"] else ""
-        if lb["parent_deform"]:
-            roles["shoulder" + suffix if lb["kind"] == "arm" else lb["parent_deform"][4:]] = lb["parent_deform"]
-            body.append(lb["parent_deform"])
-            controls[lb["parent_deform"]] = [lb["parent_control"]]
-        for k, segs, fk in zip(keys, lb["deform"], lb["fk"]):
-            roles[k + suffix] = segs[0]
-            body += segs
-            for s in segs:
-                controls[s] = [fk]
-    for b in ob.data.bones:  # pelvis, breasts: DEF bones of super_copy bones on the body
+        _limb_entries(lb, roles, controls, body)
+    _follower_entries(ob, controls, body)
+    order = {n: i for i, n in enumerate(ob.pose.bones.keys())}
+    body.sort(key=lambda n: order[n])
+    skeleton = {n: _def_parent(ob, n) for n in body}
+    return {"rig_id": ob.data.get("rig_id"), "spine": spine, "limbs": limbs, "skeleton": skeleton,
+            "roles": roles, "controls": controls,
+            "switches": [lb["switch"] for lb in limbs.values()]}
+
+
+def _spine_entries(spine: dict, roles: dict, controls: dict, body: list) -> None:
+    """The spine's and head's roles, controls and DEF bones, into the given collections."""
+    roles["hips"] = spine["deform"][0]
+    roles["spine"] = list(spine["deform"])
+    body += spine["deform"]
+    fk, p = spine["fk"], spine["pivot"]
+    for k, d in enumerate(spine["deform"]):
+        # DEF-spine.k takes its frame from tweak_spine.k: under spine_fk.(k-1) below the pivot
+        # (spine_fk for k=0), under MCH-pivot (50 % spine_fk.(p-1), 50 % spine_fk.p) at it
+        near = [fk[0]] if k == 0 else [fk[k - 1], fk[k]] if k <= p else [fk[k]]
+        controls[d] = [spine["torso"]] + near
+    if spine["head"] is not None:
+        h = spine["head"]
+        roles["neck"], roles["head"] = h["deform"][0], h["deform"][-1]
+        body += h["deform"]
+        for d in h["deform"][:-1]:
+            controls[d] = [h["neck"], h["head"]]
+        controls[h["deform"][-1]] = [h["head"]]
+
+
+def _limb_entries(lb: dict, roles: dict, controls: dict, body: list) -> None:
+    """A limb's roles (thigh.L ..., upper_arm.L ...), FK controls and DEF segments."""
+    keys = (["thigh", "shin", "foot", "toe"] if lb["kind"] == "leg" else
+            ["upper_arm", "forearm", "hand"] if lb["kind"] == "arm" else
+            [o[4:].rsplit(".", 1)[0] for o in lb["org"]])
+    suffix = "." + lb["side"] if lb["side"] else ""
+    if lb["parent_deform"]:
+        roles["shoulder" + suffix if lb["kind"] == "arm" else lb["parent_deform"][4:]] = lb["parent_deform"]
+        body.append(lb["parent_deform"])
+        controls[lb["parent_deform"]] = [lb["parent_control"]]
+    for k, segs, fk in zip(keys, lb["deform"], lb["fk"]):
+        roles[k + suffix] = segs[0]
+        body += segs
+        for seg in segs:
+            controls[seg] = [fk]
+
+
+def _follower_entries(ob, controls: dict, body: list) -> None:
+    """Pelvis, breasts: DEF bones of super_copy bones on the body, with their controls."""
+    for b in ob.data.bones:
         org = "ORG-" + b.name[4:]
         if (b.name.startswith("DEF-") and b.name not in body and b.use_deform and org in ob.pose.bones
                 and _rigify_type(ob.pose.bones[org]) == "basic.super_copy"):
@@ -345,12 +366,6 @@ def deform_chain(ob) -> dict:
                 ctl = [c.subtarget for c in ob.pose.bones[org].constraints
                        if c.type == "COPY_TRANSFORMS" and _is_control(c.subtarget)]
                 controls[b.name] = ctl or list(controls.get(par, []))
-    order = {n: i for i, n in enumerate(ob.pose.bones.keys())}
-    body.sort(key=lambda n: order[n])
-    skeleton = {n: _def_parent(ob, n) for n in body}
-    return {"rig_id": ob.data.get("rig_id"), "spine": spine, "limbs": limbs, "skeleton": skeleton,
-            "roles": roles, "controls": controls,
-            "switches": [lb["switch"] for lb in limbs.values()]}
 
 
 # --------------------------------------------------------------------------------------------
@@ -738,6 +753,25 @@ def key_controls(ob, dst, frames, targets: dict, *, neutral: bool = True, all_fk
     frames = np.asarray(frames, np.float64).ravel()
     info = deform_chain(ob)
     s = _Solver(ob, targets, frames)
+    used = _solve_all(s, info, neutral)
+    if all_fk:
+        for lb in info["limbs"].values():
+            s.props.setdefault(lb["switch"]["data_path"], float(lb["switch"]["fk_value"]))
+    neutral_bones = sorted(s.neutral - set(s.want)) if neutral else []
+    bases = _bases(ob, s.want, set(neutral_bones))
+    act, slot, cbag = _channelbag(ob, dst)
+    count = _write_keys(ob, cbag, frames, bases, neutral_bones, s.props, neutral)
+    result = {"action": act, "slot": slot, "channelbag": cbag, "controls": list(bases),
+              "neutral": neutral_bones, "properties": dict(s.props), "fcurves": count,
+              "ignored": sorted(set(s.t) - used), "max_error": None}
+    if verify:
+        result["max_error"] = _verify(ob, act, slot, frames, s.t, sorted(used), int(verify))
+    return result
+
+
+def _solve_all(s: "_Solver", info: dict, neutral: bool) -> set:
+    """Solve every chain that has targets (the spine first: the limbs hang from it);
+    ValueError naming the targets a chain misses. Returns the DEF bones used."""
     used: set[str] = set()
     sp = info["spine"]
     limbs_given = [lb for lb in info["limbs"].values()
@@ -766,13 +800,12 @@ def key_controls(ob, dst, frames, targets: dict, *, neutral: bool = True, all_fk
         used.update(x for seg in lb["deform"] for x in seg)
         if lb["parent_deform"] in s.t:
             used.add(lb["parent_deform"])
-    if all_fk:
-        for lb in info["limbs"].values():
-            s.props.setdefault(lb["switch"]["data_path"], float(lb["switch"]["fk_value"]))
-    neutral_bones = sorted(s.neutral - set(s.want)) if neutral else []
-    bases = _bases(ob, s.want, set(neutral_bones))
+    return used
 
-    act, slot, cbag = _channelbag(ob, dst)
+
+def _write_keys(ob, cbag, frames, bases: dict, neutral_bones: list, props: dict, neutral: bool) -> int:
+    """Key the solved controls' bases, the neutral bones at rest and the properties
+    (switches, follows) into ``cbag``; returns the F-Curves written."""
     count = 0
     for c, b in bases.items():
         count += _key_bone(cbag, ob, c, frames, b)
@@ -782,22 +815,21 @@ def key_controls(ob, dst, frames, targets: dict, *, neutral: bool = True, all_fk
     for c in neutral_bones:
         count += _key_bone(cbag, ob, c, frames[:1], eye)
         count += _key_scale(cbag, c, frames[0])
-    for path, val in s.props.items():
+    for path, val in props.items():
         _write(cbag, path, 0, frames[:1], np.array([val]), path.split('"')[1], _CONSTANT)
         count += 1
-    result = {"action": act, "slot": slot, "channelbag": cbag, "controls": list(bases),
-              "neutral": neutral_bones, "properties": dict(s.props), "fcurves": count,
-              "ignored": sorted(set(s.t) - used), "max_error": None}
-    if verify:
-        idx = np.unique(np.linspace(0, len(frames) - 1, int(verify)).round().astype(int))
-        names = sorted(used)
-        got = sample_deform(ob, act, frames[idx], names=names, slot=slot)
-        want = np.stack([s.t[n][idx] for n in names], axis=1)
-        gh, gt = heads_tails(ob, got, names)
-        wh, wt = heads_tails(ob, want, names)
-        result["max_error"] = float(max(np.linalg.norm(gh - wh, axis=-1).max(),
-                                        np.linalg.norm(gt - wt, axis=-1).max()))
-    return result
+    return count
+
+
+def _verify(ob, act, slot, frames, targets: dict, names: list, k: int) -> float:
+    """The largest head or tail distance (m) of ``names`` from their targets, played
+    through the depsgraph at ``k`` frames spread over the range."""
+    idx = np.unique(np.linspace(0, len(frames) - 1, k).round().astype(int))
+    got = sample_deform(ob, act, frames[idx], names=names, slot=slot)
+    want = np.stack([targets[n][idx] for n in names], axis=1)
+    gh, gt = heads_tails(ob, got, names)
+    wh, wt = heads_tails(ob, want, names)
+    return float(max(np.linalg.norm(gh - wh, axis=-1).max(), np.linalg.norm(gt - wt, axis=-1).max()))
 
 
 _POSE_CHANNELS = (("location", 3), ("rotation_quaternion", 4), ("rotation_euler", 3),
