@@ -25,7 +25,7 @@ def main():
     import bpy
 
     from footstep_planner import register
-    from footstep_planner.blender.clips import import_bvh_clips
+    from footstep_planner.blender.clips import import_clips
     from footstep_planner.blender.scene import clip_from_action, rig_from_armature
     from footstep_planner.core.analysis import analyze_clip
 
@@ -42,7 +42,7 @@ def main():
         t = [[], [], []]
         for _ in range(args.repeat):
             t0 = time.perf_counter()
-            ob, (act,) = import_bvh_clips([path])
+            ob, (act,) = import_clips([path])
             t1 = time.perf_counter()
             rig = rig_from_armature(ob)
             motion = clip_from_action(ob, act, rig)

@@ -106,7 +106,7 @@ def main():
     from footstep_planner import register
     from footstep_planner.blender import bake as baking
     from footstep_planner.blender import planning
-    from footstep_planner.blender.clips import import_bvh_clips
+    from footstep_planner.blender.clips import import_clips
     from footstep_planner.blender.sample_scenes import build
     from footstep_planner.core.ik import body_frames, solve_ik
     from footstep_planner.core.metrics import foot_skate, footprint_error
@@ -125,7 +125,7 @@ def main():
         scene = build(name)
         scene.render.fps = 30
         if args.library == "cmu":
-            ob, _ = import_bvh_clips(files, name="CMU")
+            ob, _ = import_clips(files, name="CMU")
         else:
             ob, _ = mannequin.add_to_scene(scene, "Start")
         if ob.animation_data:

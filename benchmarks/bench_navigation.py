@@ -33,7 +33,7 @@ def main():
 
     from footstep_planner import register
     from footstep_planner.blender import planning
-    from footstep_planner.blender.clips import import_bvh_clips
+    from footstep_planner.blender.clips import import_clips
     from footstep_planner.blender.sample_scenes import _box, _collection, _marker, _prism, build
 
     register()
@@ -42,7 +42,7 @@ def main():
     def with_character():
         sc = bpy.context.scene
         sc.render.fps = 30
-        ob, _ = import_bvh_clips(files, name="CMU")
+        ob, _ = import_clips(files, name="CMU")
         return sc, ob
 
     def run(sc, ob):

@@ -54,7 +54,7 @@ def main():
 
     from footstep_planner import register
     from footstep_planner.blender import planning
-    from footstep_planner.blender.clips import import_bvh_clips
+    from footstep_planner.blender.clips import import_clips
     from footstep_planner.blender.sample_scenes import build
     from footstep_planner.blender.surfaces import BvhGround
     from footstep_planner.core.blending import make_track
@@ -69,7 +69,7 @@ def main():
         bpy.ops.wm.read_factory_settings(use_empty=True)
         scene = build(name)
         scene.render.fps = 30
-        ob, _ = import_bvh_clips(files, name="CMU")
+        ob, _ = import_clips(files, name="CMU")
         result, setup = planning.plan(scene, ob, np.array(scene.objects["Goal"].location),
                                       start_marker=scene.objects["Start"])
         pl = setup.planner

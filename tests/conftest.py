@@ -86,7 +86,7 @@ def scene_with_cmu(fp, name, fps=30):
     scene = bpy.context.scene
     scene.render.fps = fps
     clips = import_module(fp.__name__ + ".blender.clips")
-    ob, _ = clips.import_bvh_clips([cmu(n) for n in LIBRARY], name="CMU")
+    ob, _ = clips.import_clips([cmu(n) for n in LIBRARY], name="CMU")
     return scene, ob
 
 

@@ -62,7 +62,7 @@ def test_import_makes_one_armature_with_one_action_per_file(fp, empty_scene):
     empty_scene.collection.objects.link(cube)
     bpy.context.view_layer.objects.active = cube
     cube.select_set(True)
-    ob, acts = clips.import_bvh_clips([cmu("16_16"), cmu("16_35")], name="Subject16")
+    ob, acts = clips.import_clips([cmu("16_16"), cmu("16_35")], name="Subject16")
     assert ob.name == "Subject16" and ob.type == "ARMATURE"
     assert [a.name for a in acts] == ["cmu_16_16_walk", "cmu_16_35_run_jog"]
     assert sorted(o.name for o in bpy.data.objects) == ["Subject16", "UserEmpty"]
@@ -88,7 +88,7 @@ def test_import_into_a_users_character_adds_and_never_replaces(fp, empty_scene):
     import bpy
 
     clips, _, _ = _mods(fp)
-    ob, _ = clips.import_bvh_clips([cmu("16_16")], name="Hero")
+    ob, _ = clips.import_clips([cmu("16_16")], name="Hero")
     # the user's own animation: an action they keyed and a track in the NLA
     mine = bpy.data.actions.new("cmu_16_35_run_jog")  # same name as a file imported next
     slot = mine.slots.new(id_type="OBJECT", name=ob.name)
@@ -103,7 +103,7 @@ def test_import_into_a_users_character_adds_and_never_replaces(fp, empty_scene):
     track.name = "UserTrack"
     track.strips.new("walk", 1, bpy.data.actions["cmu_16_16_walk"])
     before = _snapshot()
-    ob2, acts = clips.import_bvh_clips([cmu("16_35"), cmu("16_16")], target=ob)
+    ob2, acts = clips.import_clips([cmu("16_35"), cmu("16_16")], target=ob)
     assert ob2 == ob
     after = _snapshot()
     for name, curves in before["actions"].items():
@@ -115,8 +115,8 @@ def test_import_into_a_users_character_adds_and_never_replaces(fp, empty_scene):
 def test_reimporting_into_the_same_skeleton_reproduces_the_motion(fp, empty_scene):
     """The retarget path (a file added to an existing armature) is exact on one skeleton."""
     clips, scene_mod, rig_mod = _mods(fp)
-    ob, (first,) = clips.import_bvh_clips([cmu("16_35")])
-    _, (second,) = clips.import_bvh_clips([cmu("16_35")], target=ob)
+    ob, (first,) = clips.import_clips([cmu("16_35")])
+    _, (second,) = clips.import_clips([cmu("16_35")], target=ob)
     rig = scene_mod.rig_from_armature(ob)
     frames = np.arange(1, 30, 0.2)
     a = rig_mod.forward_kinematics(rig, scene_mod.sample_basis(ob, first, frames))
@@ -126,9 +126,9 @@ def test_reimporting_into_the_same_skeleton_reproduces_the_motion(fp, empty_scen
 
 def test_another_subject_is_retargeted_with_its_hip_height_scaled(fp, empty_scene):
     clips, scene_mod, rig_mod = _mods(fp)
-    ob, _ = clips.import_bvh_clips([cmu("16_16")])
-    own, (own_act,) = clips.import_bvh_clips([cmu("49_05")])
-    _, (moved,) = clips.import_bvh_clips([cmu("49_05")], target=ob)
+    ob, _ = clips.import_clips([cmu("16_16")])
+    own, (own_act,) = clips.import_clips([cmu("49_05")])
+    _, (moved,) = clips.import_clips([cmu("49_05")], target=ob)
     frames = np.arange(1, 30, 1.0)
     h16 = scene_mod.rig_from_armature(ob)
     h49 = scene_mod.rig_from_armature(own)
@@ -145,10 +145,10 @@ def test_another_subject_is_retargeted_with_its_hip_height_scaled(fp, empty_scen
 
 def test_a_file_of_another_skeleton_is_refused_and_nothing_changes(fp, empty_scene, tmp_path):
     clips, _, _ = _mods(fp)
-    ob, _ = clips.import_bvh_clips([cmu("16_16")])
+    ob, _ = clips.import_clips([cmu("16_16")])
     before = _snapshot()
     with pytest.raises(clips.ClipImportError, match="LeftUpLeg|legs"):
-        clips.import_bvh_clips([cmu("16_35"), legless(str(tmp_path / "legless.bvh"))], target=ob)
+        clips.import_clips([cmu("16_35"), legless(str(tmp_path / "legless.bvh"))], target=ob)
     assert _snapshot() == before
 
 
@@ -157,7 +157,7 @@ def test_a_clip_whose_feet_never_touch_down_is_reported_by_name(fp, empty_scene,
     character = import_module(fp.__name__ + ".blender.character")
     high = edit_frames(cmu("16_16"), str(tmp_path / "floating.bvh"),
                        lambda d: d + np.r_[0, 60.0, 0, np.zeros(d.shape[1] - 3)])
-    ob, _ = clips.import_bvh_clips([cmu("16_16"), high], name="Mixed")
+    ob, _ = clips.import_clips([cmu("16_16"), high], name="Mixed")
     res = character.analyze_character(ob)
     assert [a.name for a in res.analyses] == ["cmu_16_16_walk"]
     assert "floating" in res.errors and "no foot ever touches the ground" in res.errors["floating"]
@@ -167,7 +167,7 @@ def test_root_motion_and_pose_recompose_the_hips(fp, empty_scene):
     """The clip's root motion (ground-projected, heading only) times the hips' matrix in
     the root frame gives back the hips exactly: the separation loses nothing."""
     clips, scene_mod, rig_mod = _mods(fp)
-    ob, (act,) = clips.import_bvh_clips([cmu("16_17")])
+    ob, (act,) = clips.import_clips([cmu("16_17")])
     rig = scene_mod.rig_from_armature(ob)
     motion = scene_mod.clip_from_action(ob, act, rig)
     frames = motion.frame_of(motion.times)

@@ -25,7 +25,7 @@ def _analyse(fp, paths, fps):
     bpy.context.scene.render.fps_base = 1.0
     out = {}
     for p in paths:
-        ob, _ = clips.import_bvh_clips([p])
+        ob, _ = clips.import_clips([p])
         res = character.analyze_character(ob)
         assert not res.errors, res.errors
         for a in res.analyses:
@@ -144,7 +144,7 @@ def _threshold_contacts(fp, path):
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.render.fps = 120
-    ob, (act,) = clips.import_bvh_clips([path])
+    ob, (act,) = clips.import_clips([path])
     ob.animation_data_create()
     ob.animation_data.action = act
     ob.animation_data.action_slot = act.slots[0]

@@ -46,7 +46,7 @@ def test_fk_matches_blender_on_every_frame_of_cmu(fp, empty_scene, path):
 
     clips = import_module(fp.__name__ + ".blender.clips")
     empty_scene.render.fps = 120
-    ob, (act,) = clips.import_bvh_clips([path])
+    ob, (act,) = clips.import_clips([path])
     ob.animation_data_create()
     ob.animation_data.action = act
     ob.animation_data.action_slot = act.slots[0]

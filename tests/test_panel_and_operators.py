@@ -68,7 +68,7 @@ def test_import_analyze_edit_and_reset_the_library(fp, empty_scene):
 def test_roles_set_by_hand_override_the_mapping(fp, empty_scene):
     scene_mod = import_module(fp.__name__ + ".blender.scene")
     clips = import_module(fp.__name__ + ".blender.clips")
-    ob, _ = clips.import_bvh_clips([cmu("16_16")])
+    ob, _ = clips.import_clips([cmu("16_16")])
     assert scene_mod.rig_from_armature(ob).roles.roles["toe_l"] == "LeftToeBase"
     ob.data.footstep.set_override("toe_l", "LeftFoot")
     ob.data.footstep.set_override("toe_l", "")

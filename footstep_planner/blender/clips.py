@@ -73,10 +73,6 @@ def import_clips(paths, target=None, name: str | None = None, scale: float | Non
         return _import_all(sources, target, name, scale)
 
 
-#: the name the rest of the add-on (and its tests) know the import by
-import_bvh_clips = import_clips
-
-
 def clip_fps(path: str) -> float:
     """The frame rate of a BVH or FBX clip file; ClipImportError naming the file when it
     is neither or cannot be read."""
