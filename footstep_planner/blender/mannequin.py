@@ -170,13 +170,25 @@ def _generate_on_rigify(ob, names, fps) -> list:
 
 def _org_rig(ob):
     """The metarig a Rigify rig was generated from, as a Rig: its ORG bones, named as in
-    the metarig (without "ORG-"), each under its nearest ORG ancestor."""
+    the metarig (without "ORG-"), each under its metarig parent. The ORG bones hang from
+    mechanism bones in the generated rig (ORG-spine.001 under tweak_spine.001), so the
+    body's chain comes from Rigify's deform chain (a DEF bone's parent's ORG bone) and
+    other bones take their nearest ORG ancestor."""
     from ..core.rig import Rig
+    from . import rigify
 
     bones = [b for b in ob.data.bones if b.name.startswith("ORG-")]
     index = {b.name: i for i, b in enumerate(bones)}
+    skeleton = rigify.deform_chain(ob)["skeleton"]
+    org_of = _org_of_deform(ob, list(skeleton))
+    chained = {}
+    for d, parent in skeleton.items():
+        if parent is not None and d in org_of and parent in org_of and org_of[d] != org_of[parent]:
+            chained.setdefault("ORG-" + org_of[d], "ORG-" + org_of[parent])
 
     def org_parent(b):
+        if b.name in chained:
+            return index[chained[b.name]]
         p = b.parent
         while p is not None and p.name not in index:
             p = p.parent
