@@ -200,3 +200,24 @@ def test_a_path_of_one_footprint_or_an_unknown_clip_is_refused():
     bad = fs[:3] + [PathFootprint(1, fs[3].position, 0.0, 2.0, "moonwalk", "walk")]
     with pytest.raises(BlendError, match="moonwalk"):
         run(bad)
+
+
+def test_easing_the_end_onto_the_goal_moves_a_refused_footprint_part_of_the_way():
+    """A footprint the surface refuses at its full new place goes half (or a quarter) of
+    the way where it may stand, instead of staying behind and kinking the path."""
+    from footstep_planner.core.pipeline import ease_end
+
+    pos = np.array([[float(i), 0.0, 0.0] for i in range(8)])
+    heading = np.zeros(8)
+
+    def snap(p, h):  # a wall at y = 0.3 the footprints may not cross
+        return p, p[:, 1] <= 0.3
+
+    out = ease_end(pos, heading, [0.0, 0.2], snap)
+    np.testing.assert_allclose(out[-2:, 1], 0.2)  # allowed: the whole way
+    out = ease_end(pos, heading, [0.0, 0.5], snap)
+    np.testing.assert_allclose(out[-2:, 1], 0.25)  # refused at 0.5, standing at half of it
+    assert np.all(out[-6:, 1] > 0) and np.all(out[:, 1] <= 0.3)  # each moved towards it, none past the wall
+    out = ease_end(pos, heading, [0.0, 1.0], snap)
+    np.testing.assert_allclose(out[-2:, 1], 0.25)  # refused at 1 and 0.5, a quarter of the way
+    assert np.all(out[:, 1] <= 0.3)

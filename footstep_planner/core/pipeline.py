@@ -296,7 +296,8 @@ def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Se
 def ease_end(pos: np.ndarray, heading: np.ndarray, off, snap: SnapFn | None = None,
              steps: int = GOAL_STEPS) -> np.ndarray:
     """The path's last two footprints moved by ``off`` (x, y), the ``steps`` before them by
-    less and less; a footprint the surface refuses at its new place keeps its old one."""
+    less and less; a footprint the surface refuses at its new place goes half or a quarter
+    of the way where it may stand, else keeps its old place."""
     pos = np.array(pos, float, copy=True)
     n = len(pos)
     if off is None or n < 3 or not np.any(off):
@@ -309,9 +310,20 @@ def ease_end(pos: np.ndarray, heading: np.ndarray, off, snap: SnapFn | None = No
     moved = pos.copy()
     moved[:, :2] += w[:, None] * np.asarray(off, float)[:2]
     sel = np.flatnonzero(w > 0)
-    if snap is not None and len(sel):
-        sp, ok = snap(moved[sel], np.asarray(heading, float)[sel])
-        moved[sel] = np.where(ok[:, None], sp, pos[sel])
+    if snap is None or not len(sel):
+        return moved
+    heading = np.asarray(heading, float)[sel]
+    sp, ok = snap(moved[sel], heading)
+    moved[sel] = np.where(ok[:, None], sp, pos[sel])
+    for share in (0.5, 0.25):  # a refused footprint goes part of the way, where it may stand
+        todo = sel[~ok]
+        if not len(todo):
+            break
+        part = pos[todo].copy()
+        part[:, :2] += share * w[todo, None] * np.asarray(off, float)[:2]
+        sp2, ok2 = snap(part, heading[~ok])
+        moved[todo] = np.where(ok2[:, None], sp2, pos[todo])
+        ok[~ok] = ok2
     return moved
 
 
