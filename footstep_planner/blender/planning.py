@@ -180,7 +180,7 @@ def goal_of(scene, name: str | None):
 
 def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
          traversable=(), obstacles=()) -> tuple[PlanResult, PlanSetup]:
-    """The footprints from the start (``start_marker``, else the character's feet) to
+    """The footprints from the start (``start_marker``, else where the character stands) to
     ``goal``, arriving facing ``goal_heading`` (a Z rotation, rad, see ``FACING``) when
     one is given."""
     setup = plan_setup(scene, ob, settings, traversable, obstacles)
