@@ -281,8 +281,9 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
     setup, syn, frames = planned.setup, planned.synthesis, solved.ik.frames
     root = None
     if body_on == "ROOT":  # (a Rigify rig's torso carries the body: its hips stand for it)
-        rigged = len(setup.rig.names) != len(ob.pose.bones)
-        root = setup.rig.role_index("hips") if rigged else baking.root_bone(ob, setup.rig)
+        from . import rigify
+
+        root = setup.rig.role_index("hips") if rigify.is_rigify(ob) else baking.root_bone(ob, setup.rig)
     world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, setup.rig, frame_start, frames, root)
     sched = syn.final.schedule
     walk = _walk_motion(setup)

@@ -143,8 +143,9 @@ def clip_from_action(ob, action, rig: Rig | None = None, fps: float | None = Non
     start, end = action_frame_range(action)
     step = sfps / fps  # scene frames per sample
     frames = start + step * np.arange(int(round((end - start) / step)) + 1)
-    basis = _rigify_basis(ob, action, rig, frames) if len(rig.names) != len(ob.pose.bones) \
-        else sample_basis(ob, action, frames)
+    from . import rigify
+
+    basis = _rigify_basis(ob, action, rig, frames) if rigify.is_rigify(ob) else sample_basis(ob, action, frames)
     src = action.get(SOURCE_FPS_PROP)
     return clip_motion(rig, action.name, basis, fps=fps, frame0=start,
                        source_fps=float(src) if src else None, frame_rate=sfps)
