@@ -3,6 +3,7 @@
 Runs exactly the code of ``blender -b [FILE] -c footstep VERB ...``.
 """
 
+import signal
 import sys
 
 
@@ -20,5 +21,19 @@ def main() -> int:
     return cli_main(sys.argv[1:])
 
 
+def _exit(status: int) -> None:
+    """Exit with ``status``, deaf to a late Ctrl-C: once the command has finished, its
+    files are in place and its status is the truth."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    sys.exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        code = main()
+    except KeyboardInterrupt:  # (while Blender and the add-on were still loading)
+        print("\nfootstep: interrupted, nothing written", file=sys.stderr)
+        code = 130
+    _exit(code)

@@ -1,12 +1,17 @@
 """The command line: ``python -m footstep_planner VERB ...`` and, inside Blender,
 ``blender -b [FILE.blend] -c footstep VERB ...``. One function, ``cli_main``, serves both.
 
-Expected problems (a bad file, a rig without legs, a clip with no footsteps) print one
-line ``footstep: error: ...`` naming what is at fault and return a non-zero status; they
-never show a traceback and never save anything.
+Expected problems (a bad file, a rig without legs, a clip with no footsteps, a folder
+that can't be written, Ctrl-C) print one line ``footstep: error: ...`` naming what is at
+fault and return a non-zero status; they never show a traceback and never write anything.
+Every file a verb writes goes through ``core.files.Outputs``: claimed before any work
+(an output that is an input is refused), written beside its destination, renamed into
+place when the verb has succeeded. Stdout carries the verb's results only
+(``console.say``); Blender's own log lines and progress go to stderr.
 
 This module holds the verbs only: the argument parser and one function per verb. The
-tables they print are in ``core/tables.py``, the demo's pictures in ``review.py``.
+tables they print are in ``core/tables.py``, the demo's pictures in ``review.py``, the
+job lists in ``core/jobs.py`` and ``batch.py``.
 """
 
 from __future__ import annotations
@@ -16,18 +21,21 @@ import json
 import math
 import os
 import sys
+import traceback
 
 import bpy
 import numpy as np
 
 from ..core.errors import FootstepError
+from ..core.files import Outputs, describe_os_error
+from ..core.jobs import MAX_FRAME, JobOutcome, exit_status, read_jobs, summary_table
 from ..core.report import plan_report
 from ..core.settings import Settings
 from ..core.tables import format_bake, format_demo_plan, format_library, format_plan, format_table
+from . import batch
+from .batch import BUG_LINE
+from .console import Progress, results_on_stdout, say
 from .scene import scene_fps
-
-EXPECTED = (FootstepError, OSError)
-FOOT = ("L", "R")
 
 
 class CliError(FootstepError):
@@ -48,6 +56,25 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _typed(convert, what: str, ok, why: str):
+    """An argparse type: ``convert(text)``, which must be ``what`` and pass ``ok``."""
+    def parse(text: str):
+        try:
+            value = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
+        if not ok(value):
+            raise argparse.ArgumentTypeError(f"{why}: {text!r}")
+        return value
+    return parse
+
+
+_finite = _typed(float, "a number", math.isfinite, "not a finite number")
+_positive = _typed(float, "a number", lambda v: math.isfinite(v) and v > 0, "must be a finite number above 0")
+_frame = _typed(int, "a whole frame number", lambda v: abs(v) <= MAX_FRAME,
+                f"beyond Blender's timeline (±{MAX_FRAME})")
+
+
 def _set_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="change a setting, e.g. --set contact_height=0.06 (repeatable)")
@@ -61,7 +88,7 @@ def _scene_options(character_required: bool) -> argparse.ArgumentParser:
                    help="the scene (default: the file Blender has open)")
     p.add_argument("--character", required=character_required, metavar="ARMATURE")
     p.add_argument("--goal", metavar="OBJECT", help="walk to this object (default: the 3D cursor)")
-    p.add_argument("--goal-heading", type=float, metavar="DEG",
+    p.add_argument("--goal-heading", type=_finite, metavar="DEG",
                    help="arrive facing this way: the Z rotation in degrees of an empty facing that "
                         "way (empties face their -Y axis: 0 faces -Y, 90 faces +X); default: the "
                         "goal empty's own")
@@ -88,9 +115,9 @@ def _add_import_clips(sub) -> None:
                    "file Blender has open, or an empty scene)")
     p.add_argument("--into", metavar="ARMATURE", help="add the clips to this armature")
     p.add_argument("--name", help="name of a new armature (default: the first file's name)")
-    p.add_argument("--fps", type=float, help="scene frame rate to key at (default: the "
+    p.add_argument("--fps", type=_positive, help="scene frame rate to key at (default: the "
                    "scene's; an empty scene takes the first file's rate)")
-    p.add_argument("--scale", type=float, help="metres per BVH unit (default: guessed; FBX "
+    p.add_argument("--scale", type=_positive, help="metres per BVH unit (default: guessed; FBX "
                    "files carry their unit)")
 
 
@@ -104,7 +131,7 @@ def _add_analyze(sub) -> None:
                    help="BVH files, or one .blend (default: the file Blender has open)")
     p.add_argument("--character", metavar="ARMATURE", help="only this armature's clips")
     p.add_argument("--clip", action="append", metavar="NAME", help="only these clips (repeatable)")
-    p.add_argument("--fps", type=float, help="sample the clips at this rate (default: the "
+    p.add_argument("--fps", type=_positive, help="sample the clips at this rate (default: the "
                    "scene's; for BVH input, the first file's rate)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--plot", metavar="DIR", help="also draw each clip's foot curves and "
@@ -132,20 +159,26 @@ def _add_bake(sub) -> None:
                     "the footprints (IK) and bake it as a new Action in an NLA track of the "
                     "planner's own on the character, starting at the scene's current frame (or "
                     "--frame-start). Writes the report (plan, stage times, quality measured on "
-                    "the baked armature). Several characters and goals: --job JOBS.json, a list "
+                    "the scene as it plays). Several characters and goals: --job JOBS.json, a list "
                     "of {\"character\", \"goal\", \"start\", \"name\", \"frame_start\", "
-                    "\"report\", \"goal_heading\", \"body_on\", \"settings\": {NAME: value}}, all checked "
-                    "before the first runs; they run one after another, a failing job does not stop the "
-                    "others, and the exit status is 1 when any failed.")
+                    "\"report\", \"out\", \"goal_heading\", \"body_on\", \"settings\": {NAME: value}}. "
+                    "Every job is checked before the first runs; a job that is invalid or fails is "
+                    "reported by number and name and the others still run; a summary table ends the "
+                    "run and the exit status is the number of jobs that failed. Files are written "
+                    "only when complete, and never over an input.")
     p.set_defaults(run=_bake)
     p.add_argument("--name", help="name of the bake (track and action; default: character to goal)")
-    p.add_argument("--frame-start", type=int, metavar="FRAME")
+    p.add_argument("--frame-start", type=_frame, metavar="FRAME")
     p.add_argument("--markers", action="store_true", help="add a timeline marker at each footstep")
     p.add_argument("--body-on", choices=("object", "root"), default="object",
                    help="key the body on the armature object (default) or on the rig's root bone")
     p.add_argument("--keep-frame-range", action="store_true",
                    help="leave the scene's frame range as it is (by default it grows to cover the bake)")
     p.add_argument("--job", metavar="JOBS.json", help="several jobs, run one after another")
+    p.add_argument("--ray", metavar="ADDRESS", help="run the --job list as Ray tasks, each job in a "
+                   "worker process of its own on a copy of the scene: 'local' (a local instance), "
+                   "'auto' (the running cluster) or a cluster's address; each job's scene is saved "
+                   "to its \"out\" or OUT_<n>.blend (needs: pip install ray)")
     p.add_argument("--out", metavar="OUT.blend", help="save the baked scene here")
     p.add_argument("--report", metavar="REPORT.json", help="write the report here (with --job: "
                    "REPORT_<n>.json per job unless the job names its own)")
@@ -175,17 +208,39 @@ def _add_demo(sub) -> None:
 
 
 def cli_main(argv=None) -> int:
-    """Entry point shared by ``python -m footstep_planner`` and ``blender -c footstep``."""
+    """Entry point shared by ``python -m footstep_planner`` and ``blender -c footstep``.
+    Exit status: 0 done; 2 an expected problem (one line on stderr, nothing written); for
+    ``bake --job``, the number of jobs that failed; 130 interrupted (nothing written); 70
+    a bug (its traceback, and a line asking to report it)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         args = _parser().parse_args(argv)
     except SystemExit as ex:  # --help or a usage error: argparse already printed
         return int(ex.code or 0)
+    with results_on_stdout():
+        return _run_guarded(args)
+
+
+def _run_guarded(args) -> int:
+    """Run a verb; every way it can fail ends in one line on stderr and a status."""
     try:
         return args.run(args)
-    except EXPECTED as ex:
+    except KeyboardInterrupt:
+        print("\nfootstep: interrupted, nothing written", file=sys.stderr)
+        return 130
+    except FootstepError as ex:
         print(f"footstep: error: {ex}", file=sys.stderr)
         return 2
+    except OSError as ex:
+        print(f"footstep: error: {describe_os_error(ex)}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("footstep: error: out of memory", file=sys.stderr)
+        return 2
+    except Exception:
+        traceback.print_exc()
+        print(BUG_LINE, file=sys.stderr)
+        return 70
 
 
 # -- helpers the verbs share --------------------------------------------------------
@@ -196,13 +251,45 @@ def settings_from_args(pairs) -> Settings:
     return Settings.from_pairs(pairs)
 
 
-def open_blend(path: str) -> None:
-    if not os.path.isfile(path):
+def check_input(path: str, what: str = "file") -> str:
+    """``path`` if it is a readable file; a CliError naming it otherwise."""
+    if os.path.isdir(path):
+        raise CliError(f"{path}: is a folder, not a {what}")
+    if not os.path.exists(path):
         raise CliError(f"{path}: no such file")
+    if not os.access(path, os.R_OK):
+        raise CliError(f"{path}: cannot read it (permission denied)")
+    return path
+
+
+def open_blend(path: str) -> None:
+    check_input(path, ".blend file")
     try:
         bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False)
     except RuntimeError as ex:
         raise CliError(f"{path}: cannot open: {str(ex).strip()}") from None
+
+
+def claim_blend(outs: Outputs, path: str | None, what: str) -> str | None:
+    """Claim a .blend output (refused unless it ends in .blend)."""
+    if path is None:
+        return None
+    if not path.lower().endswith(".blend"):
+        raise CliError(f"the {what} {path!r} must be a .blend file")
+    return outs.claim(path, what)
+
+
+def blend_writer(final: str):
+    """A writer for ``Outputs.stage``: save a copy of the open file at the temporary path
+    (the open file keeps its own path)."""
+    def write(tmp: str) -> None:
+        try:
+            bpy.ops.wm.save_as_mainfile(filepath=tmp, compress=True, copy=True)
+        except RuntimeError as ex:
+            raise CliError(f"cannot save {final}: {str(ex).strip().splitlines()[-1]}") from None
+        if not os.path.isfile(tmp) or os.path.getsize(tmp) == 0:
+            raise CliError(f"cannot save {final}: Blender wrote nothing (is the disk full?)")
+    return write
 
 
 def empty_scene(fps: float | None) -> None:
@@ -259,6 +346,8 @@ def _characters_to_analyze(args) -> tuple[list, bool]:
         raise CliError(f"{other[0]}: neither a .bvh, an .fbx nor a .blend file")
     if files and blends or len(blends) > 1:
         raise CliError("give BVH or FBX files, or one .blend, not both")
+    for path in files:
+        check_input(path, "clip file")
     if files:
         empty_scene(args.fps or clip_fps(files[0]))
         # one armature per file: files of different skeletons are fine
@@ -277,57 +366,13 @@ def _characters_to_analyze(args) -> tuple[list, bool]:
     return characters, False
 
 
-#: the fields of a bake job (JOBS.json) and what each must be; all may be missing or
-#: null but the character
-_JOB_FIELDS = {"character": "an armature's name", "goal": "text", "start": "text", "name": "text", "report": "text",
-               "frame_start": "a whole number", "goal_heading": "a number", "body_on": '"object" or "root"',
-               "settings": "an object of settings (NAME: value)"}
-
-
-def _job_field_ok(field: str, value) -> bool:
-    kind = _JOB_FIELDS[field]
-    number = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if value is None:
-        return field != "character"
-    if field == "character":
-        return isinstance(value, str) and value != ""
-    if kind == "text":
-        return isinstance(value, str)
-    if kind == "a number":
-        return number
-    if kind == "a whole number":
-        return number and float(value).is_integer()
-    if field == "settings":
-        return isinstance(value, dict)
-    return isinstance(value, str) and value.lower() in ("object", "root")
-
-
-def _read_jobs(path: str) -> list[dict]:
-    """The jobs of a JOBS.json, checked: a list of objects, each with a character and
-    its other fields of the right kind. Names the job (number and name) and the field."""
+def _read_text(path: str, what: str) -> str:
+    check_input(path, what)
     try:
-        with open(path) as fh:
-            jobs = json.load(fh)
-    except (OSError, ValueError) as ex:
-        raise CliError(f"cannot read the job list {path!r}: it must be a JSON list of objects ({ex})") from None
-    if not isinstance(jobs, list):
-        raise CliError(f"cannot read the job list {path!r}: it must be a JSON list of objects "
-                       f"(not a list but {type(jobs).__name__})")
-    for n, job in enumerate(jobs, 1):
-        if not isinstance(job, dict):
-            raise CliError(f"job list {path!r}: job {n} is not an object but {json.dumps(job)[:40]}")
-        for field in _JOB_FIELDS:
-            if not _job_field_ok(field, job.get(field)):
-                name = f" {job['name']!r}" if isinstance(job.get("name"), str) else ""
-                got = "it is missing" if job.get(field) is None else f"got {json.dumps(job[field])[:40]}"
-                raise CliError(f"job list {path!r}: job {n}{name} ({job.get('character') or '?'} to "
-                               f"{job.get('goal') or 'the 3D cursor'}): {field!r} must be "
-                               f"{_JOB_FIELDS[field]}; {got}")
-        try:
-            job["settings"] = {k: Settings.coerce(k, v) for k, v in (job.get("settings") or {}).items()}
-        except FootstepError as ex:
-            raise CliError(f"job list {path!r}: job {n} ({job.get('character')}): {ex}") from None
-    return jobs
+        with open(path, encoding="utf-8") as fh:
+            return fh.read()
+    except UnicodeDecodeError as ex:
+        raise CliError(f"{path}: not a text file ({ex.reason} at byte {ex.start})") from None
 
 
 # -- the verbs ----------------------------------------------------------------------
@@ -335,24 +380,26 @@ def _read_jobs(path: str) -> list[dict]:
 def _import_clips(args) -> int:
     from .clips import clip_fps, import_clips
 
-    if args.blend:
-        open_blend(args.blend)
-    elif bpy.data.filepath == "" and not args.into:
-        empty_scene(args.fps or clip_fps(args.clips[0]))
-    if args.fps and args.blend:
-        set_scene_fps(bpy.context.scene, args.fps)
-    target = find_armature(args.into) if args.into else None
-    ob, actions = import_clips(args.clips, target=target, name=args.name, scale=args.scale)
-    if not ob.animation_data:
-        ob.animation_data_create()
-    if ob.animation_data.action is None and actions:
-        ob.animation_data.action = actions[0]
-    out = os.path.abspath(args.out)
-    os.makedirs(os.path.dirname(out), exist_ok=True)
-    bpy.ops.wm.save_as_mainfile(filepath=out, compress=True)
-    print(f"imported {len(actions)} clip(s) into armature {ob.name!r}: "
-          + ", ".join(a.name for a in actions))
-    print(f"saved {out}")
+    for path in args.clips:
+        check_input(path, "clip file")
+    with Outputs(args.clips + [args.blend]) as outs:
+        out = claim_blend(outs, args.out, "--out library")
+        if args.blend:
+            open_blend(args.blend)
+        elif bpy.data.filepath == "" and not args.into:
+            empty_scene(args.fps or clip_fps(args.clips[0]))
+        if args.fps and args.blend:
+            set_scene_fps(bpy.context.scene, args.fps)
+        target = find_armature(args.into) if args.into else None
+        ob, actions = import_clips(args.clips, target=target, name=args.name, scale=args.scale)
+        if not ob.animation_data:
+            ob.animation_data_create()
+        if ob.animation_data.action is None and actions:
+            ob.animation_data.action = actions[0]
+        outs.stage(out, blend_writer(out))
+        outs.commit()
+    say(f"imported {len(actions)} clip(s) into armature {ob.name!r}: " + ", ".join(a.name for a in actions))
+    say(f"saved {out}")
     return 0
 
 
@@ -360,20 +407,35 @@ def _analyze(args) -> int:
     from .character import analyze_character, library_for
 
     settings = settings_from_args(args.set)
-    characters, from_bvh = _characters_to_analyze(args)
-    out, failed = [], []
-    for ob in characters:
-        result = analyze_character(ob, settings)
-        analyses = [a for a in result.analyses if not args.clip or a.name in args.clip]
-        failed += [msg for name, msg in result.errors.items() if not args.clip or name in args.clip]
-        out.append((ob, analyses, library_for(ob, result) if analyses else None))
+    with Outputs(args.inputs) as outs:
         if args.plot:
-            from ..core.plots import plot_clip
+            outs.claim(os.path.join(args.plot, ".footstep-plots"), "--plot folder")
+        characters, from_bvh = _characters_to_analyze(args)
+        out, failed = [], []
+        for ob in characters:
+            result = analyze_character(ob, settings)
+            analyses = [a for a in result.analyses if not args.clip or a.name in args.clip]
+            failed += [msg for name, msg in result.errors.items() if not args.clip or name in args.clip]
+            out.append((ob, analyses, library_for(ob, result) if analyses else None))
+            if args.plot:
+                _plot_clips(outs, analyses, args.plot)
+        outs.commit()
+    _print_analyses(args, out, failed, from_bvh)
+    for msg in failed:
+        print(f"footstep: error: {msg}", file=sys.stderr)
+    return 1 if failed else 0
 
-            os.makedirs(args.plot, exist_ok=True)
-            for a in analyses:
-                plot_clip(a, os.path.join(args.plot, f"{a.name}.png"))
 
+def _plot_clips(outs: Outputs, analyses, folder: str) -> None:
+    from ..core.plots import plot_clip
+
+    scratch = outs.scratch(folder)
+    for a in analyses:
+        made = plot_clip(a, os.path.join(scratch, f"{a.name}.png"))
+        outs.adopt(made, os.path.join(folder, os.path.basename(made)))
+
+
+def _print_analyses(args, out, failed, from_bvh) -> None:
     if args.json:
         doc = {"characters": [
             {"armature": ob.name, "clips": [a.to_dict() for a in analyses],
@@ -381,148 +443,233 @@ def _analyze(args) -> int:
             "errors": failed}
         if from_bvh:  # BVH input: one object per clip, flat
             doc = {"clips": [d for c in doc["characters"] for d in c["clips"]], "errors": failed}
-        print(json.dumps(doc, indent=1))
+        say(json.dumps(doc, indent=1))
     elif from_bvh:
-        print(format_table("clip files", [a for _, analyses, _ in out for a in analyses]))
+        say(format_table("clip files", [a for _, analyses, _ in out for a in analyses]))
     else:
         for ob, analyses, lib in out:
-            print(format_table(ob.name, analyses))
+            say(format_table(ob.name, analyses))
             if lib is not None:
-                print(format_library(lib))
-    for msg in failed:
-        print(f"footstep: error: {msg}", file=sys.stderr)
-    return 1 if failed else 0
+                say(format_library(lib))
 
 
 def _plan(args) -> int:
     from . import planning
 
-    if args.blend:
-        open_blend(args.blend)
-    scene = bpy.context.scene
-    ob = find_armature(args.character)
-    goal, heading, start = _goal_and_start(scene, args.goal, args.goal_heading, args.start)
-    settings = settings_from_args(args.set)
-    planned = planning.plan_and_synthesize(scene, ob, goal, heading, start, settings,
-                                           _names(args.traversable), _names(args.obstacles))
-    result, syn = planned.result, planned.synthesis
-    doc = plan_report(result, syn, ob.name, goal, scene.frame_current)
-    if args.report:
-        with open(args.report, "w") as fh:
-            json.dump(doc, fh)
+    with Outputs([args.blend]) as outs:
+        report = outs.claim(args.report, "--report") if args.report else None
+        settings = settings_from_args(args.set)
+        if args.blend:
+            open_blend(args.blend)
+        scene = bpy.context.scene
+        ob = find_armature(args.character)
+        goal, heading, start = _goal_and_start(scene, args.goal, args.goal_heading, args.start)
+        planned = planning.plan_and_synthesize(scene, ob, goal, heading, start, settings,
+                                               _names(args.traversable), _names(args.obstacles))
+        result, syn = planned.result, planned.synthesis
+        doc = plan_report(result, syn, ob.name, goal, scene.frame_current)
+        if report:
+            outs.write_json(report, doc)
+        outs.commit()
     if args.json:
-        print(json.dumps(doc))
+        say(json.dumps(doc))
     else:
-        print(format_plan(ob.name, goal, result, syn, scene.frame_current, scene_fps(scene),
-                          doc["stages"]))
+        say(format_plan(ob.name, goal, result, syn, scene.frame_current, scene_fps(scene), doc["stages"]))
     return 0
 
 
-def _bake(args) -> int:
-    from . import planning
+def _common(args, names: bool = False) -> dict:
+    """The options every job of a bake shares: as ``core.jobs.job_argv`` takes them, or
+    with ``names`` the object lists split as ``batch.bake_job`` takes them."""
+    common = {"markers": args.markers, "keep_frame_range": args.keep_frame_range, "body_on": args.body_on,
+              "traversable": args.traversable, "obstacles": args.obstacles, "set": list(args.set)}
+    if names:
+        common["traversable"], common["obstacles"] = _names(args.traversable), _names(args.obstacles)
+    return common
 
-    if args.blend:
-        open_blend(args.blend)
-    scene = bpy.context.scene
-    settings = settings_from_args(args.set)
-    if args.job:
-        jobs = _read_jobs(args.job)
-    elif not args.character:
+
+def _bake(args) -> int:
+    if args.ray and not args.job:
+        raise CliError("--ray runs a job list: give --job JOBS.json")
+    if not args.job and not args.character:
         raise CliError("bake needs --character (or --job JOBS.json)")
-    else:
-        jobs = [{"character": args.character, "goal": args.goal, "start": args.start, "name": args.name,
-                 "frame_start": args.frame_start, "report": args.report, "goal_heading": args.goal_heading}]
-    failed = 0
-    for n, job in enumerate(jobs):
-        try:
-            ob = find_armature(job.get("character"))
-            goal, heading, start = _goal_and_start(scene, job.get("goal"), job.get("goal_heading"),
-                                                   job.get("start"))
-            doc = planning.run(scene, ob, goal, heading, start, settings.replace(**job.get("settings", {})),
-                               _names(args.traversable),
-                               _names(args.obstacles), name=job.get("name"), frame_start=job.get("frame_start"),
-                               markers=args.markers, body_on=str(job.get("body_on") or args.body_on).upper(),
-                               frame_range=not args.keep_frame_range)
-        except EXPECTED as ex:
-            failed += 1
-            print(f"footstep: error: job {n + 1} ({job.get('character')} to "
-                  f"{job.get('goal') or 'the 3D cursor'}): {ex}", file=sys.stderr)
-            continue
-        report = job.get("report") or (args.report if len(jobs) == 1 else (
-            f"{os.path.splitext(args.report)[0]}_{n + 1}.json" if args.report else None))
+    with Outputs([args.blend, args.job]) as outs:
+        out = claim_blend(outs, args.out, "--out scene")
+        raw = read_jobs(_read_text(args.job, "job list"), args.job) if args.job else None
+        settings = settings_from_args(args.set)
+        if args.blend:
+            open_blend(args.blend)
+        if raw is not None:
+            return _bake_jobs(args, raw, settings, outs, out)
+        report = outs.claim(args.report, "--report") if args.report else None
+        job = {"character": args.character, "goal": args.goal, "start": args.start, "name": args.name,
+               "frame_start": args.frame_start, "goal_heading": args.goal_heading, "body_on": args.body_on}
+        problems = batch.scene_problems(bpy.context.scene, job)
+        if problems:
+            raise CliError(problems[0])
+        doc = batch.bake_job(bpy.context.scene, job, _common(args, names=True), settings)
         if report:
-            with open(report, "w") as fh:
-                json.dump(doc, fh)
-        print(format_bake(doc))
-    if args.out:
-        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.out), compress=True)
-        print(f"saved {args.out}")
-    return 1 if failed else 0
+            outs.write_json(report, doc)
+        if out:
+            outs.stage(out, blend_writer(out))
+        outs.commit()
+    say(format_bake(doc))
+    if out:
+        say(f"saved {out}")
+    return 0
+
+
+def _job_paths(args, outs: Outputs, n: int, job: dict, many: bool) -> tuple[str | None, str | None]:
+    """(report, scene) paths of job ``n``, claimed: its own, or derived from --report and
+    (with --ray, where each job bakes its own copy of the scene) --out."""
+    report = job.get("report") or (
+        (args.report if not many else f"{os.path.splitext(args.report)[0]}_{n}.json") if args.report else None)
+    scene = job.get("out") or (f"{os.path.splitext(args.out)[0]}_{n}.blend" if args.ray and args.out else None)
+    return (outs.claim(report, f"report of job {n}") if report else None,
+            claim_blend(outs, scene, f"scene of job {n}") if scene else None)
+
+
+def _prepare_jobs(args, raw: list, outs: Outputs):
+    """(jobs to run, invalid outcomes): checked fields, names in the scene and output
+    paths, each job on its own."""
+    runnable, invalid = batch.check_jobs(bpy.context.scene, raw)
+    jobs = []
+    for n, label, fields in runnable:
+        try:
+            report, scene = _job_paths(args, outs, n, fields, len(raw) > 1)
+        except FootstepError as ex:
+            invalid.append(JobOutcome(n, label, "invalid", error=str(ex)))
+            continue
+        jobs.append(batch.Job(n, label, fields, report, scene))
+    for o in sorted(invalid, key=lambda o: o.number):
+        print(f"footstep: error: {o.label}: {o.error}", file=sys.stderr)
+    return jobs, invalid
+
+
+def _bake_jobs(args, raw: list, settings: Settings, outs: Outputs, out: str | None) -> int:
+    """Run a job list (one after another here, or on Ray): each job checked first, each
+    failure its own; the scene is saved when any job baked; a summary table at the end."""
+    import time
+
+    t0 = time.perf_counter()
+    jobs, outcomes = _prepare_jobs(args, raw, outs)
+    progress, done = Progress(len(jobs), "jobs"), []
+
+    def tell(o: JobOutcome) -> None:
+        done.append(o)
+        progress.step(len(done), f"{o.label}: {o.status}" + (f" ({o.error})" if o.error else ""))
+
+    if args.ray:
+        outcomes += _on_ray(args, jobs, outs, tell)
+    else:
+        for job in jobs:
+            tell(batch.run_job(bpy.context.scene, job, _common(args, names=True), settings, outs,
+                               blend_writer(job.out or "")))
+        outcomes += done
+    outcomes.sort(key=lambda o: o.number)
+    if out and not args.ray and any(o.status == "baked" for o in outcomes):
+        outs.stage(out, blend_writer(out))
+    outs.commit()
+    say(summary_table(outcomes, time.perf_counter() - t0))
+    return exit_status(outcomes)
+
+
+def _on_ray(args, jobs: list, outs: Outputs, tell) -> list:
+    """The jobs as Ray tasks, each in a worker process of its own (``ray_batch``)."""
+    from .ray_batch import run_on_ray
+
+    blend = args.blend or bpy.data.filepath
+    if not blend:
+        raise CliError("--ray ships the scene file to the workers: give SCENE.blend")
+    dest = {j.number: {"out": j.out, "report": j.report} for j in jobs}
+    return run_on_ray(args.ray, blend, [(j.number, j.label, j.fields) for j in jobs], _common(args), dest, outs,
+                      progress=tell)
 
 
 def _plot(args) -> int:
     from ..core.plots import plot_synthesis
 
-    try:
-        with open(args.report) as fh:
-            doc = json.load(fh)
-    except (OSError, ValueError) as ex:
-        raise CliError(f"cannot read the plan report {args.report!r}: {ex}") from None
-    if "synthesis" not in doc:
-        raise CliError(f"{args.report!r} is not a plan report (no \"synthesis\" section): make it "
-                       "with: footstep plan ... --report REPORT.json")
-    name = args.name or os.path.splitext(os.path.basename(args.report))[0]
-    for path in plot_synthesis(doc, args.out, name):
-        print(path)
+    with Outputs([args.report]) as outs:
+        outs.claim(os.path.join(args.out, ".footstep-plots"), "--out folder")
+        try:
+            doc = json.loads(_read_text(args.report, "plan report"))
+        except ValueError as ex:
+            raise CliError(f"cannot read the plan report {args.report!r}: {ex}") from None
+        if not isinstance(doc, dict) or "synthesis" not in doc:
+            raise CliError(f"{args.report!r} is not a plan report (no \"synthesis\" section): make it "
+                           "with: footstep plan ... --report REPORT.json")
+        name = args.name or os.path.splitext(os.path.basename(args.report))[0]
+        scratch = outs.scratch(args.out)
+        finals = []
+        for made in plot_synthesis(doc, scratch, name):
+            finals.append(os.path.join(args.out, os.path.basename(made)))
+            outs.adopt(made, finals[-1])
+        outs.commit()
+    for path in finals:
+        say(path)
     return 0
 
 
 def _demo(args) -> int:
     """The whole tool on built-in content: a sample scene, the sample character and its
-    generated clips; plan, bake, review sheet, report."""
+    generated clips; plan, bake, review sheet, report. Every file is made in a scratch
+    folder and moved into ``--out`` at the end."""
     import time
 
     from . import mannequin, planning
     from .character import read_library
-    from .review import plot_curves, review_sheet
     from .sample_scenes import SCENES, build
 
     t0 = time.perf_counter()
-    out_dir = os.path.abspath(args.out)
     name = args.scene.lower()
     if name not in SCENES:
         raise CliError(f"no sample scene {args.scene!r}; choose from {', '.join(SCENES)}")
-    os.makedirs(out_dir, exist_ok=True)
-    scene = build(name)
-    set_scene_fps(scene, 30)
-    ob, clips = mannequin.add_to_scene(scene, "Start")
-    lib = read_library(ob)  # (as add_to_scene proposed and stored it)
-    print(f"demo: the {scene.name} scene, the Footstep Mannequin and its {len(clips.analyses)} generated clips "
-          f"({time.perf_counter() - t0:.1f} s)")
-    print(format_table(ob.name, clips.analyses))
-    print(format_library(lib))
-    for msg in clips.errors.values():
-        print(f"footstep: error: {msg}", file=sys.stderr)
-
-    t1 = time.perf_counter()
-    goal, heading, start = _goal_and_start(scene, "Goal", None, "Start")
-    doc = planning.run(scene, ob, goal, heading, start, name=f"{name} demo", frame_start=1)
-    scene.frame_start, scene.frame_end = doc["frame_start"], doc["frame_end"]
-    print("\n" + format_demo_plan(doc, 30, time.perf_counter() - t1))
-    print(format_bake(doc))
-    doc["clips"] = [a.to_dict() for a in clips.analyses]
-    report = os.path.join(out_dir, f"{name}_report.json")
-    with open(report, "w") as fh:
-        json.dump(doc, fh)
-    pngs = plot_curves(doc, out_dir, name)
-    sheet, shots = review_sheet(scene, ob, doc, out_dir, name, planning.foot_shape(clips.analyses))
-    bpath = os.path.join(out_dir, f"{name}_baked.blend")
-    scene.frame_set(doc["frame_start"])
-    bpy.ops.wm.save_as_mainfile(filepath=bpath, compress=True)
-    print(f"\nbaked scene: {bpath}\nreview sheet: {sheet}\n  frames: {', '.join(shots)}\n"
-          f"report: {report}" + (f"\ncurves: {', '.join(pngs)}" if pngs else "") +
-          f"\ndemo done in {time.perf_counter() - t0:.1f} s")
+    with Outputs() as outs:
+        out_dir = os.path.dirname(outs.claim(os.path.join(args.out, f"{name}_report.json"), "demo report"))
+        scene = build(name)
+        set_scene_fps(scene, 30)
+        ob, clips = mannequin.add_to_scene(scene, "Start")
+        lib = read_library(ob)  # (as add_to_scene proposed and stored it)
+        say(f"demo: the {scene.name} scene, the Footstep Mannequin and its {len(clips.analyses)} generated "
+            f"clips ({time.perf_counter() - t0:.1f} s)")
+        say(format_table(ob.name, clips.analyses))
+        say(format_library(lib))
+        for msg in clips.errors.values():
+            print(f"footstep: error: {msg}", file=sys.stderr)
+        t1 = time.perf_counter()
+        goal, heading, start = _goal_and_start(scene, "Goal", None, "Start")
+        doc = planning.run(scene, ob, goal, heading, start, name=f"{name} demo", frame_start=1)
+        scene.frame_start, scene.frame_end = doc["frame_start"], doc["frame_end"]
+        say("\n" + format_demo_plan(doc, 30, time.perf_counter() - t1))
+        say(format_bake(doc))
+        doc["clips"] = [a.to_dict() for a in clips.analyses]
+        written = _demo_files(outs, scene, ob, doc, out_dir, name, planning.foot_shape(clips.analyses))
+        outs.commit()
+    say(f"\nbaked scene: {written['scene']}\nreview sheet: {written['sheet']}\n  frames: "
+        f"{', '.join(written['shots'])}\nreport: {written['report']}"
+        + (f"\ncurves: {', '.join(written['curves'])}" if written["curves"] else "")
+        + f"\ndemo done in {time.perf_counter() - t0:.1f} s")
     return 1 if clips.errors else 0
+
+
+def _demo_files(outs: Outputs, scene, ob, doc, out_dir: str, name: str, foot) -> dict:
+    """Stage the demo's files (curves, review sheet and frames, report, baked scene) into
+    ``out_dir``; returns their final paths."""
+    from .review import plot_curves, review_sheet
+
+    scratch = outs.scratch(out_dir)
+    pngs = plot_curves(doc, scratch, name)
+    sheet, shots = review_sheet(scene, ob, doc, scratch, name, foot)
+    final = lambda p: os.path.join(out_dir, os.path.basename(p))  # noqa: E731
+    for made in [*pngs, sheet, *shots]:
+        outs.adopt(made, final(made))
+    written = {"curves": [final(p) for p in pngs], "sheet": final(sheet), "shots": [final(p) for p in shots],
+               "report": os.path.join(out_dir, f"{name}_report.json"),
+               "scene": os.path.join(out_dir, f"{name}_baked.blend")}
+    outs.write_json(written["report"], doc)
+    scene.frame_set(doc["frame_start"])
+    outs.stage(written["scene"], blend_writer(written["scene"]))
+    return written
 
 
 _HANDLE = None

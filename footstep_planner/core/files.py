@@ -1,0 +1,222 @@
+"""Files a command writes, as one transaction: nothing lost, ever.
+
+Every output is first written to a temporary file beside its destination and renamed
+into place only when the command has succeeded (``Outputs.commit``); a failed or
+interrupted command discards the temporary files (``Outputs.discard``) and leaves every
+existing file as it was. An output that is one of the command's inputs (the same file,
+also through a symbolic or hard link), or two outputs at one path, are refused before
+any work (``Outputs.claim``).
+
+Pure Python: the Blender layer passes a writer (``save_as_mainfile``) for .blend files.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import shutil
+import signal
+import tempfile
+from typing import Callable, Iterable
+
+from .errors import FootstepError
+
+
+class OutputError(FootstepError):
+    """An output that can't be written: it names the path and why."""
+
+
+def same_file(a: str, b: str) -> bool:
+    """Whether two paths name one file: the same real path, or (both existing) the same
+    inode, as a hard link is."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def describe_os_error(ex: OSError, path: str | None = None) -> str:
+    """One line for an OSError: the path and the system's reason (permission denied, no
+    space left on device, ...)."""
+    where = path or ex.filename or "a file"
+    reason = ex.strerror or str(ex)
+    if ex.errno == errno.ENOSPC:
+        reason = "no space left on the device"
+    return f"{where}: {reason[:1].lower()}{reason[1:]}"
+
+
+def _probe_dir(directory: str) -> None:
+    """Raise OutputError unless a file can be created in ``directory`` (tried for real:
+    permission bits say nothing to root, a read-only mount or a file in the way does)."""
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".footstep-probe-", dir=directory)
+    except OSError as ex:
+        raise OutputError(f"cannot write into {directory}: {describe_os_error(ex, directory).split(': ', 1)[1]}") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def _existing_parent(path: str) -> str:
+    parent = os.path.dirname(os.path.abspath(path))
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    return parent
+
+
+class Outputs:
+    """The outputs of one command. ``claim`` each before any work, ``stage`` (or
+    ``write_json``/``write_text``) each when ready, ``commit`` at the end. Used as a context
+    manager, anything staged and not committed is discarded on the way out."""
+
+    def __init__(self, inputs: Iterable[str] = ()):
+        self.inputs = [os.path.abspath(p) for p in inputs if p]
+        self.claimed: dict[str, str] = {}
+        self._staged: list[tuple[str, str]] = []
+        self._made_dirs: list[str] = []
+        self._scratch: list[str] = []
+        self.committed: list[str] = []
+
+    def __enter__(self) -> "Outputs":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.discard()
+
+    # -- before any work ----------------------------------------------------------
+    def claim(self, path: str, what: str) -> str:
+        """Refuse ``path`` (one message naming it and what it would have held) when it is
+        an input, already another output, a folder, or not writable; return its absolute
+        path."""
+        full = os.path.abspath(path)
+        for inp in self.inputs:
+            if same_file(full, inp):
+                raise OutputError(f"the {what} {path!r} is one of the inputs ({inp}); refusing to "
+                                  "write over it: choose another path")
+        for other, other_what in self.claimed.items():
+            if same_file(full, other):
+                raise OutputError(f"the {what} and the {other_what} are both {path!r}: give each its own path")
+        if os.path.isdir(full):
+            raise OutputError(f"the {what} {path!r} is a folder, not a file")
+        parent = _existing_parent(full)
+        if not os.path.isdir(parent):
+            raise OutputError(f"cannot write the {what} {path!r}: {parent} is a file, not a folder")
+        _probe_dir(parent)
+        self.claimed[full] = what
+        return full
+
+    # -- while working ------------------------------------------------------------
+    def _make_dirs(self, directory: str) -> None:
+        missing = []
+        while not os.path.isdir(directory):
+            missing.append(directory)
+            directory = os.path.dirname(directory)
+        for d in reversed(missing):
+            os.mkdir(d)
+            self._made_dirs.append(d)
+
+    def stage(self, path: str, write: Callable[[str], None]) -> str:
+        """Write ``path``'s content with ``write(temporary_path)`` into a temporary file
+        beside it; it takes ``path``'s place at ``commit``. Returns the temporary path."""
+        full = os.path.abspath(path)
+        self._make_dirs(os.path.dirname(full))
+        base, ext = os.path.splitext(os.path.basename(full))
+        fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=os.path.dirname(full))
+        os.close(fd)
+        os.unlink(tmp)  # (a random name kept free: a writer that finds a file there may back it up)
+        self._staged.append((tmp, full))
+        try:
+            write(tmp)
+        except BaseException:
+            self.unstage(tmp)
+            raise
+        return tmp
+
+    def write_text(self, path: str, text: str) -> str:
+        def write(tmp):
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(text)
+                fh.flush()
+                os.fsync(fh.fileno())
+        return self.stage(path, write)
+
+    def write_json(self, path: str, doc) -> str:
+        return self.write_text(path, json.dumps(doc))
+
+    def adopt(self, produced: str, path: str) -> str:
+        """Stage a file made elsewhere (in a ``scratch`` folder) to take ``path``'s place."""
+        return self.stage(path, lambda tmp: os.replace(produced, tmp))
+
+    def scratch(self, directory: str) -> str:
+        """A private temporary folder in ``directory`` (made if missing) for files that are
+        made under names of their own, then ``adopt``-ed; removed at the end."""
+        self._make_dirs(os.path.abspath(directory))
+        path = tempfile.mkdtemp(prefix=".footstep-", dir=directory)
+        self._scratch.append(path)
+        return path
+
+    def unstage(self, tmp: str) -> None:
+        """Drop one staged file (its job failed after all)."""
+        self._staged = [(t, f) for t, f in self._staged if t != tmp]
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+
+    # -- at the end -----------------------------------------------------------------
+    def commit(self) -> list[str]:
+        """Rename every staged file into place (Ctrl-C held off meanwhile); returns the
+        destinations."""
+        with _signals_held():
+            for tmp, final in self._staged:
+                if os.path.exists(tmp):
+                    os.chmod(tmp, 0o644 & ~_umask())
+                os.replace(tmp, final)
+                self.committed.append(final)
+            self._staged = []
+            self._made_dirs = []
+        self._remove_scratch()
+        return list(self.committed)
+
+    def _remove_scratch(self) -> None:
+        for d in self._scratch:
+            shutil.rmtree(d, ignore_errors=True)
+        self._scratch = []
+
+    def discard(self) -> None:
+        """Remove every staged temporary file and any folder made for it."""
+        for tmp, _ in self._staged:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+        self._staged = []
+        self._remove_scratch()
+        for d in reversed(self._made_dirs):
+            with contextlib.suppress(OSError):
+                os.rmdir(d)
+        self._made_dirs = []
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Ctrl-C and SIGTERM held off while files are renamed into place; a Ctrl-C that came
+    meanwhile is dropped (the command has done its work: its files are in place)."""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    handler = None
+    try:
+        yield
+    finally:
+        with contextlib.suppress(ValueError):  # (only the main thread may set handlers)
+            handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        if handler is not None:
+            signal.signal(signal.SIGINT, handler)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+__all__ = ["OutputError", "Outputs", "describe_os_error", "same_file"]
