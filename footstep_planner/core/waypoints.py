@@ -1,0 +1,73 @@
+"""A path through waypoints, in order: one search per leg, each leg leaving from the
+footprint the last one arrived on, spliced into one path. Pure numpy.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .navgraph import PathFootprint, PlanError, PlanResult, Planner
+
+
+@dataclass
+class Waypoint:
+    """A place the path passes through: its name (for messages), position (3,), the
+    heading to pass it with (rad, from the planner's forward) or None, seconds to stand
+    there, and a scene frame to arrive on (or None)."""
+
+    name: str
+    position: np.ndarray
+    heading: float | None = None
+    pause: float = 0.0
+    arrive: int | None = None
+
+
+@dataclass
+class Route:
+    """The whole path and, per waypoint, the index of the footprint that reaches it."""
+
+    result: PlanResult
+    arrivals: list[int]
+
+
+def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypoint]) -> Route:
+    """The footprints from ``start`` through every waypoint in order (each reached within
+    the goal radius, and heading tolerance when it has a heading). A leg that can't be
+    found raises PlanError naming the leg."""
+    if not waypoints:
+        raise PlanError("no waypoint to go to")
+    t0 = time.perf_counter()
+    path: list[PathFootprint] = []
+    arrivals, counts, cost = [], [0, 0], 0.0
+    origin, here = start, "the start"
+    for i, wp in enumerate(waypoints):
+        try:
+            leg = planner.plan(origin, np.asarray(wp.position, float), _passing_heading(planner, waypoints, i))
+        except PlanError as ex:
+            raise PlanError(f"no way from {here} to waypoint {wp.name!r}: {ex}", ex.expanded, ex.explored) from None
+        shift = path[-1].time if path else 0.0
+        fresh = leg.footprints if not path else leg.footprints[1:]
+        path += [PathFootprint(f.foot, f.position, f.heading, f.time + shift, f.label, f.gait, f.jump) for f in fresh]
+        arrivals.append(len(path) - 1)
+        counts = [counts[0] + leg.expanded, counts[1] + leg.generated]
+        cost += leg.cost
+        origin, here = [path[-1]], f"waypoint {wp.name!r}"
+    return Route(PlanResult(path, counts[0], counts[1], time.perf_counter() - t0, cost), arrivals)
+
+
+def _passing_heading(planner: Planner, waypoints: list[Waypoint], i: int) -> float | None:
+    """The heading to pass waypoint ``i`` with: its own, else (but at the last) facing the
+    next waypoint, as a person on the way there would; None at the last without one."""
+    wp = waypoints[i]
+    if wp.heading is not None or i + 1 == len(waypoints):
+        return wp.heading
+    d = np.asarray(waypoints[i + 1].position, float)[:2] - np.asarray(wp.position, float)[:2]
+    if np.hypot(*d) < 1e-6:
+        return None
+    return float(np.arctan2(d[1], d[0]) - np.arctan2(planner.forward[1], planner.forward[0]))
+
+
+__all__ = ["Route", "Waypoint", "plan_via"]
