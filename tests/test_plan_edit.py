@@ -211,3 +211,25 @@ def test_a_leg_that_cannot_be_found_is_named(planner):
     wps = [Waypoint("A", np.array([3.0, -2.0, 0.0])), Waypoint("Lake", np.array([40.0, 0.0, 0.0]))]
     with pytest.raises(PlanError, match="no way from waypoint 'A' to waypoint 'Lake'"):
         plan_via(planner, start(0, 1.2), wps)
+
+
+def test_a_moved_footprint_is_kept_and_the_way_around_it_searched_again(planner, planned):
+    """Moving footprint k (it was planned elsewhere): k stays exactly where it was put,
+    the way is searched again from the lock before it to it and from it to the lock
+    after; nothing else changes."""
+    res, goal = planned
+    n, k = len(res.footprints), len(res.footprints) // 2
+    doc = _plan_file(res, goal, (k - 3, k + 3)).to_dict()
+    doc["footprints"][k]["position"][1] += 0.25  # a quarter metre sideways: still on the floor
+    plan = plan_from_dict(json.loads(json.dumps(doc)))
+    assert plan.moved.tolist() == [i == k for i in range(n)] and plan.locked[k]
+    ed = edited_path(planner, plan)
+    out = ed.result.footprints
+    assert len(ed.spans) == 2 and ed.spans[0][0] == k - 3
+    moved = [f for f in out if np.array_equal(f.position, plan.footprints[k].position)]
+    assert len(moved) == 1
+    for i in range(k - 2):
+        assert np.array_equal(out[i].position, res.footprints[i].position)
+    for i in range(1, n - (k + 3) + 1):
+        assert np.array_equal(out[-i].position, res.footprints[-i].position)
+    _valid(planner, out[1:])

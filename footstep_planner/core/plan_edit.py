@@ -1,9 +1,10 @@
-"""An edited plan made whole: the footprints a user (or a pipeline) locked are kept
-exactly; a footprint that no longer works (off every surface, in an obstacle, beyond the
-reach of every step of the library from the footprint before it) is re-planned with the
-search, only between the nearest locked footprints around it (the first footprint, where
-the character stands, always counts as locked; past the last lock the way to the goal
-is searched again). Everything outside those spans stays exactly as it was.
+"""An edited plan made whole: the footprints a user (or a pipeline) locked or moved are
+kept exactly; the way is searched again only between the nearest locked footprints
+around what changed: around each moved footprint, and around a footprint that no longer
+works (off every surface, in an obstacle, beyond the reach of every step of the library
+from the footprint before it). The first footprint, where the character stands, always
+counts as locked; past the last lock the way to the goal is searched again. Everything
+outside those spans stays exactly as it was.
 """
 
 from __future__ import annotations
@@ -79,18 +80,21 @@ def problems_of(planner: Planner, fps: list[PathFootprint]) -> list[str]:
     return out
 
 
-def _spans(bad: np.ndarray, locked: np.ndarray) -> list[tuple[int, int | None]]:
-    """Index ranges (a, b) to re-plan: for each bad footprint, the nearest lock before it
-    and the nearest after it (None: to the goal); bad footprints between the same locks
-    share one range."""
+def _spans(bad: np.ndarray, locked: np.ndarray, moved: np.ndarray) -> list[tuple[int, int | None]]:
+    """Index ranges (a, b) to re-plan, in order: for each bad footprint, the nearest lock
+    before it and the nearest after it (None: to the goal); for each moved one (a lock
+    itself), the ranges from the lock before it to it and from it to the lock after."""
     lock_idx = np.flatnonzero(locked)
-    out: list[tuple[int, int | None]] = []
-    for i in np.flatnonzero(bad):
+    spans = set()
+    for i in np.flatnonzero(bad | moved):
+        before = int(lock_idx[lock_idx < i].max())
         after = lock_idx[lock_idx > i]
-        span = (int(lock_idx[lock_idx < i].max()), int(after.min()) if len(after) else None)
-        if not out or out[-1] != span:
-            out.append(span)
-    return out
+        nxt = int(after.min()) if len(after) else None
+        if moved[i]:
+            spans |= {(before, int(i)), (int(i), nxt)} if i + 1 < len(bad) or nxt is not None else {(before, int(i))}
+        else:
+            spans.add((before, nxt))
+    return sorted(spans, key=lambda s: (s[0], np.inf if s[1] is None else s[1]))
 
 
 def nearest_steps(planner: Planner, fps: list[PathFootprint]) -> np.ndarray:
@@ -146,7 +150,9 @@ def edited_path(planner: Planner, plan: PlanFile, goal=None, goal_heading=None) 
     PlanError naming a locked footprint that can't be stepped on."""
     t0 = time.perf_counter()
     fps = in_frame(plan, planner.forward)
-    locked = np.asarray(plan.locked, bool).copy()
+    moved = np.asarray(plan.moved, bool).copy()
+    moved[0] = False
+    locked = np.asarray(plan.locked, bool) | moved
     locked[0] = True
     problems = problems_of(planner, fps)
     for i in np.flatnonzero(locked[1:]) + 1:
@@ -157,7 +163,7 @@ def edited_path(planner: Planner, plan: PlanFile, goal=None, goal_heading=None) 
     if goal is None and plan.goal is not None:
         goal = plan.goal
         goal_heading = None if plan.goal_heading is None else plan.goal_heading + _yaw(plan.forward) - _yaw(planner.forward)
-    return _rebuild(planner, fps, _spans(bad, locked), goal, goal_heading, problems, t0)
+    return _rebuild(planner, fps, _spans(bad, locked, moved), goal, goal_heading, problems, t0)
 
 
 def _rebuild(planner: Planner, fps: list[PathFootprint], spans, goal, goal_heading, problems, t0) -> Edited:

@@ -5,12 +5,16 @@ animator, by hand) to edit and bake (``plan --out-plan``, ``bake --plan``).
      "character": "Hero", "forward": [0, -1, 0],
      "goal": [x, y, z], "goal_heading": 1.57 or null,
      "footprints": [{"foot": "L", "position": [x, y, z], "heading": 0.0, "time": 0.0,
-                     "clip": "walk", "gait": "walk", "jump": false, "locked": false}, ...]}
+                     "clip": "walk", "gait": "walk", "jump": false, "locked": false,
+                     "planned": [x, y, z, heading]}, ...]}
 
 Positions are world metres; a heading is a yaw (rad, positive turning left) from
 ``forward``, the world direction of heading 0 (the character's rest forward as it stood
 in the scene when planned). Numbers are written in full, so a plan read back is the plan
-written. Pure Python and numpy.
+written. ``planned`` is the pose the planner gave the footprint: a footprint whose
+position or heading an edit changed from it counts as moved (and so locked: whoever
+moved it wants it there); without ``planned`` a footprint counts as unmoved.
+Pure Python and numpy.
 """
 
 from __future__ import annotations
@@ -27,6 +31,8 @@ from .navgraph import PathFootprint
 FORMAT = "footstep-plan"
 VERSION = 1
 GAITS = ("walk", "run", "stand")
+#: m and rad a footprint may differ from its planned pose and still count as unmoved
+TOUCH = 1e-4
 
 
 class PlanFileError(FootstepError):
@@ -43,6 +49,11 @@ class PlanFile:
     locked: np.ndarray  # (N,) bool
     goal: np.ndarray | None = None  # (3,)
     goal_heading: float | None = None  # rad, from ``forward``
+    moved: np.ndarray | None = None  # (N,) bool: changed from the planned pose by an edit
+
+    def __post_init__(self):
+        if self.moved is None:
+            self.moved = np.zeros(len(self.footprints), bool)
 
     def to_dict(self) -> dict:
         fl = lambda v: [float(x) for x in v]  # noqa: E731
@@ -51,7 +62,8 @@ class PlanFile:
                 "goal_heading": None if self.goal_heading is None else float(self.goal_heading),
                 "footprints": [{"foot": "LR"[f.foot], "position": fl(f.position), "heading": float(f.heading),
                                 "time": float(f.time), "clip": f.label, "gait": f.gait, "jump": bool(f.jump),
-                                "locked": bool(lk)} for f, lk in zip(self.footprints, self.locked)]}
+                                "locked": bool(lk), "planned": [*fl(f.position), float(f.heading)]}
+                               for f, lk in zip(self.footprints, self.locked)]}
 
 
 def _vector(value, n: int) -> np.ndarray | None:
@@ -65,7 +77,18 @@ def _number(value) -> float | None:
     return float(value) if ok else None
 
 
-def _footprint(i: int, d, where: str) -> tuple[PathFootprint, bool]:
+def _moved(d: dict, pos: np.ndarray, heading: float, bad) -> bool:
+    """Whether a footprint differs from its ``planned`` pose (False without one)."""
+    if d.get("planned") is None:
+        return False
+    planned = _vector(d.get("planned"), 4)
+    if planned is None:
+        raise bad("planned", "four finite numbers (x, y, z, heading) or missing")
+    turn = abs((heading - planned[3] + math.pi) % (2 * math.pi) - math.pi)
+    return bool(np.abs(pos - planned[:3]).max() > TOUCH or turn > TOUCH)
+
+
+def _footprint(i: int, d, where: str) -> tuple[PathFootprint, bool, bool]:
     """Footprint ``i`` of the file, checked field by field."""
     def bad(field: str, want: str):
         got = json.dumps(d.get(field) if isinstance(d, dict) else d)[:40]
@@ -92,7 +115,7 @@ def _footprint(i: int, d, where: str) -> tuple[PathFootprint, bool]:
             raise bad(field, "true or false")
     fp = PathFootprint("LR".index(d["foot"]), pos, heading, time, d.get("clip") or "",
                        d.get("gait") or "walk", bool(d.get("jump", False)))
-    return fp, bool(d.get("locked", False))
+    return fp, bool(d.get("locked", False)), _moved(d, pos, heading, bad)
 
 
 def _check_feet(footprints: list[PathFootprint], where: str) -> None:
@@ -127,8 +150,9 @@ def plan_from_dict(doc, where: str = "the plan") -> PlanFile:
     heading = None if doc.get("goal_heading") is None else _number(doc.get("goal_heading"))
     if doc.get("goal_heading") is not None and heading is None:
         raise PlanFileError(f"{where}: 'goal_heading' must be a finite number (rad) or null")
+    moved = np.array([p[2] for p in pairs], bool)
     return PlanFile(doc["character"], forward / np.linalg.norm(forward), footprints,
-                    np.array([p[1] for p in pairs], bool), goal, heading)
+                    np.array([p[1] for p in pairs], bool) | moved, goal, heading, moved)
 
 
 def read_plan(text: str, where: str) -> PlanFile:
@@ -139,4 +163,4 @@ def read_plan(text: str, where: str) -> PlanFile:
     return plan_from_dict(doc, where)
 
 
-__all__ = ["FORMAT", "PlanFile", "PlanFileError", "VERSION", "plan_from_dict", "read_plan"]
+__all__ = ["FORMAT", "TOUCH", "PlanFile", "PlanFileError", "VERSION", "plan_from_dict", "read_plan"]
