@@ -196,7 +196,7 @@ def root_bone(ob, rig: Rig) -> int:
 
 def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start: int,
          path=None, planted=None, markers: bool = False, body_on: str = "OBJECT",
-         frame_range: bool = True):
+         frame_range: bool = True, rigify_ik_feet: bool = False):
     """Key ``res`` into a new Action on the armature ``ob`` in a new NLA track of the
     planner's, starting at ``frame_start``: the body on the object's transform
     (``body_on="OBJECT"``) or on the rig's root bone (``"ROOT"``, the object stays put),
@@ -204,7 +204,8 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
     character is replaced. The character's active action is stashed (see the module's
     doc) and, with ``frame_range``, the scene's frame range grows to cover the bake.
     ``planted`` holds (strike, stance, liftoff) seconds per footprint of ``path``,
-    for the optional markers."""
+    for the optional markers. ``rigify_ik_feet``: on a Rigify rig, the legs on their IK
+    controls (``rigify.key_controls(leg_ik=True)``) instead of the FK ones."""
     from . import rigify
 
     _check(ob, rig, body_on)
@@ -217,7 +218,7 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
     if body_on == "OBJECT":
         _key_body(keys, ob, res.body_pos, spin + res.body_heading)
     if on_controls:
-        _key_rigify_controls(ob, rig, act, slot, frames, res, spin, body_on)
+        _key_rigify_controls(ob, rig, act, slot, frames, res, spin, body_on, rigify_ik_feet)
     else:
         _key_bones(keys, ob, basis)
     track = _add_track(ob, name, act, slot, frame_start)
@@ -330,11 +331,12 @@ def _key_bones(keys: _Keys, ob, basis: np.ndarray) -> None:
 
 
 def _key_rigify_controls(ob, rig: Rig, act, slot, frames: np.ndarray, res: IKResult, spin: float,
-                         body_on: str) -> None:
+                         body_on: str, ik_feet: bool = False) -> None:
     """Key a Rigify rig's controls (``rigify.key_controls``: FK legs and arms, torso and
-    spine, the IK/FK switches set to FK) so that its DEF bones, the planner's skeleton,
-    follow the IK's pose; with the body on the rig (``ROOT``) the torso carries it and
-    the object stays put."""
+    spine, the IK/FK switches set to FK; with ``ik_feet`` the legs on their IK controls,
+    foot_ik, toe_ik and the knee's pole, switched to IK) so that its DEF bones, the
+    planner's skeleton, follow the IK's pose; with the body on the rig (``ROOT``) the
+    torso carries it and the object stays put."""
     from ..core.rig import forward_kinematics
     from . import rigify
 
@@ -342,7 +344,8 @@ def _key_rigify_controls(ob, rig: Rig, act, slot, frames: np.ndarray, res: IKRes
     if body_on == "ROOT":
         carry = np.linalg.inv(own_matrix_world(ob))[None] @ body_frames(res.body_pos, spin + res.body_heading)
         pose = carry[:, None] @ pose
-    rigify.key_controls(ob, (act, slot), frames, {name: pose[:, b] for b, name in enumerate(rig.names)})
+    rigify.key_controls(ob, (act, slot), frames, {name: pose[:, b] for b, name in enumerate(rig.names)},
+                        leg_ik=ik_feet)
 
 
 def _add_track(ob, name: str, act, slot, frame_start: int):

@@ -332,7 +332,8 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     timer = StageTimer()
     with timer("bake"):
         act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
-                                 result.footprints, syn.planted(), markers, body_on, frame_range)
+                                 result.footprints, syn.planted(), markers, body_on, frame_range,
+                                 rigify_ik_feet=settings.rigify_ik_feet)
     yield 0.85, "quality"
     qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on)
     stages = stage_row(len(result.footprints), result.seconds, syn, pose_blend=solved.pose_seconds,

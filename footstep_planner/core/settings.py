@@ -124,6 +124,11 @@ class Settings:
         the body (thesis beta).""")
     ik_iterations: int = setting(10, "passes", 0, 1000, """Body-offset IK iterations.""")
 
+    # --- bake -----------------------------------------------------------------------
+    rigify_ik_feet: bool = setting(False, "", doc="""On a Rigify rig, key the legs on their IK
+        controls (foot_ik, toe_ik and the knee's pole, IK/FK switch at IK) instead of the FK
+        controls; the arms stay FK and the torso and spine are keyed as without it.""")
+
     def __post_init__(self):
         self.check()
 
