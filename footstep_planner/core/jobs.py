@@ -21,6 +21,7 @@ JOB_FIELDS = {
     "character": "an armature's name", "goal": "an object's name", "start": "an object's name",
     "name": "text", "report": "a file path", "out": "a file path", "frame_start": "a whole number",
     "goal_heading": "a number (degrees)", "body_on": '"object" or "root"',
+    "via": "a list of objects' names (waypoints, in order)",
     "settings": "an object of settings (NAME: value)"}
 
 #: a frame number beyond which Blender's timeline (1,048,574) has no room for a bake
@@ -52,6 +53,9 @@ def _field_problem(field: str, value) -> str | None:
         return None if abs(value) <= MAX_FRAME else f"got {value}: beyond Blender's timeline (±{MAX_FRAME})"
     if field == "goal_heading":
         ok = _number(value) and abs(float(value)) < 1e6
+        return None if ok else f"got {json.dumps(value)[:40]}"
+    if field == "via":
+        ok = isinstance(value, list) and all(isinstance(v, str) and v.strip() and "," not in v for v in value)
         return None if ok else f"got {json.dumps(value)[:40]}"
     if field == "body_on":
         ok = isinstance(value, str) and value.lower() in ("object", "root")
@@ -123,6 +127,8 @@ def job_argv(job: dict, *, blend: str | None = None, out: str | None = None, rep
         argv += ["--frame-start", str(int(job["frame_start"]))]
     if job.get("goal_heading") is not None:
         argv += ["--goal-heading", repr(float(job["goal_heading"]))]
+    if job.get("via"):
+        argv += ["--via", ",".join(job["via"])]
     argv += ["--body-on", str(job.get("body_on") or common.get("body_on") or "object").lower()]
     for key in ("traversable", "obstacles"):
         if common.get(key):
