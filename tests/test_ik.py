@@ -1,15 +1,18 @@
 """Properties of footstep_planner.core.ik (thesis 3.8) on a small hand-built rig: the
 least rotation, the swing targets, and the closed-form legs (targets met, knees bending
-forward only, hips lowered for far targets)."""
+forward only, hips lowered for far targets, at most HIPS_DROP_MAX on level ground where
+rolling the foot reaches instead), and a swinging foot over uneven ground."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.ik import MAX_REACH, body_frames, min_rotation, solve_ik, swing_targets
+from footstep_planner.core.ik import (HIPS_DROP_MAX, MAX_REACH, MAX_ROLL, body_frames, ease_peaks, min_rotation,
+                                      roll_to_reach, solve_ik, swing_targets, toe_tip)
 from footstep_planner.core.rig import Rig, forward_kinematics
 
 HYP = dict(deadline=None, database=None, max_examples=40)
@@ -157,3 +160,75 @@ def test_a_foot_in_the_air_clears_the_ground():
         for loc in (HEEL[k], TOE[k]):
             z = (w[:, foot] @ loc)[6:, 2]
             assert z.min() > -1e-6
+
+
+@settings(**HYP)
+@given(back=st.floats(0.2, 0.45), short=st.floats(0.0, 0.04), toe_pinned=st.booleans())
+def test_rolling_a_planted_foot_keeps_its_pin_and_brings_the_ankle_within_reach(back, short, toe_pinned):
+    """A planted foot the hip cannot reach rolls about its pinned ball (heel rising) or
+    heel (toe rising): the pin stays, the ankle comes within reach (or the roll stops at
+    MAX_ROLL, never further from the hip), and the free end rises, never sinks."""
+    heel_l, toe_l = np.array([0.0, -0.04, -0.04]), np.array([0.0, 0.14, -0.04])  # foot frame: +Y forward
+    sign = -1.0 if toe_pinned else 1.0  # the foot behind the hip (toe pinned) or ahead (heel)
+    ankle = np.array([[0.0, sign * back, 0.04]])
+    hip = np.array([[0.0, 0.0, 0.04 + np.sqrt(max(0.83 ** 2 - back ** 2, 0.01)) - short]])
+    rot = np.array([np.eye(3)])  # the foot's frame is the world's
+    pin_l = toe_l if toe_pinned else heel_l
+    pin = ankle + rot[0] @ pin_l
+    reach = 0.83 - 0.01
+    a2, r2 = roll_to_reach(hip, ankle, rot, pin, np.array([toe_pinned]), np.array([True]), toe_l - heel_l, reach)
+    np.testing.assert_allclose(a2[0] + r2[0] @ pin_l, pin[0], atol=1e-9)  # the pin stays put
+    d0, d1 = np.linalg.norm(ankle - hip), np.linalg.norm(a2 - hip)
+    assert d1 <= d0 + 1e-12
+    angle = np.arccos(np.clip((np.trace(r2[0] @ rot[0].T) - 1) / 2, -1, 1))
+    assert angle <= MAX_ROLL + 1e-9
+    if d0 > reach:
+        assert d1 == pytest.approx(reach, abs=1e-9) or angle == pytest.approx(MAX_ROLL)
+    free = heel_l if toe_pinned else toe_l
+    assert (a2[0] + r2[0] @ free)[2] >= (ankle[0] + rot[0] @ free)[2] - 1e-12  # the free end rises
+
+
+def test_on_level_ground_the_hips_come_down_at_most_the_cap_for_a_reachable_stride():
+    """A stride the legs reach once the hips come down 2 cm: lowered by that, no roll."""
+    basis, body = _stand()
+    res = _run((0.1, -0.18, 0.0), (-0.1, 0.0, 0.0), (2, 17), body, basis)
+    assert 0.005 < res.hips_drop.max() <= HIPS_DROP_MAX + 1e-9
+
+
+def test_toe_tip_lies_ahead_of_the_ball_on_the_sole_and_bends_with_the_toe():
+    pose = forward_kinematics(RIG, np.tile(np.eye(4), (2, len(RIG.names), 1, 1)))
+    foot, toe = RIG.foot_chain("l")
+    bent = pose.copy()
+    up = np.eye(4)
+    up[:3, :3] = Rotation.from_rotvec([0.5, 0.0, 0.0]).as_matrix()  # the toe bent about the foot's X axis
+    bent[1, toe] = pose[1, toe] @ up
+    tip = toe_tip(RIG, "l", pose[:, foot], bent[:, toe], HEEL[0, :3], TOE[0, :3])
+    world = (pose[0, foot] @ np.append(tip[0], 1.0))[:3]
+    np.testing.assert_allclose(world, [0.1, -0.2, 0.0], atol=1e-9)  # the toe's tail, on the sole
+    assert np.linalg.norm(tip[1] - TOE[0, :3]) == pytest.approx(0.06)  # the toe's length from the ball
+    assert not np.allclose(tip[1], tip[0])
+
+
+def test_a_swinging_foot_rises_over_a_bump_between_its_footprints():
+    """Level footprints with a 6 cm bump under the feet once they are free: the heel,
+    the ball and the toe tip pass over it."""
+    basis, body = _stand(30)
+    bump = lambda p: np.where(np.abs(p[:, 1]) < 0.5, 0.06, 0.0)  # noqa: E731
+    res = _run((0.1, -0.1, 0.0), (-0.1, 0.1, 0.0), (0, 3), body, basis, ground_z=bump)
+    w = _feet_world(res.basis, res.body_pos, res.body_heading)
+    pose = forward_kinematics(RIG, res.basis)
+    for k, side in enumerate("lr"):
+        foot, toe = RIG.foot_chain(side)
+        tip = toe_tip(RIG, side, pose[:, foot], pose[:, toe], HEEL[k, :3], TOE[k, :3])
+        for loc in (np.tile(HEEL[k], (30, 1)), np.tile(TOE[k], (30, 1)), np.c_[tip, np.ones(len(tip))]):
+            p = (w[:, foot] @ loc[..., None])[:, :3, 0]
+            assert (p[5:, 2] - bump(p[5:])).min() > -1e-6
+
+
+@settings(**HYP)
+@given(v=st.lists(st.floats(0.0, 1.0), min_size=1, max_size=40), rate=st.floats(0.01, 0.5))
+def test_ease_peaks_covers_the_values_and_changes_no_faster_than_its_rate(v, rate):
+    v = np.array(v)
+    out = ease_peaks(v, rate)
+    assert np.all(out >= v - 1e-12)
+    assert np.all(np.abs(np.diff(out)) <= rate + 1e-9)

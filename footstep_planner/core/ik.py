@@ -10,12 +10,20 @@
    points reach their targets, and the offsets are spread over time by a multilevel
    B-spline, so the body anticipates each step.
 3. **Reach.** Where a target is out of the leg's reach the hips are lowered (smoothly,
-   ahead of time) instead of popping the knee straight.
+   ahead of time) instead of popping the knee straight, but on level ground at most
+   ``HIPS_DROP_MAX`` (3 cm) below the clip's height with the body offset's own lowering
+   counted (more where the ground under a planted foot lies below the clip's floor).
+   Beyond that the planted foot rolls about its pinned point, the free end rising (the
+   heel behind the body, the toe ahead), up to ``MAX_ROLL``; only what the roll cannot
+   reach lowers the hips further (a foot that missed its footprint would slide).
 4. **Swing.** Between two stances of a foot, the correction that put the foot on the
    first footprint (the ankle's offset and the foot's turn from the clip's own) eases
    into the one the next footprint needs (smoothstep): the foot leaves and lands on its
-   footprints with the clip's own swing, never released or caught in a hurry, and it
-   clears the surface.
+   footprints with the clip's own swing, never released or caught in a hurry. Over
+   uneven ground its heel, ball and toe tip (``sole_points``) keep the clearance they
+   have over the footprints' planes (the flat-ground swing laid on the slopes): where
+   the ground rises above those planes (a hill between footprints, a slope steepening
+   ahead, a step's edge) the ankle is lifted, ahead of time, never through the surface.
 5. **Legs** (3.8.2): with the body fixed, the ankle goes to its target and the knee
    stays in the plane of the clip's own knee (the swivel closest to the clip: the only
    free variable, solved in closed form); the thigh and the shin turn by the least
@@ -46,11 +54,34 @@ from .settings import Settings
 GROUND_MARGIN = 0.002
 #: The leg is never stretched past this share of its length (a straight knee pops).
 MAX_REACH = 0.995
+#: A planted foot rolls (``MAX_ROLL``) to keep its leg within this share of its length:
+#: a little short of ``MAX_REACH``, where the knee turns fastest for the reach it gives.
+ROLL_REACH = 0.99
 #: s either side of a frame whose planted ankle is out of reach over which the hips come
 #: down (and go back up) smoothly.
 REACH_EASE = 0.15
-#: frames, the Gaussian sigma that spreads a swinging foot's lift over the surface.
-LIFT_SMOOTH = 1.0
+#: frames either side over which a swinging foot's lift over the surface comes and goes
+#: (``lower_smoothly``), so it rises ahead of a step's edge ...
+LIFT_EASE = 3
+#: m per frame: ... but a foot leaving or reaching its footprint is lifted no faster.
+LIFT_RATE = 0.02
+#: s after a liftoff (and before a strike) over which every point of a swinging foot comes
+#: to keep ``GROUND_MARGIN`` over the ground (near a footprint: its clearance over its plane).
+LIFT_RAMP = 0.15
+#: m a swinging foot's heel, ball or toe tip may come nearer the surface than the
+#: clearance it keeps before the foot is lifted (rounding, not a dip).
+CLEARANCE_TOL = 0.001
+#: m the hips may come down for reach on level ground (more only where the ground under a
+#: planted foot lies below the clip's foot, and only when rolling the foot cannot reach).
+HIPS_DROP_MAX = 0.03
+#: rad, the most a planted foot rolls about its pinned heel or toe (the other end rising)
+#: to reach a footprint the capped hips cannot.
+MAX_ROLL = np.radians(25.0)
+#: rad, the most a planted foot's toe is bent up beyond its clip's bend to keep its tip
+#: out of the footprint.
+MAX_TOE_BEND = np.radians(30.0)
+#: rad/s at most that extra bend comes and goes (a toe that flicks pops).
+TOE_BEND_RATE = np.radians(60.0)
 #: The ankle target blends the heel- and the toe-pinned solutions while the heel and toe
 #: heights differ by less than this share of ``Settings.balance_band``.
 PIN_BAND_SHARE = 0.25
@@ -288,14 +319,16 @@ class _Legs:
     thigh_len: tuple[float, float]  # hip to knee
     shin_len: tuple[float, float]  # knee to ankle
     chain: list  # every leg bone's index, sorted
+    toe_bones: tuple = ()  # the toe bones the rig has
 
     @classmethod
     def of(cls, rig: Rig) -> "_Legs":
         thigh = tuple(rig.role_index(f"thigh_{x}") for x in SIDES)
         shin = tuple(rig.role_index(f"shin_{x}") for x in SIDES)
         foot = tuple(rig.foot_chain(x)[0] for x in SIDES)
+        toes = tuple(b for b in (rig.foot_chain(x)[1] for x in SIDES) if b is not None)
         L1, L2 = zip(*(leg_lengths(rig, x) for x in SIDES))
-        return cls(thigh, shin, foot, L1, L2, sorted(set(thigh) | set(shin) | set(foot)))
+        return cls(thigh, shin, foot, L1, L2, sorted(set(thigh) | set(shin) | set(foot)), toes)
 
 
 @contextmanager
@@ -321,23 +354,31 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     t0 = time.perf_counter()
     with _timed(sec, "targets"):
         legs = _Legs.of(rig)
-        pose = forward_kinematics(rig, basis, bones=list(legs.foot))  # the legs and what carries them
+        pose = forward_kinematics(rig, basis, bones=list(legs.foot) + list(legs.toe_bones))
         yaw = spin + np.asarray(body_heading, float)
         tg = foot_targets(rig, heel_local, toe_local, _legs_in_world(pose, legs, body_pos, yaw), t,
                           np.asarray(feet), planted, fp_pos, np.asarray(fp_heading, float), fp_normal, forward,
                           settings.balance_band)
+        sole = [sole_points(rig, pose, SIDES[k], heel_local[k, :3], toe_local[k, :3]) for k in range(2)]
     with _timed(sec, "body_offset"):  # 3.8.1
         body_pos, yaw, offset = _offset_body(pose, legs, tg, t, body_pos, yaw, settings)
         world = _legs_in_world(pose, legs, body_pos, yaw)
     with _timed(sec, "reach"):
-        drop = _reach_drop(world, legs, tg, _frame_rate(t))
+        budget = _drop_budget(np.asarray(body_pos, float)[:, 2] - offset[0][:, 2], tg, offset[0][:, 2],
+                              _frame_rate(t))
+        drop = _reach_drop(world, legs, tg, _frame_rate(t), budget, heel_local[:, :3], toe_local[:, :3])
         body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
         world[:, legs.chain, 2, 3] -= drop[:, None]
         ankle_t, rot_t = _all_frame_targets(world, legs, tg)
     with _timed(sec, "legs"):  # 3.8.2
-        lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, heel_local[k, :3], toe_local[k, :3],
-                             ground_z) for k in range(2)]
-        basis = _solve_legs(rig, basis, pose, world, legs, ankle_t, rot_t, lift, yaw)
+        planes = [_swing_planes(tg.footprint[k], np.asarray(fp_pos, float), np.asarray(fp_normal, float))
+                  for k in range(2)]
+        lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t))
+                for k in range(2)]
+        bend = [toe_bend(ankle_t[k] + lift[k][:, None] * [0.0, 0.0, 1.0], rot_t[k], tg.weight[k] >= 1.0,
+                         sole[k][2], toe_local[k, :3], planes[k], _frame_rate(t)) for k in range(2)]
+        basis = _solve_legs(rig, basis, pose, world, legs, ankle_t, rot_t, lift, yaw,
+                            (bend, toe_local[:, :3] - heel_local[:, :3]))
     sec["total"] = time.perf_counter() - t0
     return IKResult(body_pos, yaw - spin, basis, tg, drop, offset, sec)
 
@@ -374,16 +415,87 @@ def _offset_body(pose: np.ndarray, legs: _Legs, tg: FootTargets, t: np.ndarray, 
     return np.asarray(body_pos, float) + dp, yaw + dpsi, (dp, dpsi)
 
 
-def _reach_drop(world: np.ndarray, legs: _Legs, tg: FootTargets, fps: float) -> np.ndarray:
+def _drop_budget(floor_z: np.ndarray, tg: FootTargets, dp_z: np.ndarray, fps: float) -> np.ndarray:
+    """(F,) m the hips may still come down for reach: ``HIPS_DROP_MAX`` below the clip's
+    height, plus how far a planted foot's pinned point lies below the clip's floor
+    ``floor_z`` (F,) m (the body's height before the offset: the ground drops there), less
+    what the body offset ``dp_z`` (F,) m already lowered; eased like the drop."""
+    low = np.zeros(len(floor_z))
+    for k in range(2):
+        low = np.maximum(low, np.where(tg.weight[k] >= 1.0, np.maximum(floor_z - tg.pin[k, :, 2], 0.0), 0.0))
+    low = lower_smoothly(low, max(1, int(round(REACH_EASE * fps))))
+    return np.maximum(HIPS_DROP_MAX + low + np.asarray(dp_z, float), 0.0)
+
+
+def _reach_needs(world: np.ndarray, legs: _Legs, tg: FootTargets, drop: np.ndarray) -> np.ndarray:
+    """(2, F) m the hips (in ``world``, then lowered by ``drop`` (F,)) must still come down
+    for each planted ankle target to lie within ``MAX_REACH`` of its leg; 0 where free."""
+    need = np.zeros((2, len(world)))
+    for k in range(2):
+        hip = world[:, legs.thigh[k], :3, 3] - drop[:, None] * [0.0, 0.0, 1.0]
+        n = reach_need(hip, tg.ankle[k], MAX_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
+        need[k] = np.where(tg.weight[k] >= 1.0, np.maximum(n, 0.0), 0.0)
+    return need
+
+
+def _reach_drop(world: np.ndarray, legs: _Legs, tg: FootTargets, fps: float, budget: np.ndarray | None = None,
+                heel_local: np.ndarray | None = None, toe_local: np.ndarray | None = None) -> np.ndarray:
     """(F,) m to lower the hips (smoothly, over ``REACH_EASE`` s either side, ahead of
     time) where a planted ankle target is beyond ``MAX_REACH`` of its leg's length from
-    the hip joint in ``world`` (F, B, 4, 4)."""
-    need = np.zeros(len(world))
+    the hip joint in ``world`` (F, B, 4, 4). With a ``budget`` (F,) m the hips come down
+    at most that far; a planted foot then rolls about its pinned heel or toe to keep its
+    leg within ``ROLL_REACH`` (``roll_to_reach``, with ``heel_local``/``toe_local`` (2, 3):
+    ``tg``'s ankle targets and foot rotations change in place) and the hips come down
+    further only for what the roll cannot reach."""
+    win = max(1, int(round(REACH_EASE * fps)))
+    drop = lower_smoothly(_reach_needs(world, legs, tg, np.zeros(len(world))).max(axis=0), win)
+    if budget is None:
+        return drop
+    drop = np.minimum(drop, budget)
     for k in range(2):
-        drop = reach_need(world[:, legs.thigh[k], :3, 3], tg.ankle[k],
-                          MAX_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
-        need = np.maximum(need, np.where(tg.weight[k] >= 1.0, np.maximum(drop, 0.0), 0.0))
-    return lower_smoothly(need, max(1, int(round(REACH_EASE * fps))))
+        hip = world[:, legs.thigh[k], :3, 3] - drop[:, None] * [0.0, 0.0, 1.0]
+        toe_pinned = np.all(np.isclose(tg.pin_local[k], toe_local[k]), axis=1)
+        tg.ankle[k], tg.foot_rot[k] = roll_to_reach(hip, tg.ankle[k], tg.foot_rot[k], tg.pin[k], toe_pinned,
+                                                    tg.weight[k] >= 1.0, toe_local[k] - heel_local[k],
+                                                    ROLL_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
+    rest = _reach_needs(world, legs, tg, drop).max(axis=0)
+    return drop + (lower_smoothly(rest, win) if rest.max() > 1e-6 else 0.0)
+
+
+def roll_to_reach(hip: np.ndarray, ankle: np.ndarray, rot: np.ndarray, pin: np.ndarray, toe_pinned: np.ndarray,
+                  planted: np.ndarray, heel_to_toe: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """Copies of one foot's ankle targets ``ankle`` (F, 3) and rotations ``rot`` (F, 3, 3),
+    rolled where ``planted`` (F,) and the ankle is beyond ``reach`` (m) of ``hip`` (F, 3):
+    about the pinned point ``pin`` (F, 3) and the foot's lateral axis, the free end rising
+    (the heel when ``toe_pinned`` (F,), else the toe), by the least angle that brings the
+    ankle within reach, at most ``MAX_ROLL`` (the pinned point stays put, so the foot does
+    not slide). ``heel_to_toe`` (3,) in the foot bone's frame is the foot's length axis.
+    Closed form: with the lever a = ankle - pin, d = pin - hip and Rodrigues' rotation
+    about k, |d + R a|^2 = |d|^2 + |a|^2 + 2 (A cos phi + B sin phi + C)."""
+    ankle, rot = ankle.copy(), rot.copy()
+    idx = np.flatnonzero(planted & (np.linalg.norm(ankle - hip, axis=1) > reach + 1e-9))
+    if not len(idx):
+        return ankle, rot
+    pivot = pin[idx]
+    a, d = ankle[idx] - pivot, pivot - hip[idx]
+    k = np.cross(np.einsum("fij,j->fi", rot[idx], heel_to_toe), [0.0, 0.0, 1.0])
+    k /= np.maximum(np.linalg.norm(k, axis=1, keepdims=True), 1e-12)
+    ka = np.einsum("fi,fi->f", k, a)
+    A = np.einsum("fi,fi->f", d, a - k * ka[:, None])
+    B = np.einsum("fi,fi->f", d, np.cross(k, a))
+    dot = lambda x, y: np.einsum("fi,fi->f", x, y)  # noqa: E731
+    D = 0.5 * (reach ** 2 - dot(d, d) - dot(a, a)) - dot(d, k) * ka
+    c = np.arccos(np.clip(D / np.maximum(np.hypot(A, B), 1e-12), -1.0, 1.0))
+    cand = np.angle(np.exp(1j * (np.arctan2(B, A)[None] + np.array([[1.0], [-1.0]]) * c[None])))
+    sign = np.where(toe_pinned[idx], -1.0, 1.0)
+    mag = np.where(sign[None] * cand >= 0, np.abs(cand), np.inf).min(axis=0)
+    phi = sign * np.minimum(mag, MAX_ROLL)
+    R = Rotation.from_rotvec(k * phi[:, None]).as_matrix()
+    new = pivot + np.einsum("fij,fj->fi", R, a)
+    better = np.linalg.norm(new - hip[idx], axis=1) < np.linalg.norm(ankle[idx] - hip[idx], axis=1)
+    ankle[idx] = np.where(better[:, None], new, ankle[idx])
+    rot[idx] = np.where(better[:, None, None], R @ rot[idx], rot[idx])
+    return ankle, rot
 
 
 def _all_frame_targets(world: np.ndarray, legs: _Legs, tg: FootTargets) -> tuple[np.ndarray, np.ndarray]:
@@ -400,36 +512,162 @@ def _all_frame_targets(world: np.ndarray, legs: _Legs, tg: FootTargets) -> tuple
     return ankle_t, rot_t
 
 
-def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, heel_local: np.ndarray,
-                 toe_local: np.ndarray, ground_z) -> np.ndarray:
+def sole_points(rig: Rig, pose: np.ndarray, side: str, heel_local: np.ndarray, toe_local: np.ndarray) -> list:
+    """The points of one foot that must clear the ground while it swings, each as ((F, 3)
+    in the foot bone's frame, (F,) m its height over the floor in the clip: its clearance
+    on flat ground): its heel and ball (``heel_local``/``toe_local`` (3,), on the sole)
+    and its toe tip (``toe_tip``), in ``pose`` (F, B, 4, 4, armature space, the clip's
+    floor at z = 0)."""
+    foot, toe = rig.foot_chain(side)
+    F = len(pose)
+    locs = [np.broadcast_to(heel_local, (F, 3)), np.broadcast_to(toe_local, (F, 3)),
+            toe_tip(rig, side, pose[:, foot], pose[:, toe] if toe is not None else None, heel_local, toe_local)]
+    return [(loc, np.einsum("fj,fj->f", pose[:, foot, 2, :3], loc) + pose[:, foot, 2, 3]) for loc in locs]
+
+
+def toe_tip(rig: Rig, side: str, foot_m: np.ndarray, toe_m: np.ndarray | None, heel_local: np.ndarray,
+            toe_local: np.ndarray) -> np.ndarray:
+    """(F, 3) the toe tip of one foot in its foot bone's frame: ahead of the ball on the
+    sole (``toe_local`` (3,)) by the toe bone's length, along the sole (from
+    ``heel_local``), bent as the toe bone is bent from its rest in ``foot_m``/``toe_m``
+    (F, 4, 4) (the foot's and the toe's matrices in any one space; without a toe bone
+    (None) the foot's tail stands for the tip, unbent, on the sole)."""
+    foot, toe = rig.foot_chain(side)
+    ahead = toe_local - heel_local
+    ahead = ahead / max(float(np.linalg.norm(ahead)), 1e-9)
+    if toe is None or toe_m is None:
+        tail = (np.linalg.inv(rig.rest[foot]) @ np.append(rig.tails[foot], 1.0))[:3]
+        length = max(float((tail - rig.ball_local(side)[:3]) @ ahead), 0.0)
+        return np.tile(toe_local + length * ahead, (len(foot_m), 1))
+    length = float(np.linalg.norm(rig.tails[toe] - rig.rest[toe, :3, 3]))
+    rest = (np.linalg.inv(rig.rest[foot]) @ rig.rest[toe])[:3, :3]
+    bend = (np.linalg.inv(foot_m) @ toe_m)[:, :3, :3] @ rest.T
+    return toe_local + length * (bend @ ahead)
+
+
+def _swing_planes(index: np.ndarray, fp_pos: np.ndarray, fp_normal: np.ndarray):
+    """The surface one foot's swing is laid over, per frame: the planes of the footprint
+    it left and of the one it lands on (``index`` (F,) its footprint while planted, -1 in
+    the air; ``fp_pos`` (N, 3) points on them, ``fp_normal`` (N, 3)) and the smoothstep
+    share ``u`` (F,) of the second, as ``swing_targets`` eases the foot. Returns (points
+    (2, F, 3), normals (2, F, 3), u (F,), frames to the nearest planted frame (F,)), or
+    None without a planted frame."""
+    F = len(index)
+    on = index >= 0
+    if not on.any():
+        return None
+    f = np.arange(F)
+    prev = np.maximum.accumulate(np.where(on, f, -1))
+    nxt = np.minimum.accumulate(np.where(on, f, F)[::-1])[::-1]
+    gap = np.minimum(np.where(prev < 0, F, f - prev), np.where(nxt >= F, F, nxt - f))
+    prev, nxt = np.where(prev < 0, nxt, prev), np.where(nxt >= F, prev, nxt)
+    j = index[np.stack([prev, nxt])]
+    return fp_pos[j], fp_normal[j], smoothstep((f - prev) / np.maximum(nxt - prev, 1)), gap
+
+
+def _plane_z(point: np.ndarray, normal: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """(...,) heights at ``xy`` (..., 2) of the planes through ``point`` (..., 3) with
+    ``normal`` (..., 3) (taken no steeper than about 70 degrees)."""
+    nz = np.maximum(normal[..., 2], 0.3)
+    return point[..., 2] - (normal[..., 0] * (xy[..., 0] - point[..., 0])
+                            + normal[..., 1] * (xy[..., 1] - point[..., 1])) / nz
+
+
+def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: list, planes, ground_z,
+                 fps: float = DEFAULT_FPS) -> np.ndarray:
     """(F,) m to lift one swinging foot's ankle (targets ``ankle`` (F, 3), ``rot`` (F, 3, 3))
-    so that its heel and toe (``heel_local``, ``toe_local`` (3,) in the foot bone's frame)
-    stay ``GROUND_MARGIN`` above the surface ``ground_z`` (points (M, 3) -> heights (M,),
-    NaN for none; None: no lift), smoothed over ``LIFT_SMOOTH`` frames; 0 where
-    ``planted`` (F,) (a planted foot is on its footprint already)."""
+    so that each of its ``sole`` points (``sole_points``: heel, ball, toe tip) keeps over
+    the surface ``ground_z`` (points (M, 3) -> heights (M,), NaN for none; None: no lift)
+    the clearance it has over the footprints' planes it swings between (``planes``, from
+    ``_swing_planes``: its flat-ground clearance, laid on the slopes), the heel and ball
+    ``GROUND_MARGIN`` at least, and from ``LIFT_RAMP`` s after liftoff to as long before
+    the strike every point that much (or its clip's own clearance, if less): over a hill
+    or a slope steepening ahead the foot rises with the ground. Eased over ``LIFT_EASE``
+    frames (``LIFT_RATE`` off a footprint); 0 where ``planted`` (F,)."""
     lift = np.zeros(len(ankle))
-    if ground_z is None:
-        return lift
     free = np.flatnonzero(~planted)
-    for loc in (heel_local, toe_local):
-        pt = ankle[free] + np.einsum("fij,j->fi", rot[free], loc)
-        gz = np.asarray(ground_z(pt), float)
-        depth = np.where(np.isfinite(gz), gz + GROUND_MARGIN - pt[:, 2], 0.0)
-        lift[free] = np.maximum(lift[free], depth)
-    lift = np.maximum(lift, 0.0)
-    if lift.any():
-        lift = np.maximum(lift, gaussian_filter1d(lift, LIFT_SMOOTH))
+    if ground_z is None or planes is None or not len(free):
+        return lift
+    pts = np.stack([ankle[free] + np.einsum("fij,fj->fi", rot[free], loc[free]) for loc, _ in sole])  # (P, n, 3)
+    (pa, pb), (na, nb), u, gap = (x[..., free, :] if x.ndim > 1 else x[free] for x in planes)
+    base = (1 - u) * _plane_z(pa, na, pts[..., :2]) + u * _plane_z(pb, nb, pts[..., :2])  # (P, n)
+    w = smoothstep(gap / max(LIFT_RAMP * fps, 1.0))
+    # the clearance over the planes, never under GROUND_MARGIN (the heel and ball) or, away
+    # from the footprints, under the clip's own if that is less (a toe tip a clip sinks)
+    clip = np.minimum(np.stack([h[free] for _, h in sole]), GROUND_MARGIN)
+    above = pts[..., 2] - base
+    want = above + w * np.maximum(clip - above, 0.0)
+    want = np.maximum(want, np.array([GROUND_MARGIN, GROUND_MARGIN] + [-np.inf] * (len(sole) - 2))[:, None])
+    gz = np.asarray(ground_z(pts.reshape(-1, 3)), float).reshape(want.shape)
+    depth = gz + want - pts[..., 2] - CLEARANCE_TOL
+    lift[free] = np.maximum(np.where(np.isfinite(depth), depth, 0.0).max(axis=0), 0.0)
+    if lift.any():  # rising ahead of time (a step's edge), never faster than LIFT_RATE off a footprint
+        f = np.arange(len(lift))
+        last = np.maximum.accumulate(np.where(planted, f, -len(lift)))
+        first = np.minimum.accumulate(np.where(planted, f, 2 * len(lift))[::-1])[::-1]
+        cone = LIFT_RATE * np.minimum(f - last, first - f)
+        lift = np.maximum(lift, np.minimum(lower_smoothly(lift, LIFT_EASE), cone))
         lift[planted] = 0.0
     return lift
 
 
+def ease_peaks(v: np.ndarray, rate: float) -> np.ndarray:
+    """(F,) the least envelope over ``v`` (F,) (>= 0) that changes by at most ``rate`` per
+    frame: each peak comes and goes along a cone (a loop over the cone's half width, not
+    over frames)."""
+    out = np.array(v, float)
+    if not out.any() or rate <= 0:
+        return out
+    for d in range(1, int(np.ceil(out.max() / rate)) + 1):
+        out[d:] = np.maximum(out[d:], v[:-d] - rate * d)
+        out[:-d] = np.maximum(out[:-d], v[d:] - rate * d)
+    return out
+
+
+def toe_bend(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, tip: tuple, toe_local: np.ndarray,
+             planes, fps: float = DEFAULT_FPS) -> np.ndarray:
+    """(F,) rad to bend one foot's toe up, beyond its clip's bend (at most ``MAX_TOE_BEND``),
+    so that its toe tip (``tip``: ((F, 3) in the foot bone's frame, (F,) m its height over
+    the clip's floor), from ``sole_points``) goes no deeper into the footprint it stands on
+    while ``planted`` (F,) than it goes into the clip's floor: a foot rolled up on its ball
+    (the clip's toe-off held on a footprint, a roll for reach, a slope) would sink its
+    toes. The foot at ``ankle`` (F, 3) turned by ``rot`` (F, 3, 3); the toe bends about the
+    ball (``toe_local`` (3,)); ``planes`` from ``_swing_planes``. Eased in and out at
+    ``TOE_BEND_RATE`` (``ease_peaks``; frames at ``fps``)."""
+    bend = np.zeros(len(ankle))
+    on = np.flatnonzero(planted)
+    if planes is None or not len(on):
+        return bend
+    pt = ankle[on] + np.einsum("fij,fj->fi", rot[on], tip[0][on])
+    ball = ankle[on] + rot[on] @ toe_local
+    (pa, _), (na, _), _, _ = planes
+    depth = _plane_z(pa[on], na[on], pt[:, :2]) - pt[:, 2] - np.maximum(-tip[1][on], 0.0)
+    length = np.maximum(np.linalg.norm(pt - ball, axis=1), 1e-6)
+    bend[on] = np.minimum(np.arcsin(np.clip(depth / length, 0.0, 1.0)), MAX_TOE_BEND)
+    return ease_peaks(bend, TOE_BEND_RATE / fps)
+
+
+def _lateral(rot: np.ndarray, heel_to_toe: np.ndarray, where: np.ndarray) -> np.ndarray:
+    """(3,) a foot's lateral axis (to its right, unit) in its bone's frame: across the
+    sole's length ``heel_to_toe`` (3,) and the world's up, averaged over the frames
+    ``where`` (F,) of its world rotations ``rot`` (F, 3, 3) (a foot rolled steeply in
+    the air has a poor one of its own)."""
+    f = np.einsum("fij,j->fi", rot[where], heel_to_toe)
+    side = np.cross(f, [0.0, 0.0, 1.0])
+    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-12)
+    lat = np.einsum("fji,fj->i", rot[where], side)
+    return lat / max(float(np.linalg.norm(lat)), 1e-12)
+
+
 def _solve_legs(rig: Rig, basis: np.ndarray, pose: np.ndarray, world: np.ndarray, legs: _Legs,
-                ankle_t: np.ndarray, rot_t: np.ndarray, lift: list, yaw: np.ndarray) -> np.ndarray:
+                ankle_t: np.ndarray, rot_t: np.ndarray, lift: list, yaw: np.ndarray, toes=None) -> np.ndarray:
     """Thesis 3.8.2: a copy of ``basis`` (F, B, 4, 4) with both legs solved in closed form
     (``two_bone``, the knee towards the rig's forward) so each ankle reaches its target
     ``ankle_t`` (2, F, 3) raised by ``lift`` (2 x (F,)) m and each foot takes ``rot_t``
     (2, F, 3, 3); ``world`` holds the legs' current world matrices, ``pose`` the
-    armature-space ones, the object turned by ``yaw`` (F,) rad."""
+    armature-space ones (the toes' too), the object turned by ``yaw`` (F,) rad. ``toes``
+    (bends (2 x (F,)) rad, heel-to-ball (2, 3) in the foot bones' frames): each toe bone
+    bent up by that much more than its clip bends it, about the foot's lateral axis."""
     F = len(yaw)
     basis = basis.copy()
     inv_yaw = body_frames(np.zeros((F, 3)), -yaw)[:, :3, :3]
@@ -442,9 +680,16 @@ def _solve_legs(rig: Rig, basis: np.ndarray, pose: np.ndarray, world: np.ndarray
         r1, r2 = two_bone(Wt[:, :3, 3], Ws[:, :3, 3], Wf[:, :3, 3], A, legs.thigh_len[k], legs.shin_len[k], fwd)
         arm = {thigh: inv_yaw @ r1 @ Wt[:, :3, :3], shin: inv_yaw @ r2 @ r1 @ Ws[:, :3, :3],
                foot: inv_yaw @ rot_t[k]}
+        chain = [thigh, shin, foot]
+        toe = rig.foot_chain(SIDES[k])[1]
+        if toes is not None and toe is not None and toes[0][k].max() > 0.0:
+            axis = rot_t[k] @ _lateral(rot_t[k], toes[1][k], toes[0][k] > 0)  # the foot's, as it bends
+            rel = np.linalg.inv(pose[:, foot, :3, :3]) @ pose[:, toe, :3, :3]  # the clip's toe on its foot
+            arm[toe] = inv_yaw @ Rotation.from_rotvec(axis * toes[0][k][:, None]).as_matrix() @ rot_t[k] @ rel
+            chain.append(toe)
         p = rig.parents[thigh]
         parent_rot = pose[:, p, :3, :3] if p >= 0 else np.eye(3)[None]
-        chain_bases(rig, [thigh, shin, foot], parent_rot, arm, basis)
+        chain_bases(rig, chain, parent_rot, arm, basis)
     return basis
 
 
