@@ -4,13 +4,17 @@ properties."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+
+import numpy as np
 
 from ..core.analysis import AnalysisError, ClipAnalysis, analyze_clip
 from ..core.library import Library, LibraryError, SpecialClip, TurnGroup, GroupClip, propose_library
-from ..core.rig import Rig, RigError
+from ..core.clip import SIDES, ClipMotion, clip_motion
+from ..core.rig import Rig, RigError, forward_kinematics
 from ..core.settings import Settings
-from .scene import armature_actions, clip_from_action, rig_from_armature
+from .scene import (SOURCE_FPS_PROP, action_frame_range, armature_actions, clip_from_action, rig_from_armature,
+                    sample_basis, scene_fps)
 
 
 @dataclass
@@ -29,11 +33,76 @@ def analyze_character(ob, settings: Settings | None = None, fps: float | None = 
     result = CharacterClips(rig)
     for act in (actions if actions is not None else armature_actions(ob)):
         try:
-            motion = clip_from_action(ob, act, rig, fps=fps)
+            motion = read_clip(ob, act, rig, fps=fps)
             result.analyses.append(analyze_clip(motion, settings))
         except (AnalysisError, RigError) as ex:
             result.errors[act.name] = str(ex)
     return result
+
+
+#: Clips of more samples than this are read a chunk of this many samples at a time: their
+#: pose bases and forward kinematics (128 bytes a bone and sample, each) are never held
+#: whole, only what the ClipMotion keeps.
+CHUNK = 4096
+
+
+def read_clip(ob, action, rig: Rig, fps: float | None = None) -> ClipMotion:
+    """``action`` on armature ``ob`` sampled at ``fps`` (default: the scene's rate) over its
+    frame range, as ``scene.clip_from_action`` gives it; a clip longer than ``CHUNK``
+    samples is read a chunk at a time (``_chunked_clip``), to the same result."""
+    from . import rigify
+
+    sfps = scene_fps()
+    step = sfps / float(fps or sfps)
+    start, end = action_frame_range(action)
+    frames = start + step * np.arange(int(round((end - start) / step)) + 1)
+    if len(frames) <= CHUNK or rigify.is_rigify(ob):
+        return clip_from_action(ob, action, rig, fps=fps)
+    return _chunked_clip(ob, action, rig, frames, float(fps or sfps))
+
+
+def _chunked_clip(ob, action, rig: Rig, frames: np.ndarray, fps: float) -> ClipMotion:
+    """``core.clip.clip_motion`` of ``action`` sampled at ``frames``, computed on chunks
+    of ``CHUNK`` samples and joined: the root's heading unwrapped across the joins, and
+    each foot's heel and toe points taken where the foot is lowest in the whole clip
+    (``_sole_points``), as the whole clip's ``clip_motion`` takes them. The bones'
+    rotations are kept in float32."""
+    src = action.get(SOURCE_FPS_PROP)
+    extra = dict(source_fps=float(src) if src else None, frame_rate=scene_fps())
+    feet = [rig.foot_chain(side)[0] for side in SIDES]
+    n, parts = len(frames), []
+    local_rot = np.empty((n, len(rig.names), 3, 3), np.float32)  # (half the memory; 1e-7 is plenty)
+    foot_pose = np.empty((len(feet), n, 4, 4))
+    for a in range(0, n, CHUNK):
+        basis = sample_basis(ob, action, frames[a:a + CHUNK])
+        part = clip_motion(rig, action.name, basis, fps=fps, frame0=frames[0], **extra)
+        local_rot[a:a + len(basis)] = part.local_rot
+        foot_pose[:, a:a + len(basis)] = forward_kinematics(rig, basis, bones=feet)[:, feet].swapaxes(0, 1)
+        parts.append(replace(part, local_rot=None))
+        del basis, part
+    heel, toe, heel_local, toe_local = _sole_points(ob, action, rig, frames, foot_pose, fps)
+    join = lambda attr: np.concatenate([getattr(p, attr) for p in parts])  # noqa: E731
+    return replace(parts[0], times=np.arange(n) / fps, root_pos=join("root_pos"),
+                   root_heading=np.unwrap(join("root_heading")), hips_in_root=join("hips_in_root"),
+                   local_rot=local_rot, heel=heel, toe=toe, heel_local=heel_local, toe_local=toe_local)
+
+
+def _sole_points(ob, action, rig: Rig, frames, foot_pose: np.ndarray, fps: float):
+    """(heel, toe (2, N, 3), heel_local, toe_local (2, 4)) of a clip whose foot bones'
+    armature-space matrices are ``foot_pose`` (2, N, 4, 4): each foot's points placed by
+    ``clip_motion`` at the sample where that foot is lowest (the ankle and the ball above
+    their own lowest, the higher of the two, least), carried rigidly with the foot."""
+    heel, toe = np.empty((2, len(frames), 3)), np.empty((2, len(frames), 3))
+    heel_local, toe_local = np.empty((2, 4)), np.empty((2, 4))
+    for k, side in enumerate(SIDES):
+        fm = foot_pose[k]
+        ankle, ball = fm[:, 2, 3], (fm @ rig.ball_local(side))[:, 2]
+        flat = int(np.argmin(np.maximum(ankle - ankle.min(), ball - ball.min())))
+        one = clip_motion(rig, action.name, sample_basis(ob, action, frames[[flat]]), fps=fps)
+        heel_local[k], toe_local[k] = one.heel_local[k], one.toe_local[k]
+        heel[k] = (fm @ heel_local[k])[:, :3]
+        toe[k] = (fm @ toe_local[k])[:, :3]
+    return heel, toe, heel_local, toe_local
 
 
 def analyze_and_propose(ob, settings: Settings | None = None) -> CharacterClips:
@@ -113,5 +182,5 @@ def library_for(ob, clips: CharacterClips) -> Library:
     return propose_library(clips.analyses)
 
 
-__all__ = ["CharacterClips", "analyze_and_propose", "analyze_character", "library_for", "read_library", "write_library",
-           "summary", "LibraryError"]
+__all__ = ["CharacterClips", "analyze_and_propose", "analyze_character", "library_for", "read_clip", "read_library",
+           "write_library", "summary", "LibraryError"]

@@ -1,8 +1,10 @@
 """Importing clips into a character: one armature, one Action per file, BVH or FBX.
 
-The first file of a new library gives the armature (Blender's own BVH or FBX importer,
-then brought to metres, Z up and an identity object transform, keys at the scene's frame
-rate whatever the file's). Every further file, or every file imported into an existing
+The first file of a new library gives the armature (for FBX, Blender's own importer; for
+BVH, the armature and keys Blender's BVH importer would make, made here from the motion
+``core.bvh`` reads, whole F-curves at a time; then brought to metres, Z up and an identity
+object transform, keys at the scene's frame rate whatever the file's; a clip longer than
+``SAMPLED_FRAMES`` kept as samples). Every further file, or every file imported into an existing
 armature, is retargeted onto that armature's bones and added as a new Action: nothing of
 the user's is replaced or renamed. A BVH file is retargeted in the BVH sense (each
 joint's rotation relative to the rest pose is kept); an FBX file bone by bone (each bone's
@@ -30,7 +32,7 @@ import numpy as np
 from mathutils import Matrix
 from scipy.spatial.transform import Rotation
 
-from ..core.bvh import BvhError, read_skeleton
+from ..core.bvh import BvhError, read_bvh, read_skeleton
 from ..core.roles import map_roles
 from .scene import (ARMATURE_PROP, SOURCE_FILE_PROP, SOURCE_FPS_PROP, _matrices, sample_basis, scene_fps)
 from ..core.errors import FootstepError
@@ -219,7 +221,7 @@ def _import_file(src, scale, made: list):
     keyed from frame 1 at the scene's rate; what is made is appended to ``made``."""
     if isinstance(src, _FbxClip):
         return _fbx_import(src, made)
-    return (*_blender_import(src, scale, made), [])
+    return (*_bvh_import(src, scale, made), [])
 
 
 def _ids() -> set:
@@ -267,33 +269,157 @@ def _tag_source(act, src, target):
     act.use_fake_user = True
 
 
-def _blender_import(sk, scale, made: list):
-    """(armature object, action) made by Blender's BVH importer from ``sk``'s file
-    (``scale`` metres per file unit, default guessed; Y up, -Z forward; quaternions;
-    keyed from frame 1 at the scene's rate), the action named after the file.
-    ClipImportError when the importer fails or makes anything but one of each."""
-    before = _ids()
-    try:
-        with contextlib.redirect_stdout(io.StringIO()):  # the importer's progress chatter
-            res = bpy.ops.import_anim.bvh(
-                filepath=sk.path, target="ARMATURE", global_scale=scale or sk.unit_scale(),
-                frame_start=1, use_fps_scale=True, update_scene_fps=False,
-                update_scene_duration=False, rotate_mode="QUATERNION",
-                axis_forward="-Z", axis_up="Y")
-    except (RuntimeError, BvhError) as ex:
-        made.extend(_ids() - before)
-        raise ClipImportError(f"{sk.path}: Blender's BVH importer failed: {ex}") from None
-    new = _ids() - before
-    made.extend(new)
-    new_obs = [o for o in new if isinstance(o, bpy.types.Object) and o.type == "ARMATURE"]
-    new_actions = [a for a in new if isinstance(a, bpy.types.Action)]
-    if res != {"FINISHED"} or len(new_obs) != 1 or len(new_actions) != 1:
-        raise ClipImportError(f"{sk.path}: Blender's BVH importer made no armature")
-    ob, act = new_obs[0], new_actions[0]
-    act.name = os.path.splitext(os.path.basename(sk.path))[0]
-    # Blender 5.0: an armature that was never evaluated has no pose yet.
+# -- BVH ------------------------------------------------------------------------------
+
+#: The file's axes (Y up, -Z forward) to Blender's (Z up, -Y forward): (x, y, z) -> (x, -z, y),
+#: as Blender's BVH importer turns them (axis_forward "-Z", axis_up "Y").
+_BVH_AXES = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+def _bvh_import(sk, scale, made: list):
+    """(armature object, action) of the BVH file of skeleton ``sk``, as Blender's BVH
+    importer makes them (the same bones, rolls and connections, Y up turned to Z up,
+    quaternion keys, LINEAR, from frame 1 at the scene's rate; ``scale`` metres per file
+    unit, default guessed), the action named after the file; made here from the motion
+    as ``core.bvh`` reads it, one whole F-curve at a time (``_curve``), so a long clip
+    costs seconds and its 32-bit keys, not Python objects per frame and value."""
+    sk, motion = _read_bvh(sk.path)
+    scale = scale or sk.unit_scale()
+    name = os.path.splitext(os.path.basename(sk.path))[0]
+    arm = bpy.data.armatures.new(name)
+    made.append(arm)
+    ob = bpy.data.objects.new(name, arm)
+    made.append(ob)
+    bpy.context.collection.objects.link(ob)
+    bones = _bvh_bones(ob, sk, scale)
+    # Blender 5.0: a pose for the new armature (evaluated before its action is assigned:
+    # the evaluated copy of a long action would double its memory)
     bpy.context.view_layer.update()
+    act = bpy.data.actions.new(name)
+    made.append(act)
+    _bvh_keys(ob, act, sk, motion, scale, bones)
     return ob, act
+
+
+def _read_bvh(path: str):
+    try:
+        return read_bvh(path)
+    except BvhError as ex:
+        raise ClipImportError(str(ex)) from None
+
+
+def _bvh_rest(sk, scale: float):
+    """(heads, tails (J, 3) and connected (J,) bool) of the joints' bones in the file's
+    axes, in metres, laid out as Blender's BVH importer lays them: the tail at the End
+    Site, the one child's head or the children's mean head; a bone shorter than 1 mm
+    given the length and direction Blender's importer gives it (its parent's, or up)."""
+    local, heads = sk.offsets * scale, sk.heads() * scale
+    parents = np.array(sk.parents)
+    rel = sk.end_sites * scale  # tail - head
+    for j in range(len(parents)):
+        kids = np.flatnonzero(parents == j)
+        if len(kids) and not rel[j].any():
+            rel[j] = local[kids].mean(axis=0)
+    rel[np.linalg.norm(rel, axis=1) <= 0.001 * scale, 1] += scale / 10  # (the importer's first fix)
+    size = np.linalg.norm(rel, axis=1)
+    average = float(size[size > 0].mean()) if (size > 0).any() else 0.1
+    h32, t32 = heads.astype(np.float32), (heads + rel).astype(np.float32)
+    tails = heads + rel
+    zero = np.linalg.norm(t32 - h32, axis=1) < 0.001 * (1 + 1e-5)  # (its second: 1 mm is too short)
+    for j in np.flatnonzero(zero):
+        p = parents[j]
+        if p >= 0 and np.linalg.norm(rel[p]) > 0:
+            tails[j] += rel[p]
+        else:
+            tails[j, 1] += average
+    has_loc = np.array([any(c.endswith("POSITION") for c in chans) for chans in sk.channels])
+    connected = np.array([p >= 0 and not has_loc[j] and not zero[p]
+                          and np.allclose(local[p] + rel[p], local[j], rtol=0, atol=1e-7 * scale)
+                          for j, p in enumerate(parents)], dtype=bool)
+    return heads, tails, connected
+
+
+def _bvh_bones(ob, sk, scale: float) -> list[str]:
+    """Make armature ``ob``'s bones, one per joint (``_bvh_rest``), then turn the
+    armature from the file's axes to Blender's; returns the bones' names (Blender may
+    shorten a long joint name or number a repeated one)."""
+    heads, tails, connected = _bvh_rest(sk, scale)
+    view_layer = bpy.context.view_layer
+    view_layer.objects.active = ob
+    ob.select_set(True)
+    try:
+        bpy.ops.object.mode_set(mode="EDIT")
+        made = [ob.data.edit_bones.new(n) for n in sk.names]
+        for eb, h, t in zip(made, heads, tails):
+            eb.head, eb.tail = h, t
+        for j, p in enumerate(sk.parents):
+            if p >= 0:
+                made[j].parent = made[p]
+                made[j].use_connect = bool(connected[j])
+        names = [eb.name for eb in made]
+        bpy.ops.object.mode_set(mode="OBJECT")
+    except RuntimeError as ex:
+        raise ClipImportError(f"{sk.path}: cannot make the armature: {ex}") from None
+    axes = np.eye(4)
+    axes[:3, :3] = _BVH_AXES
+    ob.data.transform(Matrix(axes.tolist()))
+    return names
+
+
+def _bvh_keys(ob, act, sk, motion: np.ndarray, scale: float, bones: list[str]) -> None:
+    """Key ``motion`` (F, channels) of file ``sk`` on armature ``ob``'s ``bones`` into
+    ``act`` (a slot "Slot", as Blender's importer names it; assigned to ``ob``): each
+    joint's position channels as its bone's location, its rotation channels as its
+    bone's quaternion, both relative to the bone's rest, Blender's way."""
+    rest = _matrices(ob.data.bones, "matrix_local")[[ob.data.bones.find(b) for b in bones], :3, :3]
+    frames = 1.0 + np.arange(len(motion)) * (scene_fps() / sk.fps)  # (a rate of 120.0005 is 120)
+    slot = act.slots.new(id_type="OBJECT", name="Slot")
+    cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
+    ad = ob.animation_data_create()
+    ad.action, ad.action_slot = act, slot
+    first = np.cumsum([0] + [len(c) for c in sk.channels])
+    for j, chans in enumerate(sk.channels):
+        cols = motion[:, first[j]:first[j + 1]]
+        to_bone = rest[j].T @ _BVH_AXES  # file axes -> the bone's rest axes
+        base = f'pose.bones["{bpy.utils.escape_identifier(bones[j])}"]'
+        pos = [k for k, c in enumerate(chans) if c.endswith("POSITION")]
+        if pos:
+            p = np.zeros((len(motion), 3))
+            for k in pos:
+                p[:, "XYZ".index(chans[k][0])] = cols[:, k] * scale
+            loc = (p - sk.offsets[j] * scale) @ to_bone.T
+            for i in range(3):
+                _curve(cbag, f"{base}.location", i, sk.names[j], frames, loc[:, i])
+        rot = [k for k, c in enumerate(chans) if c.endswith("ROTATION")]
+        if rot:
+            q = _euler_quats([chans[k][0] for k in rot], cols[:, rot])
+            m = Rotation.from_matrix(to_bone).as_quat()[[3, 0, 1, 2]]
+            q = _qmul(_qmul(m[None], q), m[None] * [1, -1, -1, -1])
+            q *= np.where(q[:, :1] < 0, -1.0, 1.0)  # w >= 0, as Blender's importer gives them
+            for i in range(4):  # w x y z
+                _curve(cbag, f"{base}.rotation_quaternion", i, sk.names[j], frames, q[:, i])
+
+
+def _euler_quats(axes: list[str], degrees: np.ndarray) -> np.ndarray:
+    """Quaternions (F, 4; w x y z) of BVH rotation channels: rotations about ``axes``
+    ("X", "Y", "Z") by ``degrees`` (F, len(axes)), the first outermost (R = R0 R1 R2)."""
+    half = np.radians(np.asarray(degrees, dtype=np.float64)) / 2
+    q = np.zeros((len(half), 4))
+    q[:, 0] = 1.0
+    for k, axis in enumerate(axes):
+        step = np.zeros_like(q)
+        step[:, 0] = np.cos(half[:, k])
+        step[:, 1 + "XYZ".index(axis)] = np.sin(half[:, k])
+        q = _qmul(q, step)
+    return q
+
+
+def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton products of quaternions (..., 4; w x y z)."""
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=-1)
 
 
 # -- FBX ------------------------------------------------------------------------------
@@ -304,6 +430,8 @@ _FBX_BINARY = b"Kaydara FBX Binary  \x00"
 def _check_fbx_header(path: str) -> None:
     """ClipImportError naming the file unless it is there and starts as a binary FBX
     (the only kind Blender's importer reads)."""
+    if os.path.isdir(path):
+        raise ClipImportError(f"{path}: is a folder, not an FBX file")
     try:
         with open(path, "rb") as fh:
             head = fh.read(len(_FBX_BINARY))
@@ -377,6 +505,7 @@ def _fbx_import(src: _FbxClip, made: list):
     ob = arms[0]
     acts = [a for a in new if isinstance(a, bpy.types.Action) and _keys_bones(a)]
     meshes = [o for o in objects if o.type == "MESH" and _skinned_to(o, ob)]
+    check_fbx_data(ob, acts, src.path)
     _normalise(ob, acts, meshes, src.path)
     bpy.context.view_layer.update()
     _check_legs(ob, src.path)
@@ -384,6 +513,45 @@ def _fbx_import(src: _FbxClip, made: list):
     _retime(act, keyed_fps, fps)
     act.name = os.path.splitext(os.path.basename(src.path))[0]
     return ob, act, meshes
+
+
+def check_fbx_data(ob, actions, path: str) -> None:
+    """ClipImportError naming the file and the first fault in what Blender's FBX importer
+    made of it: an armature transform or a bone that is not finite, a bone of no length,
+    or a key of ``actions`` (its frame or value) that is not a finite number, named by
+    bone, channel and frame."""
+    if not np.isfinite(np.array(ob.matrix_world)).all():
+        raise ClipImportError(f"{path}: the armature {ob.name!r} has a transform that is not finite")
+    bones = ob.data.bones
+    ends = np.empty((2, len(bones) * 3))
+    bones.foreach_get("head_local", ends[0])
+    bones.foreach_get("tail_local", ends[1])
+    ends = ends.reshape(2, -1, 3)
+    length = np.linalg.norm(ends[1] - ends[0], axis=1)
+    for i in np.flatnonzero(~np.isfinite(ends).all(axis=(0, 2)) | ~(length > 1e-9)):
+        what = "is not finite" if not np.isfinite(ends[:, i]).all() else "has no length"
+        raise ClipImportError(f"{path}: bone {bones[i].name!r} {what}; fix the skeleton and export again")
+    for act in actions:
+        for _, curves in _fcurves(act):
+            for fc in curves:
+                co = np.empty(2 * len(fc.keyframe_points))
+                fc.keyframe_points.foreach_get("co", co)
+                bad = np.flatnonzero(~np.isfinite(co.reshape(-1, 2)).all(axis=1))
+                if len(bad):
+                    x, y = co[2 * bad[0]:2 * bad[0] + 2]
+                    raise ClipImportError(f"{path}: {_channel(fc)}, frame {x:g}: the value {y} is not a "
+                                          "finite number")
+
+
+def _channel(fc) -> str:
+    """An F-curve's channel as a person reads it: 'bone "Hips" location Y'."""
+    path, prop = fc.data_path.rsplit(".", 1) if "." in fc.data_path else ("", fc.data_path)
+    axes = "WXYZ" if prop in ("rotation_quaternion", "rotation_axis_angle") else "XYZ"
+    axis = axes[fc.array_index] if fc.array_index < len(axes) else str(fc.array_index)
+    if path.startswith('pose.bones["'):
+        bone = path[len('pose.bones["'):-2].replace('\\"', '"')
+        return f"bone {bone!r}, channel {prop} {axis}"
+    return f"the armature object's channel {fc.data_path} {axis}"
 
 
 def _keys_bones(act) -> bool:
@@ -519,15 +687,15 @@ def _check_legs(ob, path) -> None:
 
 
 def _key_frames(act) -> np.ndarray:
-    """Sorted distinct frames (rounded to 1e-6) keyed on any F-curve of ``act``."""
+    """Sorted distinct frames (rounded to 1e-6) keyed or sampled on any F-curve of
+    ``act``."""
     frames = set()
-    for layer in act.layers:
-        for strip in layer.strips:
-            for cb in strip.channelbags:
-                for fc in cb.fcurves:
-                    co = np.empty(len(fc.keyframe_points) * 2)
-                    fc.keyframe_points.foreach_get("co", co)
-                    frames.update(np.round(co[0::2], 6).tolist())
+    for _, curves in _fcurves(act):
+        for fc in curves:
+            points = fc.keyframe_points if len(fc.keyframe_points) else fc.sampled_points
+            co = np.empty(len(points) * 2)
+            points.foreach_get("co", co)
+            frames.update(np.round(co[0::2], 6).tolist())
     return np.array(sorted(frames))
 
 
@@ -643,13 +811,26 @@ def _euler_slot(mode: str, axis: int) -> int:
 
 _LINEAR = None
 
+#: A clip of more frames than this is kept as sampled F-curve points (Blender's baked
+#: samples, one a scene frame: 16 bytes where a keyframe takes 72), so a 100,000 frame clip
+#: of 31 joints takes 200 MB, not 900 (a channel that never changes: two keys). It plays and
+#: analyses as the keys would; the Graph Editor's Channel > Samples to Keys makes keys to edit.
+SAMPLED_FRAMES = 10_000
+
 
 def _curve(cbag, path, index, group, frames, values):
     """A new F-curve ``path[index]`` in channel group ``group`` of ``cbag``, keyed
-    ``values`` (F,) at ``frames`` (F,) with linear interpolation."""
+    ``values`` (F,) at ``frames`` (F,) with linear interpolation; past
+    ``SAMPLED_FRAMES``, those keys sampled at every scene frame they span."""
     global _LINEAR
     if _LINEAR is None:
         _LINEAR = bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items["LINEAR"].value
+    sampled = len(frames) > SAMPLED_FRAMES
+    if sampled:  # the keys' line at the whole frames (they are those frames at the file's rate)
+        whole = np.arange(np.ceil(frames[0] - 1e-6), np.floor(frames[-1] + 1e-6) + 1)
+        frames, values = whole, np.interp(whole, frames, values).astype(np.float32)
+        if values.min() == values.max():  # a still channel: two keys hold it
+            sampled, frames, values = False, frames[[0, -1]], values[[0, -1]]
     fc = cbag.fcurves.new(path, index=index, group_name=group)
     kp = fc.keyframe_points
     kp.add(len(frames))
@@ -659,3 +840,5 @@ def _curve(cbag, path, index, group, frames, values):
     kp.foreach_set("co", co)
     kp.foreach_set("interpolation", np.full(len(frames), _LINEAR, dtype=np.int32))
     fc.update()
+    if sampled:
+        fc.convert_to_samples(int(frames[0]), int(frames[-1]) + 1)

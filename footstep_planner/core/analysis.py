@@ -204,13 +204,14 @@ def _rise_index(y: np.ndarray, d1: np.ndarray, d2: np.ndarray, i0: int, i1: int,
     return _peak(d2, best)
 
 
-def _crossing(y: np.ndarray, i: int, toward: int, thr: float) -> float:
+def _crossing(y: np.ndarray, i: int, toward: int, thr: float, first: int = 0) -> float:
     """Sub-sample time where ``y`` crosses ``thr`` between sample ``i`` (above) and its
-    neighbour ``i + toward`` (below)."""
+    neighbour ``i + toward`` (below); ``y`` may be a window of a longer signal starting
+    at its sample ``first``, which the time is then counted in."""
     j = i + toward
     if not 0 <= j < len(y) or y[i] == y[j]:
-        return float(i)
-    return i + toward * float(np.clip((y[i] - thr) / (y[i] - y[j]), 0.0, 1.0))
+        return float(first + i)
+    return (first + i) + toward * float(np.clip((y[i] - thr) / (y[i] - y[j]), 0.0, 1.0))
 
 
 def _flip(x: float | None, n: int) -> float | None:
@@ -679,11 +680,12 @@ def _slips(sig: _FootSignals, body_speed: float, fa: int, fb: int, prv: int, nxt
     (m/s), at least ``s.slip_min_speed``. Fractional samples; None: no such point."""
     vc = sig.velocity
     thr = max(s.slip_tolerance * body_speed, s.slip_min_speed)
-    dev = np.linalg.norm(vc - np.median(vc[fa:fb + 1], axis=0), axis=1)
-    fwd = np.flatnonzero(dev[fb:nxt] > thr)
-    bwd = np.flatnonzero(dev[prv + 1:fa + 1] > thr)
-    slip_f = _crossing(dev, fb + fwd[0], -1, thr) if len(fwd) else None
-    slip_b = _crossing(dev, prv + 1 + bwd[-1], +1, thr) if len(bwd) else None
+    lo, hi = max(prv, 0), min(nxt + 1, len(vc))  # (the search, and the samples beside it)
+    dev = np.linalg.norm(vc[lo:hi] - np.median(vc[fa:fb + 1], axis=0), axis=1)
+    fwd = np.flatnonzero(dev[fb - lo:nxt - lo] > thr)
+    bwd = np.flatnonzero(dev[prv + 1 - lo:fa + 1 - lo] > thr)
+    slip_f = _crossing(dev, fb - lo + fwd[0], -1, thr, lo) if len(fwd) else None
+    slip_b = _crossing(dev, prv + 1 - lo + bwd[-1], +1, thr, lo) if len(bwd) else None
     return slip_b, slip_f
 
 

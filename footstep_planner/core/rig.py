@@ -111,9 +111,9 @@ def forward_kinematics(rig: Rig, basis: np.ndarray, bones=None) -> np.ndarray:
     """Armature-space pose matrices (F, B, 4, 4) from pose bases (F, B, 4, 4).
 
     Assumes Blender's default inherit flags (inherit rotation and full scale, connected or
-    not) and no constraints. Vectorized over frames; one matrix product per bone. With
-    ``bones`` (indices), only those and their ancestors are computed (the other entries
-    are left undefined).
+    not) and no constraints. Vectorized over frames; one matrix product per bone, and no
+    array of the bases' size but the result. With ``bones`` (indices), only those and
+    their ancestors are computed (the other entries are left undefined).
     """
     basis = np.asarray(basis, dtype=np.float64)
     order = rig.order
@@ -124,10 +124,9 @@ def forward_kinematics(rig: Rig, basis: np.ndarray, bones=None) -> np.ndarray:
                 need.add(int(b))
                 b = rig.parents[b]
         order = [b for b in rig.order if b in need]
-    local = np.empty_like(basis)
-    local[:, order] = rig.rest_rel[None, order] @ basis[:, order]
-    pose = np.empty_like(local)
+    pose = np.empty_like(basis)  # (one array of the bases' size: no copy of the locals)
     for b in order:
+        local = rig.rest_rel[b] @ basis[:, b]
         p = rig.parents[b]
-        pose[:, b] = local[:, b] if p < 0 else pose[:, p] @ local[:, b]
+        pose[:, b] = local if p < 0 else pose[:, p] @ local
     return pose
