@@ -15,9 +15,15 @@ pytestmark = needs_cmu
 
 
 def _synth(fp, name):
+    """(scene, the plan, its setup, its synthesis); the plan's footprints are the
+    synthesis's path, with both standing feet at either end (as ``planning.plan_and_synthesize``
+    gives them)."""
+    from dataclasses import replace
+
     scene, result, setup, goal = _plan(fp, name)
     planning = import_module(fp.__name__ + ".blender.planning")
-    return scene, result, setup, planning.synthesize(scene, result, setup)
+    syn = planning.synthesize(scene, result, setup)
+    return scene, replace(result, footprints=list(syn.plan)), setup, syn
 
 
 def _supported(fp, setup, pos, head):

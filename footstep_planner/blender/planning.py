@@ -8,16 +8,17 @@ as it stands in the world (its armature's rest forward turned by the object's ro
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import bpy
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..core import report
 from ..core.analysis import ClipAnalysis
 from ..core.ik import IKResult, solve_ik
 from ..core.library import Library
-from ..core.rig import Rig
+from ..core.rig import Rig, forward_kinematics
 from ..core.navgraph import FootprintCache, PathFootprint, PlanError, PlanResult, Planner
 from ..core.pipeline import Synthesis, stage_row, surface_snap
 from ..core.pipeline import synthesize as _synthesize
@@ -41,6 +42,7 @@ class PlanSetup:
     library: Library
     forward: np.ndarray  # world (x, y) of heading 0
     rig: Rig | None = None
+    start: list | None = None  # the standing footprints the plan left from
 
 
 def world_forward(ob, analyses) -> np.ndarray:
@@ -186,17 +188,25 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     setup = plan_setup(scene, ob, settings, traversable, obstacles)
     start = marker_footprints(start_marker, setup) if start_marker is not None else character_footprints(ob, setup)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
+    setup.start = start
     return setup.planner.plan(start, goal, heading), setup
 
 
-def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=None) -> Synthesis:
+def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=None,
+               goal_heading: float | None = None) -> Synthesis:
     """Thesis 3.3 to 3.7 on a planned path: the body trajectory and every clip's weight
-    and time per scene frame, footprints kept on the tagged surfaces."""
+    and time per scene frame, footprints kept on the tagged surfaces. The character starts
+    from standing on its start footprints and stops to standing at the goal, turned to
+    ``goal_heading`` (the planner's heading, rad) when given; the synthesis's path
+    (``Synthesis.plan``) holds both standing feet at either end."""
     pl = setup.planner
     snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
-    return _synthesize(result.footprints, setup.library, setup.analyses, settings or Settings(),
-                       fps=scene_fps(scene), forward=setup.forward, snap=snap, goal=goal)
+    path = result.footprints
+    other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
+    return _synthesize(path, setup.library, setup.analyses, settings or Settings(),
+                       fps=scene_fps(scene), forward=setup.forward, snap=snap, goal=goal, standing=True,
+                       start_other=other, goal_heading=goal_heading)
 
 
 @dataclass
@@ -216,10 +226,11 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     from . import overlay
 
     result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles)
-    syn = synthesize(scene, result, setup, settings, goal=goal)
+    heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
+    syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)
+    result = replace(result, footprints=list(syn.plan))  # with both standing feet at either end
     overlay.remember(scene, result.footprints, *syn.footprints, setup.forward, setup.planner.foot, syn.body_position,
                      result.explored_positions if result.explored else None)
-    heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     return Planned(result, setup, syn, heading)
 
 
@@ -245,19 +256,45 @@ class Solved:
     ik_seconds: float
 
 
+def flat_feet(rig: Rig, basis: np.ndarray, weight: np.ndarray, heel_local: np.ndarray,
+              toe_local: np.ndarray) -> np.ndarray:
+    """Pose bases (F, B, 4, 4) with each foot turned about its ankle, as far as ``weight``
+    (F,) 0..1 (the standing clip's), until its heel and ball (``heel_local``, ``toe_local``
+    (2, 4) in the foot bones' frames) lie level: a standing character stands on flat feet
+    (the IK keeps a planted foot's own pitch)."""
+    on = np.flatnonzero(np.asarray(weight) > 1e-6)
+    if not len(on):
+        return basis
+    basis = np.array(basis, float, copy=True)
+    feet = [rig.foot_chain(side)[0] for side in ("l", "r")]
+    world = forward_kinematics(rig, basis[on], bones=feet)
+    for k, f in enumerate(feet):
+        W = world[:, f, :3, :3]
+        d = W @ (np.asarray(toe_local[k][:3], float) - np.asarray(heel_local[k][:3], float))  # heel to ball
+        level = d * [1.0, 1.0, 0.0]
+        axis = np.cross(d, level)
+        norm = np.linalg.norm(axis, axis=1, keepdims=True)
+        axis = np.where(norm > 1e-12, axis / np.maximum(norm, 1e-12), [1.0, 0.0, 0.0])
+        pitch = np.abs(np.arctan2(d[:, 2], np.linalg.norm(level, axis=1)))
+        turn = Rotation.from_rotvec(axis * (pitch * weight[on])[:, None]).as_matrix()
+        basis[on, f, :3, :3] = basis[on, f, :3, :3] @ (W.transpose(0, 2, 1) @ turn @ W)
+    return basis
+
+
 def solve(planned: Planned, settings: Settings) -> Solved:
     """Thesis 3.8: the clips' bone rotations blended per frame, then the feet pinned to
     the footprints (on the surface, along its normal) by the IK."""
     syn, setup = planned.synthesis, planned.setup
     timer = StageTimer()
+    walk = _walk_motion(setup)
     with timer("pose_blend"):
         quat, hips = blend_pose(syn.final.schedule, syn.tracks)
-        basis = pose_bases(setup.rig, quat, hips)
+        basis = flat_feet(setup.rig, pose_bases(setup.rig, quat, hips), syn.stand_weight(), walk.heel_local,
+                          walk.toe_local)
     pl = setup.planner
     pos, head = syn.footprints
     sup = footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot, clearance=pl.clearance)
     normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
-    walk = _walk_motion(setup)
     spin = body_spin(setup.forward, setup.analyses)
 
     def ground_z(points):

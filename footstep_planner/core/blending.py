@@ -79,6 +79,10 @@ class ClipTrack:
     def n(self) -> int:
         return len(self.vel)
 
+    def sample_hips(self, t: float) -> np.ndarray:
+        """(4, 4) the hips' matrix in the root frame at clip time ``t`` (the nearest sample)."""
+        return self.hips_in_root[int(np.clip(round(t * self.rate), 0, len(self.hips_in_root) - 1))]
+
     def step_duration(self, foot: int) -> float:
         """Cyclic clips: seconds from a stance of ``foot`` to the other foot's stance."""
         a, b, b2, c = self._keys()
@@ -232,10 +236,24 @@ class Schedule:
     footprint_times: np.ndarray  # (N,) s: stance time of each footprint
     feet: np.ndarray  # (N,) foot of each footprint
     fps: float
+    # standing at both ends (``Standing``): the walk's own time at each frame (F,) s, which
+    # stands still while the character stands, and the footprints' times (N,) on it
+    walk_time: np.ndarray | None = None
+    walk_footprint_times: np.ndarray | None = None
 
     @property
     def n(self) -> int:
         return len(self.t)
+
+    @property
+    def walk_t(self) -> np.ndarray:
+        """(F,) s: the time the walk has reached at each frame (``t`` without standing)."""
+        return self.t if self.walk_time is None else self.walk_time
+
+    @property
+    def walk_times(self) -> np.ndarray:
+        """(N,) s: the footprints' stance times on ``walk_t``."""
+        return self.footprint_times if self.walk_footprint_times is None else self.walk_footprint_times
 
     def column(self, name: str) -> int:
         return self.clips.index(name)
@@ -270,7 +288,7 @@ MIN_RAMP = 1e-6
 
 def build_schedule(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyclic: list[str],
                    fps: float, transition: float, loco_weights=None,
-                   step_durations: np.ndarray | None = None) -> Schedule:
+                   step_durations: np.ndarray | None = None, standing: "Standing | None" = None) -> Schedule:
     """The frames of a footstep path of len(steps) + 1 footprints.
 
     ``cyclic`` names the cyclic clips (the columns of each step's ``weights``). Each
@@ -280,24 +298,159 @@ def build_schedule(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyclic: 
     ``transition`` seconds centred on footprint times, or ``loco_weights(u)`` (a callable
     returning (F, C) rows) when given. A special clip ramps in over ``transition``
     before its take-off and out after its landing, played at its own speed there.
+
+    With ``standing`` the path is walked on a time warp (``Standing``): the character
+    stands, speeds up from rest, walks, slows down to rest and stands again; the frames'
+    times ``t`` are real, the clips' (and ``u``) follow the warped walk time.
     """
     if not steps:
         raise BlendError("a path of one footprint has no motion to play")
     cyc = [tracks[c] for c in cyclic]
     feet = np.array([step.foot for step in steps] + [1 - steps[-1].foot])  # the foot of each footprint
     specials = sorted({step.special for step in steps if step.special})
-    clips = list(cyclic) + specials
+    clips = list(cyclic) + specials + ([standing.clip] if standing else [])
     w_step = _step_weights(steps, len(cyc))
     dur, windows = _step_durations(steps, tracks, cyc, feet[:-1], w_step, step_durations)
     footprint_times = np.concatenate([[0.0], np.cumsum(dur)])
-    t, u, du_dt = _frame_times(footprint_times, dur, fps)
+    if standing is None:
+        t, u, du_dt = _frame_times(footprint_times, dur, fps)
+        walk, sigma = t, np.ones(len(t))
+    else:
+        warp = _standing_warp(footprint_times, dur, fps, standing)
+        t, walk, sigma = warp.t, warp.walk, warp.sigma
+        u = np.interp(walk, footprint_times, np.arange(len(footprint_times), dtype=float))
+        du_dt = sigma / dur[np.minimum(u.astype(np.int64), len(dur) - 1)]
     clip_time, clip_rate = _cyclic_clip_times(cyc, feet[0], u, du_dt, len(clips))
-    W = _locomotion_weights(len(cyc), t, u, footprint_times, w_step, transition, loco_weights)
-    lam = _play_specials(steps, tracks, windows, clips, len(cyc), t, u, footprint_times, dur, transition,
-                         clip_time, clip_rate)
-    weights = _all_weights(W, lam, len(cyc))
-    return Schedule(t=t, u=u, clips=clips, weights=weights, clip_time=clip_time,
-                    clip_rate=clip_rate, footprint_times=footprint_times, feet=feet, fps=float(fps))
+    W = _locomotion_weights(len(cyc), walk, u, footprint_times, w_step, transition, loco_weights)
+    lam = _play_specials(steps, tracks, windows, clips[:len(clips) - bool(standing)], len(cyc), walk, u,
+                         footprint_times, dur, transition, clip_time, clip_rate)
+    clip_rate[:, len(cyc):] *= sigma[:, None]
+    if standing is None:
+        return Schedule(t=t, u=u, clips=clips, weights=_all_weights(W, lam, len(cyc)), clip_time=clip_time,
+                        clip_rate=clip_rate, footprint_times=footprint_times, feet=feet, fps=float(fps))
+    clip_time[:, -1] = standing.clip_time
+    weights = _all_weights(W, np.c_[lam, warp.stand], len(cyc))
+    return Schedule(t=t, u=u, clips=clips, weights=weights, clip_time=clip_time, clip_rate=clip_rate,
+                    footprint_times=warp.real_time(footprint_times), feet=feet, fps=float(fps),
+                    walk_time=walk, walk_footprint_times=footprint_times)
+
+
+#: s the feet and body take to settle after the walk stops (the IK's corrections ease in
+#: over a few frames), before the standing pose holds still for ``Standing.hold``.
+STAND_SETTLE = 0.3
+
+
+@dataclass(frozen=True)
+class Standing:
+    """Start from standing, stop to standing (issue 14). The schedule's frames begin with
+    ``lead`` s of standing in the standing clip ``clip`` (the library's idle clip, or one
+    made from the walk: ``standing_track``), held at clip time ``clip_time``. The walk is
+    held meanwhile at ``u_start`` footsteps (the first step's foot swinging past the
+    standing one); it speeds up from rest while the standing clip hands over to it (in
+    ``blend`` of the ramp), walks, and slows down to rest at ``u_back`` footsteps before
+    the last footprint (the last step's foot swinging past), the standing clip taking over
+    again; after STAND_SETTLE s it holds still for ``hold`` s. Each speed ramp covers
+    ``ramp_steps`` footsteps of walking: a smoothstep of the walk's rate over twice their
+    time."""
+
+    clip: str
+    clip_time: float = 0.0
+    lead: float = 0.5
+    hold: float = 1.0
+    ramp_steps: float = 1.5
+    blend: float = 0.35
+    u_start: float = 1.0
+    u_back: float = 1.0
+
+
+@dataclass
+class _Warp:
+    """The frames of a schedule with standing: real times ``t`` (F,) s, the walk's time
+    ``walk`` (F,) s and its rate ``sigma`` (F,) (0 standing .. 1 walking), the standing
+    clip's weight ``stand`` (F,); the walk moves from ``t_go`` to ``t_stop`` s."""
+
+    t: np.ndarray
+    walk: np.ndarray
+    sigma: np.ndarray
+    stand: np.ndarray
+    t_go: float
+    t_stop: float
+    ramp: float
+    walk0: float
+
+    def walk_at(self, t: np.ndarray) -> np.ndarray:
+        """(len(t),) the walk's time at real times ``t`` (s)."""
+        t = np.asarray(t, float)
+        span = self.t_stop - self.t_go - 2 * self.ramp  # cruising, at the walk's own speed
+        return (self.walk0 + self.ramp * _ramp_integral(np.clip((t - self.t_go) / self.ramp, 0.0, 1.0))
+                + np.clip(t - self.t_go - self.ramp, 0.0, span)
+                + self.ramp * (0.5 - _ramp_integral(np.clip((self.t_stop - t) / self.ramp, 0.0, 1.0))))
+
+    def real_time(self, walk_times: np.ndarray) -> np.ndarray:
+        """(N,) the real times (s) at which the walk reaches ``walk_times``, held within
+        [t_go, t_stop] (a footprint the walk never reaches is at its end)."""
+        n = max(2048, int((self.t_stop - self.t_go) * 480))
+        tt = np.linspace(self.t_go, self.t_stop, n)
+        return np.interp(walk_times, self.walk_at(tt), tt)
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    return x * x * (3.0 - 2.0 * x)
+
+
+def _ramp_integral(x: np.ndarray) -> np.ndarray:
+    """The integral of the smoothstep from 0 to x (1/2 at x = 1)."""
+    return x ** 3 - 0.5 * x ** 4
+
+
+def _standing_warp(T: np.ndarray, dur: np.ndarray, fps: float, st: Standing) -> _Warp:
+    """The standing schedule's frames (``Standing``) for footprints at walk times ``T``
+    (N,) s, steps ``dur`` (N-1,) s long: the walk from ``u_start`` to N-1 - ``u_back``
+    footsteps, its rate a smoothstep up over ``ramp`` s and down over as long (each covering
+    half its time of walking: ``ramp_steps`` footsteps), ramps shortened on a short path."""
+    idx = np.arange(len(T), dtype=float)
+    w0 = float(np.interp(min(st.u_start, 0.5 * (len(T) - 1)), idx, T))
+    w1 = float(np.interp(max(len(T) - 1 - st.u_back, 0.5 * (len(T) - 1)), idx, T))
+    span = w1 - w0
+    if span <= MIN_STEP:
+        raise BlendError("the path is too short to start and stop walking on it")
+    ramp = min(2.0 * st.ramp_steps * float(np.mean(dur)), span)
+    t_go = max(st.lead, 0.0)
+    t_stop = t_go + span + ramp
+    t = np.arange(int(np.ceil((t_stop + STAND_SETTLE + max(st.hold, 0.0)) * fps - FRAME_EPS)) + 1) / fps
+    sigma = _smoothstep(np.clip((t - t_go) / ramp, 0.0, 1.0)) * _smoothstep(np.clip((t_stop - t) / ramp, 0.0, 1.0))
+    hand = max(st.blend * ramp, MIN_RAMP)
+    stand = (1.0 - _smoothstep(np.clip((t - t_go) / hand, 0.0, 1.0))
+             + _smoothstep(np.clip((t - (t_stop - hand)) / hand, 0.0, 1.0)))
+    warp = _Warp(t, np.empty(0), sigma, np.clip(stand, 0.0, 1.0), t_go, t_stop, ramp, w0)
+    warp.walk = np.minimum(warp.walk_at(t), w1)  # (the walk's time at the frames)
+    return warp
+
+
+def standing_track(walk: ClipTrack, name: str) -> ClipTrack:
+    """A standing clip made from a walk (for a library with no idle clip): the walk's pose,
+    held, where its left foot stands and the right one swings past it (the feet closest
+    to side by side about the left foot's stance); the root still, both feet bearing
+    weight."""
+    a, b, b2, c = walk._keys() if walk.phase_times is not None else (0.0, 0.0, 0.0, 0.0)
+    ts = np.linspace(a - 0.3 * (c - b2), a + 0.3 * (b - a), 25)
+    ts = np.where(ts < 0.0, ts + (c - a), ts)  # (a cycle back: the clip's keys span one)
+    smp = walk.sample(ts)
+    mid = 0.5 * (smp["heel"] + smp["toe"])  # (2, n, 3) root frame
+    fwd = np.r_[walk.rest_forward, 0.0]
+    t0 = float(ts[int(np.argmin(np.abs((mid[1] - mid[0]) @ fwd)))])
+    one = walk.sample(np.array([t0, t0]))
+    for key in ("heel", "toe"):  # both feet on the ground: the swinging one as low as the standing one
+        one[key][1, :, 2] = one[key][0, :, 2]
+    k = int(np.clip(round(t0 * walk.pose_rate), 0, len(walk.quat) - 1)) if walk.quat is not None else 0
+    rate = walk.rate
+    return ClipTrack(name=name, kind="idle", gait="stand", entry_gait="stand", exit_gait="stand", rate=rate,
+                     duration=1.0 / rate, vel=np.zeros((2, 2)), yaw_rate=np.zeros(2), heel=one["heel"],
+                     toe=one["toe"], contact_point=0.5 * (one["heel"] + one["toe"]), contact=np.ones((2, 2)),
+                     hips_in_root=np.repeat(walk.sample_hips(t0)[None], 2, axis=0), phase_times=None,
+                     rest_forward=walk.rest_forward, pose_rate=rate,
+                     quat=None if walk.quat is None else np.repeat(walk.quat[k:k + 1], 2, axis=0),
+                     hips=None if walk.hips is None else np.repeat(walk.hips[k:k + 1], 2, axis=0), stances=[])
 
 
 def _step_weights(steps: list[PlanStep], nc: int) -> np.ndarray:

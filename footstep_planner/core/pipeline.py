@@ -17,15 +17,15 @@ turning left; tau positive turning left. Normalized time u counts footsteps.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
 
 from . import blend_groups as bg
 from .analysis import ClipAnalysis
-from .blending import (BlendError, ClipTrack, PlanStep, Playback, Schedule, build_schedule, make_track,
-                       playback, step_durations_of)
+from .blending import (BlendError, ClipTrack, PlanStep, Playback, Schedule, Standing, build_schedule, make_track,
+                       playback, standing_track, step_durations_of)
 from .library import Library
 from .refinement import Refined, refine
 from .settings import Settings
@@ -45,6 +45,19 @@ GOAL_TOLERANCE = 0.02
 
 #: Hz at which the curvature tau is estimated and low-passed.
 TAU_RATE = 10.0
+
+#: m: the feet of a standing character lie this far either side of its middle.
+STAND_WIDTH = 0.1
+
+#: The label of the standing foot a standing path begins with (``standing_path``).
+STAND_LABEL = "stand"
+
+#: The first foot to step leaves its standing footprint when the standing clip's weight
+#: falls under this (the walk has begun to lift it).
+STAND_RELEASE = 0.8
+
+#: s: the most the character stands before its first step.
+STAND_LEAD = 0.5
 
 #: Table 4.1's stage columns, in order.
 STAGES = ("smoothing", "refinement", "body_trajectory", "blend_groups")
@@ -77,6 +90,12 @@ class Synthesis:
     speed_pins: list[tuple[float, float]]
     seconds: dict = field(default_factory=dict)  # stage -> s
     tracks: dict = field(default_factory=dict, repr=False)  # clip name -> ClipTrack
+    standing: Standing | None = None  # starting and stopping standing (the last column's clip)
+
+    def stand_weight(self) -> np.ndarray:
+        """(F,) the standing clip's weight at each frame (0 everywhere without standing)."""
+        S = self.final.schedule
+        return S.weights[:, -1].copy() if self.standing is not None else np.zeros(S.n)
 
     # ------------------------------------------------------------------ results
     @property
@@ -107,7 +126,8 @@ class Synthesis:
     def planted(self) -> list[tuple[float, float, float]]:
         """Per footprint: (strike time, stance time, liftoff time) in seconds, from the
         blended contact of its foot around its stance."""
-        return planted_ranges(self.final.schedule, self.final.played)
+        out = planted_ranges(self.final.schedule, self.final.played)
+        return out if self.standing is None else _standing_planted(out, self.final.schedule, self.standing)
 
     def to_dict(self, frame0: float = 1.0) -> dict:
         S = self.final.schedule
@@ -273,22 +293,75 @@ def planted_ranges(S: Schedule, pb: Playback) -> list[tuple[float, float, float]
     return out
 
 
+def _standing_planted(planted: list, S: Schedule, stand: Standing) -> list:
+    """The planted ranges of a standing schedule: both feet stand from the first frame and
+    to the last; the first foot to step leaves its standing footprint as the standing
+    clip hands over (when its weight falls under STAND_RELEASE: the walk, held at
+    ``u_start``, has that foot in the air)."""
+    t, lam = S.t, S.weights[:, -1]
+    moving = np.flatnonzero(lam < 1.0 - 1e-9)
+    leave = np.flatnonzero(lam < STAND_RELEASE)
+    go = float(t[leave[0]]) if len(leave) else float(t[0])
+    out = list(planted)
+    out[:2] = [(float(t[0]), m, b) for _, m, b in out[:2]]
+    out[-2:] = [(a, m, float(t[-1])) for a, m, _ in out[-2:]]
+    stop = float(t[min(moving[-1] + 1, S.n - 1)]) if len(moving) else float(t[-1])
+    a, m, b = out[0]
+    out[0] = (a, min(m, go), min(b, go))
+    a, m, b = out[-1]
+    out[-1] = (max(a, stop), max(m, stop), b)
+    return out
+
+
 def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Settings, snap,
-              timer: StageTimer, key: str, bends=None) -> Pass:
+              timer: StageTimer, key: str, bends=None, stand: Standing | None = None) -> Pass:
     """One round: play the schedule, refine the played footprints (each step bent by
     ``bends`` (N-1,) 1/m, as the planner bent it) towards the desired ones (stage
-    ``refinement<key>``), carry the played body onto them (``body_trajectory<key>``)."""
+    ``refinement<key>``), carry the played body onto them (``body_trajectory<key>``).
+    With ``stand`` the standing feet at either end stay where they are desired and the
+    body stands over them (``stand_body``) as the standing clip takes over."""
+    fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
     with timer(f"refinement{key}"):
         played = playback(schedule, tracks, start=(desired_pos[0], desired_head[0]), forward=forward)
-        fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
         orig = bend_chain(played.footprints, played.footprint_heading, bends, fwd)
-        refined = refine(*orig, desired_pos, desired_head,
-                         settings.refinement_iterations, snap, height=getattr(snap, "height", None))
+        fixed = None
+        if stand is not None:
+            fixed = np.zeros(len(desired_pos), bool)
+            fixed[[0, 1, -2, -1]] = True
+        refined = refine(*orig, desired_pos, desired_head, settings.refinement_iterations, snap, fixed=fixed,
+                         height=getattr(snap, "height", None))
     with timer(f"body_trajectory{key}"):
         body_pos, body_head = transfer_body(played.footprints, played.footprint_heading, refined.position,
-                                            refined.heading, schedule.footprint_times, played.root,
-                                            played.heading, schedule.t)
+                                            refined.heading, schedule.walk_times, played.root,
+                                            played.heading, schedule.walk_t)
+        if stand is not None:
+            body_pos, body_head = stand_body(schedule, tracks[stand.clip], refined, body_pos, body_head, fwd)
     return Pass(schedule, played, refined, body_pos, body_head)
+
+
+def stand_body(S: Schedule, track: ClipTrack, refined: Refined, body_pos: np.ndarray, body_head: np.ndarray,
+               forward) -> tuple[np.ndarray, np.ndarray]:
+    """The body (F, 3), (F,) moved, as far as the standing clip (``track``, the last column
+    of ``S``) has weight, to where that clip's feet stand on the standing footprints: the
+    first two at the start, the last two at the end, facing their mean heading."""
+    lam = S.weights[:, -1]
+    smp = track.sample(S.clip_time[[0, -1], -1])
+    mid = 0.5 * (smp["heel"] + smp["toe"])  # (2 feet, 2 ends, 3) root frame
+    spin = float(np.arctan2(forward[1], forward[0]) - np.arctan2(track.rest_forward[1], track.rest_forward[0]))
+    pos, head = refined.position, refined.heading
+    out_p, out_h = np.array(body_pos, float, copy=True), np.array(body_head, float, copy=True)
+    end = S.t >= 0.5 * (S.t[0] + S.t[-1])
+    for k, (a, b) in enumerate(((0, 1), (-2, -1))):
+        h = head[a] + 0.5 * float(np.angle(np.exp(1j * (head[b] - head[a]))))
+        c = np.angle(np.exp(1j * (h + spin)))
+        local = 0.5 * (mid[0, k] + mid[1, k])
+        root = 0.5 * (pos[a] + pos[b])[:2] - [np.cos(c) * local[0] - np.sin(c) * local[1],
+                                               np.sin(c) * local[0] + np.cos(c) * local[1]]
+        sel = end if k else ~end
+        w = lam[sel]
+        out_p[sel, :2] += w[:, None] * (root - out_p[sel, :2])
+        out_h[sel] += w * np.angle(np.exp(1j * (h - out_h[sel])))
+    return out_p, out_h
 
 
 # ----------------------------------------------------------------------------- the pipeline
@@ -329,13 +402,17 @@ def ease_end(pos: np.ndarray, heading: np.ndarray, off, snap: SnapFn | None = No
 
 def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, ClipTrack],
                settings: Settings | None = None, fps: float = 30.0, forward=None,
-               snap: SnapFn | None = None, goal=None) -> Synthesis:
+               snap: SnapFn | None = None, goal=None, standing: bool = False, start_other=None,
+               goal_heading: float | None = None) -> Synthesis:
     """Synthesize the motion of a planned path (``navgraph.PathFootprint`` list, feet
     alternating). ``analyses`` are the library's clips analysed (or their tracks);
     ``snap`` keeps footprints on the surface (see ``surface_snap``); ``forward`` is
     the world direction of heading 0 (default the clips' rest forward). With ``goal``
     the path's end is moved so that the body ends on it (the planner stops anywhere
-    within its goal radius; see ``ease_end``)."""
+    within its goal radius; see ``ease_end``). With ``standing`` the character starts
+    from standing on the path's first footprint and ``start_other`` (the other standing
+    foot, default beside it) and stops to standing, the last two feet side by side facing
+    ``goal_heading`` when given (``standing_path``, ``blending.Standing``)."""
     settings = settings or Settings()
     if len(path) < 2:
         raise BlendError("the path has a single footprint: the character is already at its goal")
@@ -344,20 +421,25 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
         with timer("tracks"):
             tracks = _tracks_of(library, analyses)
         cyc = cyclic_clips(library)
+        stand = None
+        if standing and cyc:
+            fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
+            stand = _standing(library, tracks, cyc, settings)
+            path = standing_path(path, library, cyc, fwd, start_other, goal_heading, tracks[stand.clip])
         steps = plan_steps(path, library, cyc)
         bends = np.array([library.bend_of(f.label) for f in path[1:]])  # steps bent beyond the clips
         with timer("smoothing"):  # 3.3
-            smoothed = _smooth(path, settings, snap, goal)
+            smoothed = _smooth(path, settings, snap, goal, fixed=2 if stand else 1)
         # 3.5 / 3.6 with the plan's clips
-        sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time)
+        sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand)
         first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1",
-                          bends)
+                          bends, stand)
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
             curves = _tau_curves(library, cyc, sch1, first, settings)
             pins = speed_pins(steps, tracks)
             loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
-            sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco)
-        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends)
+            sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco, stand)
+        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends, stand)
         tau_final = np.interp(sch2.u, sch1.u, curves.tau)
         s_final = loco.speed(sch2.u, sch2.n)
     seconds = timer.seconds
@@ -365,14 +447,88 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
     seconds["body_trajectory"] = seconds["body_trajectory_1"] + seconds["body_trajectory_2"]
     return Synthesis(plan=list(path), settings=settings, clips=sch2.clips, smoothed=smoothed,
                      first=first, tau_plan=curves.plan, tau_raw=curves.raw, tau=curves.tau, final=final,
-                     tau_final=tau_final, s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks)
+                     tau_final=tau_final, s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks,
+                     standing=stand)
+
+
+def _side(fp, foot: int, forward, width: float, stand: ClipTrack | None = None):
+    """Where ``foot`` stands beside footprint ``fp`` (the other foot): where the standing
+    clip ``stand`` puts it (its feet's heel/toe midpoints at its start), turned to ``fp``'s
+    heading; without one ``width`` m to its side."""
+    ang = fp.heading + np.arctan2(forward[1], forward[0])
+    if stand is not None:
+        smp = stand.sample(np.zeros(1))
+        mid = 0.5 * (smp["heel"][:, 0] + smp["toe"][:, 0])  # (2, 3) root frame
+        d = mid[foot] - mid[1 - foot]
+        c = ang - np.arctan2(stand.rest_forward[1], stand.rest_forward[0])
+        if np.hypot(d[0], d[1]) > 0.5 * width:
+            return np.asarray(fp.position, float) + [np.cos(c) * d[0] - np.sin(c) * d[1],
+                                                     np.sin(c) * d[0] + np.cos(c) * d[1], 0.0]
+    left = np.array([-np.sin(ang), np.cos(ang), 0.0])
+    sign = 1.0 if foot == 0 else -1.0
+    return sign * width * left + np.asarray(fp.position, float)
+
+
+def standing_path(path, library: Library, cyc: list[str], forward, other=None, goal_heading=None,
+                  stand: ClipTrack | None = None) -> list:
+    """The path with both standing feet at its ends: ``other`` (the standing foot the path
+    does not hold; default beside its first footprint) before it, and after its last
+    footprint the other foot beside it, where the standing clip ``stand`` puts it (a
+    straight walk's step); with ``goal_heading`` the last footprints turn to it, the
+    last two all the way, the GOAL_STEPS before them less and less. A path that already
+    begins with a standing foot (STAND_LABEL) is returned as it is."""
+    if len(path) > 2 and path[0].label == STAND_LABEL:  # already standing at both ends
+        return list(path)
+    first, loco = path[0], [f.label for f in path[1:] if f.label not in {s.clip for s in library.specials}]
+    straight = min(cyc, key=lambda c: (library.turn_groups.get("walk") is not None
+                                       and c not in [g.clip for g in library.turn_groups["walk"].clips],
+                                       abs(_clip_tau(library, c))))
+    label = loco[0] if loco else straight
+    if other is None or other.foot == first.foot:
+        other = replace(first, foot=1 - first.foot, position=_side(first, 1 - first.foot, forward, 2 * STAND_WIDTH))
+    other = replace(other, label=STAND_LABEL, time=0.0)
+    path = [other, replace(first, label=label, gait="walk")] + list(path[1:])
+    if goal_heading is not None:
+        n = len(path)
+        dh = float(np.angle(np.exp(1j * (goal_heading - path[-1].heading))))
+        w = np.clip((np.arange(n) - (n - 2 - GOAL_STEPS)) / (GOAL_STEPS + 1.0), 0.0, 1.0)
+        w[:2] = 0.0
+        path = [replace(f, heading=f.heading + x * dh) if x > 0 else f for f, x in zip(path, w)]
+    last = path[-1]
+    end = replace(last, foot=1 - last.foot, position=_side(last, 1 - last.foot, forward, 2 * STAND_WIDTH, stand),
+                  label=straight, gait="walk", jump=False)
+    return path + [end]
+
+
+def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings) -> Standing:
+    """The standing of a path's ends: the library's idle clip, held at its start, or one
+    made from the straightest walk (``standing_track``) added to ``tracks``; the walk is
+    held, at either end, where the stepping foot swings past the standing one
+    (``mid_swing``)."""
+    walk = min(cyc, key=lambda c: (tracks[c].gait != "walk", abs(_clip_tau(library, c))))
+    idle = next((sp.clip for sp in library.specials if sp.kind == "idle" and sp.clip in tracks), None)
+    if idle is None:
+        idle = f"{walk}~stand"
+        tracks[idle] = standing_track(tracks[walk], idle)
+    hold = float(settings.stand_hold)
+    u = mid_swing(tracks[walk])
+    return Standing(clip=idle, lead=min(hold, STAND_LEAD), hold=hold, u_start=u, u_back=2.0 - u)
+
+
+def mid_swing(track: ClipTrack) -> float:
+    """Footsteps from a foot's stance to the middle of its next swing in a cyclic clip
+    (1 when the swing is centred on the other foot's stance), kept within 0.6 to 1.4."""
+    phase = np.linspace(0.0, 1.0, 201)
+    ct, _ = track.clip_time_of_phase(phase)
+    swing = phase[track.sample(ct)["contact"][0] < 0.5]
+    return float(np.clip(2.0 * swing.mean(), 0.6, 1.4)) if len(swing) else 1.0
 
 
 def _tracks_of(library: Library, analyses) -> dict[str, ClipTrack]:
     """Clip name -> ClipTrack of every clip of the library (``analyses`` may already be
     the tracks)."""
     if isinstance(analyses, dict):
-        return analyses
+        return dict(analyses)
     by = {a.name: a for a in analyses}
     missing = [c for c in library.clips() if c not in by]
     if missing:
@@ -380,14 +536,16 @@ def _tracks_of(library: Library, analyses) -> dict[str, ClipTrack]:
     return {c: make_track(by[c]) for c in library.clips()}
 
 
-def _smooth(path, settings: Settings, snap, goal) -> Smoothed:
-    """3.3: the planned footprints smoothed; with a goal, the path's end first eased so
-    that the body ends between the last two feet on it."""
+def _smooth(path, settings: Settings, snap, goal, fixed: int = 1) -> Smoothed:
+    """3.3: the planned footprints smoothed, the first and last ``fixed`` kept; with a
+    goal, the path's end first eased so that the body ends between the last two feet on it."""
     pos0 = np.array([f.position for f in path], float)
     head0 = np.unwrap(np.array([f.heading for f in path], float))
     if goal is not None:
         pos0 = ease_end(pos0, head0, np.asarray(goal, float)[:2] - 0.5 * (pos0[-1, :2] + pos0[-2, :2]), snap)
-    return smooth_footprints(pos0, head0, settings.smoothing_iterations, snap,
+    keep = np.zeros(len(pos0), bool)
+    keep[:fixed] = keep[-fixed:] = True
+    return smooth_footprints(pos0, head0, settings.smoothing_iterations, snap, fixed=keep,
                              preserve_arcs=settings.smoothing_keep_arcs)
 
 
@@ -405,11 +563,12 @@ def _tau_curves(library: Library, cyc: list[str], sch1: Schedule, first: Pass, s
     cyc_tau = np.array([_clip_tau(library, c) for c in cyc])
     wc = sch1.weights[:, :len(cyc)]
     tau_plan = (wc @ cyc_tau) / np.maximum(wc.sum(axis=1), 1e-9)
-    tc = np.linspace(0.0, sch1.t[-1], max(8, int(np.ceil(sch1.t[-1] * TAU_RATE)) + 1))
-    body_c = np.stack([np.interp(tc, sch1.t, first.body_pos[:, k]) for k in range(3)], axis=1)
+    wt = sch1.walk_t  # on the walk's own time: a standing body has no curvature
+    tc = np.linspace(wt[0], wt[-1], max(8, int(np.ceil((wt[-1] - wt[0]) * TAU_RATE)) + 1))
+    body_c = np.stack([np.interp(tc, wt, first.body_pos[:, k]) for k in range(3)], axis=1)
     tau_c = bg.curvature(body_c, tc, settings.tau_dt)
-    tau_raw = np.interp(sch1.t, tc, tau_c)
-    tau = np.interp(sch1.t, tc, bg.smooth_signal(tc, tau_c, settings.tau_smoothing / (2 * np.pi)))
+    tau_raw = np.interp(wt, tc, tau_c)
+    tau = np.interp(wt, tc, bg.smooth_signal(tc, tau_c, settings.tau_smoothing / (2 * np.pi)))
     return _TauCurves(tau_plan, tau_raw, tau)
 
 
@@ -447,28 +606,28 @@ class _LocoWeights:
 
 
 def _blend_group_schedule(steps: list[PlanStep], tracks, cyc: list[str], fps: float, settings: Settings,
-                          loco: _LocoWeights) -> Schedule:
+                          loco: _LocoWeights, standing: Standing | None = None) -> Schedule:
     """The schedule under the blend groups' weights, each step lasting what its clips'
     weights (evaluated mid-step) make it last."""
     wmid = loco(np.arange(len(steps)) + 0.5)
     feet = np.array([st.foot for st in steps])
     dur = (wmid * step_durations_of([tracks[c] for c in cyc])[feet]).sum(axis=1)
     return build_schedule(steps, tracks, cyc, fps, settings.transition_time, loco_weights=loco,
-                          step_durations=dur)
+                          step_durations=dur, standing=standing)
 
 
 def _final_pass(sch2: Schedule, tracks, first: Pass, forward, settings: Settings, snap, timer: StageTimer,
-                goal, bends=None) -> Pass:
+                goal, bends=None, stand: Standing | None = None) -> Pass:
     """The blend groups' pass. With a goal, the path's end is moved by where the first
     pass's body ended, and once more if the blend groups still miss it by more than
     GOAL_TOLERANCE."""
     desired, heading = first.refined.position, first.refined.heading
     if goal is not None:
         desired = ease_end(desired, heading, np.asarray(goal, float)[:2] - first.body_pos[-1, :2], snap)
-    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends)
+    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand)
     if goal is not None:
         miss = np.asarray(goal, float)[:2] - final.body_pos[-1, :2]
         if np.linalg.norm(miss) > GOAL_TOLERANCE:
             desired = ease_end(desired, heading, miss, snap)
-            final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends)
+            final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand)
     return final

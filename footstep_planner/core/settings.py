@@ -106,6 +106,9 @@ class Settings:
         towards what the clips do locally.""")
     transition_time: float = setting(0.3, "s", 0.0, 10.0, """Clip transitions are blend-weight ramps
         of this length.""")
+    stand_hold: float = setting(1.0, "s", 0.0, 60.0, """The character stands still at the goal this
+        long after it stops, both feet planted (it also stands this long, at most half a second,
+        before its first step).""")
 
     # --- blend groups (3.7) ---------------------------------------------------------
     tau_dt: float = setting(0.5, "s", 0.0, 10.0, """Half-width of the three-point circumradius
