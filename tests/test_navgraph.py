@@ -155,3 +155,16 @@ def test_a_search_that_cannot_finish_stops_at_its_budget():
     pl = Planner(g, None, steps(), FWD, settings=FASTEST.replace(max_expansions=5))
     with pytest.raises(PlanError, match="ran out of its budget, 6 footprints expanded.*nearest reachable point"):
         pl.plan(start(0, 0), np.array([38.0, 0.0, 0.0]))
+
+
+def test_a_floor_under_a_platform_is_a_level_of_its_own():
+    """The distance map has a level per surface over a cell: a platform 1.5 m over the
+    floor, with no way up, is refused before any search (not flooded from below), and
+    the floor under it stays walkable."""
+    g = MeshGround(TriMesh.concat([plane(-2, 12, -6, 6), plane(2, 8, -1, 1, z=1.5, name="deck")]))
+    pl = Planner(g, None, steps(), FWD, settings=FASTEST)
+    with pytest.raises(PlanError, match="no walkable way") as err:
+        pl.plan(start(0, 0), np.array([5.0, 0.0, 1.5]))
+    assert err.value.expanded == 0
+    goal = np.array([10.0, 0.0, 0.0])  # under the deck and beyond
+    check_path(pl, pl.plan(start(0, 0), goal), goal)

@@ -2,22 +2,33 @@
 
 The thesis built a dense graph of sampled footprints up front (seconds to tens of
 seconds) and named lazy construction as future work. Here a node is a footprint
-reached by the search itself: expanding it applies every step of the library to it
-(one batched support query for all its successors), so only footprints near the
-explored paths are ever tested. Footprints are merged on a grid (``cell`` metres,
-``heading_bins`` headings), and support answers are cached per grid key, so the cache
-serves later plans on the same geometry (see ``FootprintCache``).
+reached by the search itself: expanding it pushes every step of the library from it
+unchecked, and a successor is checked (one batched support query for it and its
+unchecked siblings) only when it leaves the open list, so only footprints the search
+is about to stand on are ever tested. Footprints are merged on a grid (``cell`` metres,
+``heading_bins`` headings), and support answers are cached per fine grid key, so the
+cache serves later plans on the same geometry (see ``FootprintCache``).
 
 Cost is time (each step's duration), plus ``turn_penalty`` seconds per radian of
 heading change, ``jump_penalty`` seconds per jump and ``run_penalty`` seconds per
 running step (so the path walks unless it must run). Steps walk on continuous ground;
 jump steps are taken only across a gap (where the ground between take-off and landing
-is missing), never on open floor. The heuristic is the walking
-distance to the goal on a coarse grid (``DistanceField``: around walls, across gaps only
-where a jump reaches) over the cheapest step's metres per second of cost; it never overestimates. The search
-weighs it by ``heuristic_weight`` (weighted A*): with weight w the path found costs at
-most w times the cheapest, and the search expands far fewer footprints; w = 1 is plain
-A*.
+is missing), never on open floor. The heuristic is the walking distance to the goal on
+a coarse grid of up to three levels per cell (``DistanceField``: a bridge over a floor
+is two levels; around walls; up and down no more than a step; over step edges only
+where a foot fits; across gaps only where a jump reaches, each jump counting what it
+and its run-up cost beyond their length) over the metres per second of cost of the two
+cheapest alternating steps; it never overestimates. The search weighs it by
+``heuristic_weight`` (weighted A*: the path found costs at most w times the cheapest),
+starting at 0.35 of w's excess over 1 and raising it by a quarter every
+``RAISE_EVERY`` expansions, so short searches find near-cheapest paths and long ones
+turn greedy; a weighted search's map also counts a way along an edge or a wall
+``EDGE_COST`` times (footprints keep off them). When the search floods a place without
+getting nearer (``STALL`` expansions), it suspects the jumps the map promised there and
+takes the map without them, when the goal can still be reached without them. w = 1 is
+plain A*. A refused plan says where the search got to and what blocks the library's
+steps there (``Rejections``: the wall and the clearance, the step's height, the treads'
+depth against the foot, the gap's width against the jump's reach).
 """
 
 from __future__ import annotations
@@ -163,6 +174,28 @@ class FootprintCache:
         return int(drop.sum())
 
 
+class _Batch(NamedTuple):
+    """The successors of one expanded node, not yet checked: the parent's index, the
+    steps (K,), where they land (K, 2), turned how (K,), the cost there (K,), their merge
+    keys."""
+
+    parent: int
+    sel: np.ndarray
+    nxt: np.ndarray
+    psi: np.ndarray
+    g: np.ndarray
+    keys: list
+    state: np.ndarray  # (K,) int8: 0 unchecked, 1 may be stood on and reached, 2 not
+    z: np.ndarray  # (K,) the surface's height there, once checked
+    h: np.ndarray  # (K,) the heuristic there (unweighted)
+
+
+#: Footprints expanded without the heuristic falling before the search suspects the
+#: jumps near where it is stuck (``Planner._reroute``), and how often it may.
+STALL = 120
+MAX_REROUTES = 4
+
+
 @dataclass
 class _Search:
     """One search's state (never kept on the planner)."""
@@ -178,10 +211,40 @@ class _Search:
     expanded: int = 0
     generated: int = 0
     nearest: tuple = (np.inf, None)  # (distance to the goal, position) of the closest node
+    h: list = field(default_factory=list)  # each node's heuristic
+    best_h: tuple = (np.inf, 0, None)  # (least heuristic popped, when, where)
+    reroutes: int = 0  # times the heuristic was rebuilt without jumps where the search stalled
+    field_seconds: float = 0.0
+
+    batches: list = field(default_factory=list)  # unchecked successors, one _Batch per expansion
+    weight: float = 1.0  # the heuristic's weight now (``Planner._weigh``)
+    seq: int = 0  # pushes so far (ties in the heap go first in, first out)
 
     def push(self, node: SearchNode, h: float) -> None:
+        """A checked footprint (a start footprint) into the open list."""
         self.nodes.append(node)
-        heapq.heappush(self.heap, (node.cost + h, len(self.nodes) - 1))
+        self.h.append(h)
+        self.seq += 1
+        heapq.heappush(self.heap, (node.cost + self.weight * h, self.seq, -1, len(self.nodes) - 1))
+
+    def push_batch(self, batch: "_Batch") -> None:
+        """A node's successors, unchecked, into the open list (checked when popped)."""
+        self.batches.append(batch)
+        b = len(self.batches) - 1
+        f = (batch.g + self.weight * batch.h).tolist()
+        for j in range(len(f)):
+            self.seq += 1
+            heapq.heappush(self.heap, (f[j], self.seq, b, j))
+        self.generated += len(f)
+
+    def stalled(self, idx: int) -> bool:
+        """Whether the search has expanded ``STALL`` footprints since the heuristic of
+        the footprints it pops last fell (it is flooding round a local minimum)."""
+        h = self.h[idx]
+        if h < self.best_h[0] - 1e-9:
+            self.best_h = (h, self.expanded, self.nodes[idx].position)
+            return False
+        return self.expanded - self.best_h[1] > STALL and self.reroutes < MAX_REROUTES
 
 
 @dataclass
@@ -251,6 +314,8 @@ class Planner:
         field_seconds = time.perf_counter() - t_field
         self._refuse_unreachable(dist, start, goal)
         search = _Search(goal, goal_heading, self._heuristic(dist, goal), self._base_costs())
+        search.field_seconds = field_seconds
+        search.weight = 1.0 + START_WEIGHT * (self.settings.heuristic_weight - 1.0)
         for s in start:
             for gait in ("walk", "run"):
                 node = SearchNode(s.foot, gait, np.asarray(s.position, float), float(s.heading), 0.0, -1, -1)
@@ -260,17 +325,50 @@ class Planner:
             if idx is None:
                 continue
             if self._arrived(search, idx):
-                return self._result(search, idx, time.perf_counter() - t0, field_seconds)
+                return self._result(search, idx, time.perf_counter() - t0, search.field_seconds)
+            if self.settings.heuristic_weight > 1.0:
+                if search.stalled(idx):
+                    self._reroute(search)
+                self._weigh(search)
             search.expanded += 1
             if search.expanded > self.settings.max_expansions:
                 break
             self._expand(search, idx)
         raise self._dead_end(search)
 
-    def distance_field(self, goal: np.ndarray) -> "DistanceField":
-        """The walking-distance map to ``goal`` that the search's heuristic reads."""
+    def distance_field(self, goal: np.ndarray, avoid: tuple | None = None) -> "DistanceField":
+        """The walking-distance map to ``goal`` that the search's heuristic reads (without
+        the jumps within ``avoid`` = (point, radius m), when given). A weighted search's
+        map keeps off edges and walls (``EDGE_COST``); plain A*'s (weight 1) stays a lower
+        bound."""
+        edge_cost = EDGE_COST if self.settings.heuristic_weight > 1.0 else 1.0
         return DistanceField.build(self.ground, self.obstacles, np.asarray(goal, float), self.field_cell,
-                                   self.clearance, self._jump_reach(), self.max_step_height)
+                                   self.clearance, self._jump_reach(), self.max_step_height,
+                                   self._jump_extra(), avoid, edge_cost, self._stands)
+
+    def _stands(self, pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
+        """(N,) whether a foot may stand on the ground at footprints ``pos`` (N, 3) turned
+        ``heading`` (N,), obstacles aside (the distance field's own test of them)."""
+        return footprint_support(self.ground, None, pos, heading, self.forward, self.foot,
+                                 step_height=self.max_step_height).ok
+
+    def _reroute(self, search: _Search) -> None:
+        """The search floods round where it is stuck: the heuristic promised a jump there
+        that the library's steps cannot set up (its run-up, its foot, its direction). Take
+        the heuristic without the jumps within ``REROUTE_RADIUS`` of that place, when the
+        goal can still be reached from there without them, and re-rank the open
+        footprints by it (the closed stay closed: the path stays valid)."""
+        search.reroutes += 1
+        t = time.perf_counter()
+        where = search.best_h[2]
+        dist = self.distance_field(search.goal, (where, REROUTE_RADIUS))
+        search.field_seconds += time.perf_counter() - t
+        if not np.isfinite(dist.at_many(np.atleast_2d(where))[0]):
+            search.best_h = (search.best_h[0], search.expanded, where)
+            return
+        search.heuristic = self._heuristic(dist, search.goal)
+        self._rerank(search, fresh=True)
+        search.best_h = (np.inf, search.expanded, where)
 
     def _check_goal(self, goal: np.ndarray, goal_heading: float | None) -> None:
         """PlanError when no traversable surface lies under (or near above) the goal."""
@@ -283,26 +381,59 @@ class Planner:
 
     def _refuse_unreachable(self, dist: "DistanceField", start: list[PathFootprint], goal: np.ndarray) -> None:
         """PlanError before any search when the walking-distance map has no way from the
-        start to the goal."""
+        start to the goal, saying what blocks the library's steps at the nearest point
+        the map reaches (``Rejections``)."""
         if not np.isfinite(dist.at_many(np.array([f.position for f in start], float))).any():
             near = dist.nearest_reachable(np.asarray(start[0].position, float), goal)
+            ang = np.arctan2(goal[1] - near[1], goal[0] - near[0]) - np.arctan2(self.forward[1], self.forward[0])
+            left = 0.1 * np.array([-np.sin(ang + np.arctan2(self.forward[1], self.forward[0])),
+                                   np.cos(ang + np.arctan2(self.forward[1], self.forward[0])), 0.0])
+            nodes = [SearchNode(foot, gait, near + sign * left, float(ang), 0.0, -1, -1)
+                     for foot, sign in ((0, 1), (1, -1)) for gait in ("walk", "run")]
+            d0 = float(np.linalg.norm(goal[:2] - near[:2]))
+            blocker = Rejections.of(self, nodes, goal, d0).words(self, near, goal)
             raise PlanError(
                 f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) cannot be reached: no walkable way, nor a "
                 f"gap a jump clip can clear, leads there from the start; the nearest reachable "
-                f"point is ({near[0]:.2f}, {near[1]:.2f}), {np.linalg.norm(near[:2] - goal[:2]):.2f} m "
-                "from the goal")
+                f"point is ({near[0]:.2f}, {near[1]:.2f}), {d0:.2f} m from the goal"
+                + (f"; {blocker}" if blocker else ""))
+
+    def _rerank(self, search: _Search, fresh: bool = False) -> None:
+        """Re-rank the open list by the search's weight now (and, ``fresh``, by its
+        heuristic now: each open footprint's is computed again)."""
+        if fresh:
+            pos = [search.nodes[j].position for j in range(len(search.nodes))]
+            if pos:
+                for j, hj in enumerate(search.heuristic(np.array(pos, float)).tolist()):
+                    search.h[j] = hj
+            for batch in search.batches:
+                z = np.full(len(batch.g), search.nodes[batch.parent].position[2])
+                batch.h[:] = search.heuristic(np.c_[batch.nxt, z])
+        w = search.weight
+        search.heap = [(search.nodes[j].cost + w * search.h[j] if b < 0 else
+                        float(search.batches[b].g[j] + w * search.batches[b].h[j]), q, b, j)
+                       for _, q, b, j in search.heap]
+        heapq.heapify(search.heap)
+
+    def _weigh(self, search: _Search) -> None:
+        """The weight grows from ``START_WEIGHT`` of the user's excess over 1 by a quarter
+        of it every ``RAISE_EVERY`` footprints expanded, up to the user's: a short search
+        finds a path near the cheapest; a long one turns greedy, still within the weight."""
+        w = self.settings.heuristic_weight
+        if search.weight < w and search.expanded and search.expanded % RAISE_EVERY == 0:
+            search.weight = min(w, search.weight + 0.25 * (w - 1.0))
+            self._rerank(search)
 
     def _heuristic(self, dist: "DistanceField", goal: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-        """Weighted remaining time (s) for points (N, >=2): the walking distance over the
+        """Remaining time (s) for points (N, >=2): the walking distance over the
         cheapest step's speed; off the grid's reach, three times the straight distance."""
-        vmax = self._cost_speed()
-        weight = self.settings.heuristic_weight
+        vmax, slack = self._cost_speed()
 
         def heuristic(p):
             p = np.atleast_2d(p)
             d = dist.at_many(p)
             d = np.where(np.isfinite(d), d, 3.0 * np.hypot(goal[0] - p[:, 0], goal[1] - p[:, 1]))
-            return weight * d / vmax
+            return np.maximum(d - slack, 0.0) / vmax
         return heuristic
 
     def _base_costs(self) -> np.ndarray:
@@ -314,14 +445,48 @@ class Planner:
                 + np.where(st.gait == "run", cfg.run_penalty, 0.0))
 
     def _pop(self, search: _Search) -> int | None:
-        """The cheapest open node's index, closing its merge key (None if already closed)."""
-        _, idx = heapq.heappop(search.heap)
-        node = search.nodes[idx]
-        key = self._keys(node.foot, [node.gait], node.position[None, :2], np.array([node.heading]))[0]
+        """The cheapest open footprint's node index, its successor checked (support, step
+        height, the way there) as it leaves the open list, closing its merge key (None if
+        already closed or refused)."""
+        f, _, b, j = heapq.heappop(search.heap)
+        if b < 0:
+            node = search.nodes[j]
+            key = self._keys(node.foot, [node.gait], node.position[None, :2], np.array([node.heading]))[0]
+            if key in search.closed:
+                return None
+            search.closed.add(key)
+            return j
+        batch = search.batches[b]
+        key = batch.keys[j]
         if key in search.closed:
             return None
+        if batch.state[j] == 0:
+            self._check_batch(search, batch)
+        if batch.state[j] != 1:
+            return None
+        parent, i = search.nodes[batch.parent], int(batch.sel[j])
         search.closed.add(key)
-        return idx
+        g = float(batch.g[j])
+        search.nodes.append(SearchNode(1 - parent.foot, self.steps.gait[i],
+                                       np.array([batch.nxt[j, 0], batch.nxt[j, 1], batch.z[j]]),
+                                       float(batch.psi[j]), g, batch.parent, i))
+        search.h.append(float(batch.h[j]))
+        return len(search.nodes) - 1
+
+    def _check_batch(self, search: _Search, batch: _Batch) -> None:
+        """Check, in one batch, the successors of a batch not checked yet whose merge key
+        is still open: whether a foot may stand there, within a step's height, and the
+        way there is clear (``_supported``, ``_way_clear``)."""
+        todo = np.flatnonzero((batch.state == 0) & np.array([k not in search.closed for k in batch.keys]))
+        node = search.nodes[batch.parent]
+        nxt, psi = batch.nxt[todo], batch.psi[todo]
+        ok, z = self._supported(node, nxt, psi)
+        ok &= np.abs(z - node.position[2]) <= self.max_step_height
+        if ok.any():
+            ok[ok] &= self._way_clear(node, batch.sel[todo][ok], np.c_[nxt[ok], z[ok]],
+                                      fine_keys(nxt[ok], psi[ok]))
+        batch.state[todo] = np.where(ok, 1, 2)
+        batch.z[todo] = z
 
     def _arrived(self, search: _Search, idx: int) -> bool:
         """Whether node ``idx`` ends the path (within the goal radius, heading within
@@ -336,31 +501,29 @@ class Planner:
             or abs(_wrap(node.heading - search.goal_heading)) <= cfg.goal_heading_tolerance)
 
     def _expand(self, search: _Search, idx: int) -> None:
-        """Push every supported, reachable successor of node ``idx``."""
+        """Push the successors of node ``idx`` unchecked (``_pop`` checks each as it
+        leaves the open list), but for the ones already pushed as cheaply to the same
+        fine footprint."""
         node = search.nodes[idx]
         sel, nxt, npsi, keys = self._successors(search, node)
         if not len(sel):
             return
-        ok, z = self._supported(node, nxt, npsi)
-        ok &= np.abs(z - node.position[2]) <= self.max_step_height
-        if ok.any():
-            ok[ok] &= self._way_clear(node, sel[ok], np.c_[nxt[ok], z[ok]], fine_keys(nxt[ok], npsi[ok]))
-        good = np.flatnonzero(ok)
-        if not len(good):
-            return
         st = self.steps
-        change = np.where(st.gait[sel[good]] != node.gait, self.settings.gait_change_penalty, 0.0)
-        cost = node.cost + (search.base_cost[sel[good]] + change)
-        h = search.heuristic(nxt[good])
-        for j, g, hj in zip(good.tolist(), cost.tolist(), h.tolist()):
-            k = keys[j]
-            if search.best_g.get(k, np.inf) <= g:
-                continue
-            search.best_g[k] = g
-            i = int(sel[j])
-            search.push(SearchNode(1 - node.foot, st.gait[i], np.array([nxt[j, 0], nxt[j, 1], z[j]]),
-                                   float(npsi[j]), g, idx, i), hj)
-            search.generated += 1
+        change = np.where(st.gait[sel] != node.gait, self.settings.gait_change_penalty, 0.0)
+        cost = node.cost + (search.base_cost[sel] + change)
+        fine = fine_keys(nxt, npsi)
+        keep = []
+        for j, (g, k, f) in enumerate(zip(cost.tolist(), keys, fine)):
+            kk = (k[0], k[1], f)
+            if search.best_g.get(kk, np.inf) > g:
+                search.best_g[kk] = g
+                keep.append(j)
+        if not keep:
+            return
+        keep = np.array(keep)
+        h = search.heuristic(np.c_[nxt[keep], np.full(len(keep), node.position[2])])
+        search.push_batch(_Batch(idx, sel[keep], nxt[keep], npsi[keep], cost[keep], [keys[j] for j in keep],
+                                 np.zeros(len(keep), np.int8), np.zeros(len(keep)), h))
 
     def _successors(self, search: _Search, node: SearchNode):
         """The steps that may follow ``node`` (indices (K,)), where they land (K, 2) and
@@ -410,20 +573,67 @@ class Planner:
         return np.where(self.steps.jump[steps], ~gc[:, 0], gc[:, 0]) & gc[:, 1]
 
     def _dead_end(self, search: _Search) -> PlanError:
+        """The PlanError of a search that found no path: where it got to (the footprint it
+        reached nearest the goal) and what blocks the library's steps from there."""
         goal, (d_near, near) = search.goal, search.nearest
-        where = "nowhere" if near is None else f"({near[0]:.2f}, {near[1]:.2f}, {near[2]:.2f})"
         why = "the search ran out of its budget" if search.heap else "no step of the library leads further"
-        return PlanError(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) cannot be reached ({why}, "
-                         f"{search.expanded} footprints expanded); the nearest reachable point is {where}, "
-                         f"{d_near:.2f} m from the goal", search.expanded, search.nodes)
+        msg = (f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) cannot be reached ({why}, "
+               f"{search.expanded} footprints expanded)")
+        if near is None:
+            return PlanError(msg + "; no footprint of the start could be stood on", search.expanded, search.nodes)
+        at_start = all(n.parent < 0 for n in search.nodes if np.array_equal(n.position, near))
+        where = (f"; the nearest reachable point is ({near[0]:.2f}, {near[1]:.2f}, {near[2]:.2f}), "
+                 f"{d_near:.2f} m from the goal")
+        where += (", the start itself: no step of the library leaves it towards the goal" if at_start
+                  else ", where the search got to")
+        blocker = self._blocker(search, near)
+        return PlanError(msg + where + (f"; {blocker}" if blocker else ""), search.expanded, search.nodes)
 
-    def _cost_speed(self) -> float:
-        """Metres per second of cost of the step that covers ground cheapest: the
-        heuristic divides the distance to the goal by it, so it never overestimates."""
+    def _blocker(self, search: _Search, near: np.ndarray) -> str:
+        """Words for what stops the library's steps from the footprints the search reached
+        within 0.6 m of ``near``: the commonest reason their steps towards the goal were
+        refused (``Rejections``)."""
+        goal = search.goal
+        d0 = np.linalg.norm(goal[:2] - near[:2])
+        frontier = [n for n in search.nodes if np.linalg.norm(n.position[:2] - near[:2]) < 0.6]
+        rej = Rejections.of(self, frontier[:64], goal, d0)
+        return rej.words(self, near, goal)
+
+    def _step_costs(self) -> tuple[np.ndarray, np.ndarray]:
+        """(length (S,) m, least cost (S,) s) of each step, its turn penalty aside."""
         st, cfg = self.steps, self.settings
         cost = st.duration + np.where(st.gait == "run", cfg.run_penalty, 0.0) \
             + np.where(st.jump, cfg.jump_penalty, 0.0)
-        return float(np.max(np.hypot(st.fwd, st.left) / cost))
+        return np.hypot(st.fwd, st.left), cost
+
+    def _cost_speed(self) -> tuple[float, float]:
+        """(v m/s, slack m): the metres per second of cost of the two steps (one of each
+        foot: the feet alternate) that cover ground cheapest, and the most one step may
+        cover beyond that speed. The heuristic takes (distance - slack) / v, so it never
+        overestimates a path of any number of steps."""
+        length, cost = self._step_costs()
+        a, b = self.steps.foot == 0, self.steps.foot == 1
+        if not (a.any() and b.any()):
+            v = float(np.max(length / cost))
+            return v, 0.0
+        v = float(np.max((length[a][:, None] + length[b][None]) / (cost[a][:, None] + cost[b][None])))
+        return v, float(max(0.0, np.max(length - cost * v)))
+
+    def _jump_extra(self) -> float:
+        """Metres the distance field adds to a jump: what the jump step, and the running
+        step it must follow (a jump is entered running, from the other foot), cost beyond
+        their length at the heuristic's speed (the least of any such pair), so the
+        heuristic knows a jump needs its run-up and still never overestimates."""
+        st = self.steps
+        run = (st.gait == "run") & ~st.jump
+        if not st.jump.any() or not run.any():
+            return 0.0
+        v, _ = self._cost_speed()
+        length, cost = self._step_costs()
+        j, r = np.flatnonzero(st.jump), np.flatnonzero(run)
+        over = (cost[j][:, None] + cost[r][None]) - (length[j][:, None] + length[r][None]) / v
+        over = np.where(st.foot[j][:, None] != st.foot[r][None], over, np.inf)
+        return float(max(np.min(over), 0.0) * v) if np.isfinite(over).any() else 0.0
 
     def _jump_reach(self) -> float:
         j = self.steps.jump
@@ -446,6 +656,139 @@ class Planner:
                           search.nodes)
 
 
+@dataclass
+class Rejections:
+    """Why steps from some footprints were refused: reason -> (count, a landing point (3,)).
+    Reasons: "obstacle" (the body would meet one), "off surface", "uneven" (a step edge
+    under the foot), "steep", "step height", "gap" (a walking step over missing ground),
+    "obstacle between", "jump on ground" (a jump where no gap is)."""
+
+    counts: dict
+
+    @staticmethod
+    def of(planner: "Planner", nodes: list, goal: np.ndarray, d0: float) -> "Rejections":
+        """The reasons of every step of ``nodes`` that would land nearer ``goal`` than d0."""
+        counts: dict = {}
+        st = planner.steps
+        for node in nodes:
+            sel = np.flatnonzero(st.foot == node.foot)
+            ang = node.heading + np.arctan2(planner.forward[1], planner.forward[0])
+            f_, l_ = np.array([np.cos(ang), np.sin(ang)]), np.array([-np.sin(ang), np.cos(ang)])
+            nxt = node.position[:2] + st.fwd[sel, None] * f_ + st.left[sel, None] * l_
+            keep = np.linalg.norm(goal[:2] - nxt, axis=1) < d0
+            if node.gait == "walk":
+                keep &= ~st.jump[sel]
+            sel, nxt = sel[keep], nxt[keep]
+            if not len(sel):
+                continue
+            psi = _wrap(node.heading + st.turn[sel])
+            sup = planner._support(np.c_[nxt, np.full(len(sel), node.position[2])], psi)
+            reason = np.where(sup.ok, "", sup.reason).astype(object)
+            reason[(reason == "") & (np.abs(sup.z - node.position[2]) > planner.max_step_height)] = "step height"
+            ok = reason == ""
+            if ok.any():
+                to = np.c_[nxt[ok], sup.z[ok]]
+                ground, clear = planner._between(np.repeat(node.position[None], ok.sum(), axis=0), to)
+                jump = st.jump[sel[ok]]
+                sub = np.where(~clear, "obstacle between", np.where(jump & ground, "jump on ground",
+                               np.where(~jump & ~ground, "gap", ""))).astype(object)
+                reason[np.flatnonzero(ok)] = sub
+            for r, p, z in zip(reason.tolist(), nxt, sup.z):
+                if r:
+                    c, _ = counts.get(r, (0, None))
+                    counts[r] = (c + 1, np.array([p[0], p[1], node.position[2] if np.isnan(z) else z]))
+        return Rejections(counts)
+
+    def words(self, planner: "Planner", near: np.ndarray, goal: np.ndarray) -> str:
+        """The commonest reason, in words with its figures (``_explain``)."""
+        real = {k: v for k, v in self.counts.items() if k != "jump on ground"}
+        if not real:
+            return ""
+        total = sum(c for c, _ in real.values())
+        reason = max(real, key=lambda k: real[k][0])
+        share = f"{real[reason][0]} of the {total} refused steps towards the goal"
+        stairs = _steps_ahead(planner, near, goal) if reason in ("uneven", "off surface", "step height") else None
+        if stairs is not None:
+            foot = planner.foot
+            return (f"what blocks it: steps ahead, rising {stairs[0]:.2f} m with treads {stairs[1]:.2f} m deep: no "
+                    f"step of the library lands the whole foot ({foot.back + foot.front:.2f} m long, "
+                    f"{2 * foot.half_width:.2f} m wide) on one tread ({share})")
+        return f"what blocks it: {_explain(planner, reason, real[reason][1], near, goal)} ({share})"
+
+
+def _explain(planner: "Planner", reason: str, at: np.ndarray, near: np.ndarray, goal: np.ndarray) -> str:
+    """One reason of ``Rejections`` in words, with the figures that matter: the wall's
+    place and the clearance, the step's height, the gap's width against the jump's reach."""
+    st = planner.steps
+    walk = ~st.jump
+    shortest = float(np.hypot(st.fwd[walk], st.left[walk]).min())
+    sharpest = float(np.degrees(np.abs(st.turn[walk]).max()))
+    if reason == "obstacle":
+        _, d = planner.obstacles.nearest(np.array([[near[0], near[1], near[2] + 0.9]]))
+        p, _ = planner.obstacles.nearest(np.array([[at[0], at[1], at[2] + 0.9]]))
+        return (f"an obstacle (a wall or an object) at ({p[0, 0]:.2f}, {p[0, 1]:.2f}), {d[0]:.2f} m away: "
+                f"every step of the library towards the goal (the shortest goes {shortest:.2f} m, the "
+                f"sharpest turns {sharpest:.0f} degrees) brings the body within its clearance "
+                f"({planner.clearance:.2f} m) of it")
+    if reason in ("off surface", "gap"):
+        return _gap_words(planner, at, near, goal, shortest, sharpest)
+    if reason == "uneven":
+        rise = _rise_ahead(planner, near, goal)
+        return (f"a step edge under the foot at ({at[0]:.2f}, {at[1]:.2f}): the steps there rise {rise:.2f} m "
+                f"and no step of the library lands the whole foot ({planner.foot.back + planner.foot.front:.2f} m "
+                "long) on one tread (the treads are too shallow for the library's step lengths)")
+    if reason == "step height":
+        return (f"a step up or down at ({at[0]:.2f}, {at[1]:.2f}) higher than the "
+                f"{planner.max_step_height:.2f} m a step may climb")
+    if reason == "steep":
+        return f"ground steeper than 30 degrees at ({at[0]:.2f}, {at[1]:.2f})"
+    return f"an obstacle between the footprints at ({at[0]:.2f}, {at[1]:.2f}) (through a wall or under a bar)"
+
+
+def _gap_words(planner: "Planner", at: np.ndarray, near: np.ndarray, goal: np.ndarray, shortest: float,
+               sharpest: float) -> str:
+    """The edge of the surface towards the goal from ``near`` and the gap beyond it, against
+    the library's jump; or, with ground all the way towards the goal, the edge beside the
+    way (at ``at``) that the library's steps cannot keep on."""
+    d = goal[:2] - near[:2]
+    d = d / max(np.linalg.norm(d), 1e-9)
+    t = np.arange(0.0, 6.0, 0.05)
+    pts = np.c_[near[:2] + t[:, None] * d, np.full(len(t), near[2] + planner.max_step_height)]
+    hit = planner.ground.ray_down(pts, 2 * planner.max_step_height).hit
+    hit[1:-1] |= hit[:-2] & hit[2:]  # a ray lost between two triangles is no gap
+    t = t[:int(np.ceil(np.linalg.norm(goal[:2] - near[:2]) / 0.05))]
+    hit = hit[:len(t)]
+    if hit.all():
+        return (f"the edge of the surface at ({at[0]:.2f}, {at[1]:.2f}): every step of the library towards "
+                f"the goal (the shortest goes {shortest:.2f} m, the sharpest turns {sharpest:.0f} degrees) "
+                "puts a foot off it")
+    edge = int(np.argmin(hit))
+    far = edge + int(np.argmax(hit[edge:])) if hit[edge:].any() else -1
+    where = f"the surface ends at ({pts[edge, 0]:.2f}, {pts[edge, 1]:.2f})"
+    gap = "no ground beyond it within 6 m" if far < 0 else f"the gap beyond is {t[far] - t[edge]:.2f} m wide"
+    reach = planner._jump_reach()
+    jump = (f"the library's jump reaches {reach:.2f} m from take-off to landing, and needs a running step "
+            "before it" if reach > 0 else "the library has no jump clip to cross it")
+    return f"{where} and {gap}; {jump}"
+
+
+def _steps_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> tuple[float, float] | None:
+    """(rise m, tread m) of the steps within 2 m of ``near`` towards the goal (the first
+    rise, and the shortest run of level ground between two rises), or None where the
+    ground ahead rises once at most."""
+    d = goal[:2] - near[:2]
+    d = d / max(np.linalg.norm(d), 1e-9)
+    t = np.arange(0.0, 2.0, 0.01)
+    pts = np.c_[near[:2] + t[:, None] * d, np.full(len(t), near[2] + 2.0)]
+    z = planner.ground.ray_down(pts, 4.0).z
+    ok = np.isfinite(z)
+    t, z = t[ok], z[ok]
+    at = np.flatnonzero(np.abs(np.diff(z)) > 0.02)
+    if len(at) < 2:
+        return None
+    return float(z[at[0] + 1] - z[at[0]]), float(np.diff(t[at]).min())
+
+
 def _wrap(a):
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
@@ -454,125 +797,248 @@ def _wrap(a):
 class DistanceField:
     """Walking distance to the goal on a coarse grid: the search's heuristic.
 
-    A cell is walkable when the ground is under its centre and the body there keeps its
-    clearance from obstacles. Walkable neighbours (8-connected) are joined by their
-    distance, and border cells across a gap of missing ground by a straight bridge no
-    longer than ``jump_reach`` (never across an obstacle). Distances are 5 % short of the
-    grid's, so the heuristic stays below the true remaining walk."""
+    The grid has up to ``LAYERS`` levels per cell (a bridge over a floor: the floor is a
+    second level, found below the first with ``HEADROOM`` between them). A cell's level
+    is walkable when the ground is there and the body there keeps its clearance from
+    obstacles. Walkable neighbours (8-connected) whose heights differ by no more than a
+    step are joined by their distance, and border cells across a gap of missing ground by
+    a straight bridge no longer than ``jump_reach`` (never across an obstacle).
+    Distances are 5 % short of the grid's, so the heuristic stays below the true
+    remaining walk."""
 
     origin: np.ndarray
     cell: float
     shape: tuple[int, int]
-    dist: np.ndarray  # (nx, ny), inf where the goal cannot be reached on the grid
+    dist: np.ndarray  # (L, nx, ny), inf where the goal cannot be reached on the grid
+    z: np.ndarray = field(default=None, repr=False)  # (L, nx, ny) each level's height, nan where none
     graph: object = field(default=None, repr=False)  # the cells' sparse graph
 
-    def at_many(self, p: np.ndarray) -> np.ndarray:
+    def _nodes(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(node ids (N,), -1 off the grid, and the levels' distances (N, L)) of points
+        (N, >=2); a point with a height (N, 3) takes the level nearest its height, one
+        without the level nearest the goal."""
+        nx, ny = self.shape
         i = np.floor((p[:, 0] - self.origin[0]) / self.cell).astype(np.int64)
         j = np.floor((p[:, 1] - self.origin[1]) / self.cell).astype(np.int64)
-        inside = (i >= 0) & (i < self.shape[0]) & (j >= 0) & (j < self.shape[1])
+        inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+        ii, jj = np.where(inside, i, 0), np.where(inside, j, 0)
+        d = self.dist[:, ii, jj].T  # (N, L)
+        if p.shape[1] >= 3 and self.z is not None:
+            dz = np.abs(self.z[:, ii, jj].T - p[:, 2:3])
+            level = np.argmin(np.where(np.isfinite(dz), dz, np.inf), axis=1)
+        else:
+            level = np.argmin(d, axis=1)
+        ids = np.where(inside, level * nx * ny + ii * ny + jj, -1)
+        return ids, np.where(inside[:, None], d, np.inf)
+
+    def at_many(self, p: np.ndarray) -> np.ndarray:
+        p = np.atleast_2d(np.asarray(p, float))
+        ids, _ = self._nodes(p)
         out = np.full(len(p), np.inf)
-        out[inside] = self.dist[i[inside], j[inside]]
+        ok = ids >= 0
+        out[ok] = self.dist.ravel()[ids[ok]]
         return out
 
     def nearest_reachable(self, start, goal) -> np.ndarray:
-        """The centre of the cell reachable from ``start`` that is nearest the goal."""
+        """The centre (x, y, level height) of the cell reachable from ``start`` nearest
+        the goal."""
         from scipy.sparse.csgraph import dijkstra
 
-        i = int(np.clip(np.floor((start[0] - self.origin[0]) / self.cell), 0, self.shape[0] - 1))
-        j = int(np.clip(np.floor((start[1] - self.origin[1]) / self.cell), 0, self.shape[1] - 1))
-        d = dijkstra(self.graph, directed=False, indices=i * self.shape[1] + j)
+        ids, _ = self._nodes(np.atleast_2d(np.asarray(start, float)))
+        nx, ny = self.shape
+        if ids[0] < 0:
+            return np.asarray(start, float)[:3].copy()
+        d = dijkstra(self.graph, directed=False, indices=int(ids[0]))
         ok = np.flatnonzero(np.isfinite(d))
-        cx = self.origin[0] + (ok // self.shape[1] + 0.5) * self.cell
-        cy = self.origin[1] + (ok % self.shape[1] + 0.5) * self.cell
+        cx = self.origin[0] + ((ok % (nx * ny)) // ny + 0.5) * self.cell
+        cy = self.origin[1] + (ok % ny + 0.5) * self.cell
         k = int(np.argmin(np.hypot(cx - goal[0], cy - goal[1])))
-        return np.array([cx[k], cy[k], 0.0])
+        return np.array([cx[k], cy[k], float(np.nan_to_num(self.z.ravel()[ok[k]]))])
 
     @staticmethod
-    def build(ground, obstacles, goal, cell, clearance, jump_reach, step_height) -> "DistanceField":
-        """The walking distance (m) to ``goal`` from every cell of a grid of ``cell``
-        metres over the ground's bounds: walkable cells (ground under the centre, body
-        clear of obstacles by ``clearance``), joined 8-connected and, across gaps, by
-        bridges up to ``jump_reach`` long; Dijkstra from the goal's cell."""
+    def build(ground, obstacles, goal, cell, clearance, jump_reach, step_height,
+              jump_extra: float = 0.0, avoid: tuple | None = None, edge_cost: float = 1.0,
+              support: Callable | None = None) -> "DistanceField":
+        """The walking distance (m) to ``goal`` from every cell level of a grid of ``cell``
+        metres over the ground's bounds: walkable levels (ground, body clear of obstacles
+        by ``clearance``), joined 8-connected within ``step_height`` and, across gaps, by
+        bridges up to ``jump_reach`` long that cost ``jump_extra`` m more than their
+        length (none with an end within ``avoid`` = (point, radius)); a way along cells
+        beside unwalkable ones counts ``edge_cost`` times its length; Dijkstra from the
+        goal's cell. With ``support`` (footprints (N, 3), headings (N,) -> whether a foot
+        may stand there (N,)), a cell where the ground's slope changes (a step's edge) is
+        walkable only where a foot fits in it (``_Grid.foot_room``)."""
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import dijkstra
 
         grid = _Grid.over(ground, cell, step_height)
-        has_ground, blocked = grid.ground_and_blocked(ground, obstacles, clearance)
+        has_ground, blocked = grid.ground_and_blocked(obstacles, clearance)
         walk = has_ground & ~blocked
-        edges = grid.neighbour_edges(walk)
+        if support is not None:
+            walk = grid.foot_room(support, walk)
+        edges = grid.neighbour_edges(walk, step_height, grid.edge_cells(walk), edge_cost)
         if jump_reach > 0:
-            edges += grid.bridges(walk, ~has_ground, blocked, jump_reach)
+            edges += [grid.away(a, b, c + jump_extra, avoid) for a, b, c in
+                      grid.bridges(walk, ~has_ground.any(axis=0), blocked, jump_reach, step_height)]
         rows, cols, vals = (np.concatenate(e) for e in zip(*edges))
-        n = grid.nx * grid.ny
+        n = grid.ids.size
         graph = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
-        gi = int(np.clip(np.floor((goal[0] - grid.lo[0]) / cell), 0, grid.nx - 1))
-        gj = int(np.clip(np.floor((goal[1] - grid.lo[1]) / cell), 0, grid.ny - 1))
-        d = dijkstra(graph, directed=False, indices=grid.ids[gi, gj])
+        probe = DistanceField(grid.lo, cell, (grid.nx, grid.ny), np.zeros(grid.ids.shape), grid.z)
+        gi = np.clip(np.floor((goal[:2] - grid.lo) / cell).astype(int), 0, [grid.nx - 1, grid.ny - 1])
+        gid, _ = probe._nodes(np.array([[grid.lo[0] + (gi[0] + 0.5) * cell, grid.lo[1] + (gi[1] + 0.5) * cell,
+                                         goal[2]]]))
+        d = dijkstra(graph, directed=False, indices=int(gid[0]))
         # 5 % short, and a cell's own size short, so the heuristic stays a lower bound
         d = np.maximum(0.95 * d - 1.5 * cell, 0.0)
-        return DistanceField(grid.lo, cell, (grid.nx, grid.ny), d.reshape(grid.nx, grid.ny), graph)
+        return DistanceField(grid.lo, cell, (grid.nx, grid.ny), d.reshape(grid.ids.shape), grid.z, graph)
+
+
+#: How much longer the heuristic counts a way along a cell beside an unwalkable one.
+EDGE_COST = 1.5
+
+#: The search starts with this fraction of the heuristic weight's excess over 1 and
+#: adds a quarter of it every RAISE_EVERY footprints expanded (``Planner._weigh``).
+START_WEIGHT = 0.35
+RAISE_EVERY = 100
+
+#: m: a stalled search's heuristic drops the jumps this close to where it is stuck.
+REROUTE_RADIUS = 3.0
+
+#: Levels of the distance field per cell, and the headroom (m) between two levels: a
+#: surface closer under another than this is that one's underside.
+LAYERS = 3
+HEADROOM = 1.0
 
 
 @dataclass
 class _Grid:
-    """The distance field's cells: origin ``lo`` (2,), ``cell`` m, ``nx`` x ``ny`` cells,
-    and their ids (nx, ny)."""
+    """The distance field's cells: origin ``lo`` (2,), ``cell`` m, ``nx`` x ``ny`` cells
+    of up to L levels, their ids (L, nx, ny) and heights ``z`` (L, nx, ny) (nan where a
+    cell has fewer levels)."""
 
     lo: np.ndarray
     cell: float
     nx: int
     ny: int
     ids: np.ndarray
-    top: np.ndarray  # (nx * ny, 3) a point above each cell's centre
-    ray: float  # m: from there down past the ground's lowest point
+    z: np.ndarray
+    xy: np.ndarray  # (nx * ny, 2) the cells' centres
 
     @staticmethod
     def over(ground, cell: float, step_height: float) -> "_Grid":
         lo, hi = ground.mesh.bounds()
+        zlo = lo[2]
         lo = lo[:2] - cell
         nx, ny = (np.ceil((hi[:2] + cell - lo) / cell)).astype(int)
         cx = lo[0] + (np.arange(nx) + 0.5) * cell
         cy = lo[1] + (np.arange(ny) + 0.5) * cell
         xx, yy = np.meshgrid(cx, cy, indexing="ij")
-        top = np.c_[xx.ravel(), yy.ravel(), np.full(xx.size, hi[2] + step_height)]
-        ray = hi[2] - ground.mesh.bounds()[0][2] + 2 * step_height
-        return _Grid(lo, cell, int(nx), int(ny), np.arange(nx * ny).reshape(nx, ny), top, ray)
+        xy = np.c_[xx.ravel(), yy.ravel()]
+        z = np.full((LAYERS, xy.shape[0]), np.nan)
+        hit = ground.ray_down(np.c_[xy, np.full(len(xy), hi[2] + step_height)], hi[2] - zlo + 2 * step_height)
+        z[0] = hit.z
+        for k in range(1, LAYERS):  # the levels below, where there is room for one
+            top = z[k - 1] - HEADROOM
+            ask = np.flatnonzero(np.isfinite(top) & (top > zlo - 1e-6))
+            if not len(ask):
+                break
+            below = ground.ray_down(np.c_[xy[ask], top[ask]], float(top[ask].max() - zlo) + 1e-3)
+            z[k, ask] = below.z
+        used = max(1, int(np.isfinite(z).any(axis=1).sum()))
+        z = z[:used].reshape(used, nx, ny)
+        return _Grid(lo, cell, int(nx), int(ny), np.arange(z.size).reshape(z.shape), z, xy)
 
-    def ground_and_blocked(self, ground, obstacles, clearance: float):
-        """(has ground (nx, ny), blocked (nx, ny)): ground under each cell's centre, and an
-        obstacle within the clearance of the body (at 0.5 and 1.3 m above the ground)."""
-        hit = ground.ray_down(self.top, self.ray)
-        has_ground = hit.hit.reshape(self.nx, self.ny)
-        blocked = np.zeros((self.nx, self.ny), bool)
+    def foot_room(self, support: Callable, walk: np.ndarray) -> np.ndarray:
+        """``walk`` without the cell levels where the ground's slope changes (a step's edge,
+        a ramp's end: a second difference of the neighbours' heights over 2 cm) and no
+        footprint sampled in the cell may be stood on (its centre, then 8 points 8 cm
+        round it, each turned 0, 45, 90 and 135 degrees): steps whose treads no foot
+        fits on."""
+        z = np.where(np.isfinite(self.z), self.z, np.nan)
+        zp = np.pad(z, ((0, 0), (1, 1), (1, 1)), mode="edge")
+        d2 = np.stack([zp[:, 2:, 1:-1] - 2 * z + zp[:, :-2, 1:-1], zp[:, 1:-1, 2:] - 2 * z + zp[:, 1:-1, :-2]])
+        kink = walk & (np.nan_to_num(np.abs(d2), nan=0.0).max(axis=0) > 0.02)
+        cand = np.flatnonzero(kink.ravel())
+        if not len(cand):
+            return walk
+        n = self.nx * self.ny
+        heads = np.radians([0.0, 45.0, 90.0, 135.0])
+        fits = np.zeros(len(cand), bool)
+        for off in ([(0.0, 0.0)], [(a, b) for a in (-0.08, 0.0, 0.08) for b in (-0.08, 0.0, 0.08) if a or b]):
+            todo = np.flatnonzero(~fits)
+            if not len(todo):
+                break
+            c = cand[todo]
+            pos = (self.xy[c % n][:, None, None] + np.array(off)[None, :, None]).reshape(-1, 2)
+            pos = np.repeat(pos, len(heads), axis=0)
+            zz = np.repeat(self.z.ravel()[c], len(off) * len(heads))
+            ok = support(np.c_[pos, zz], np.tile(heads, len(c) * len(off)))
+            fits[todo] = ok.reshape(len(c), -1).any(axis=1)
+        out = walk.copy()
+        out.ravel()[cand[~fits]] = False
+        return out
+
+    def away(self, a: np.ndarray, b: np.ndarray, c: np.ndarray, avoid: tuple | None) -> tuple:
+        """The edges (a, b, c) with neither end's cell within ``avoid`` = (point, radius)."""
+        if avoid is None:
+            return a, b, c
+        p, r = np.asarray(avoid[0], float)[:2], avoid[1]
+        n = self.nx * self.ny
+        keep = (np.linalg.norm(self.xy[a % n] - p, axis=1) > r) & (np.linalg.norm(self.xy[b % n] - p, axis=1) > r)
+        return a[keep], b[keep], c[keep]
+
+    def ground_and_blocked(self, obstacles, clearance: float):
+        """(has ground (L, nx, ny), blocked (L, nx, ny)): ground at each level of a cell, and
+        an obstacle within the clearance of the body there (at 0.5 and 1.3 m above it)."""
+        has_ground = np.isfinite(self.z)
+        blocked = np.zeros(self.z.shape, bool)
         if obstacles is not None and obstacles.mesh.n:
             idx = np.flatnonzero(has_ground.ravel())
+            cxy = self.xy[idx % (self.nx * self.ny)]
+            zz = self.z.ravel()[idx]
             for level in (0.5, 1.3):
-                probe = np.c_[self.top[idx, :2], hit.z[idx] + level]
-                _, d = obstacles.nearest(probe, max_dist=clearance)
+                _, d = obstacles.nearest(np.c_[cxy, zz + level], max_dist=clearance)
                 blocked.ravel()[idx[d < clearance * 0.9]] = True
         return has_ground, blocked
 
-    def neighbour_edges(self, walk: np.ndarray) -> list[tuple]:
-        """(rows, cols, lengths) of the edges between 8-connected walkable cells."""
-        nx, ny, ids, out = self.nx, self.ny, self.ids, []
+    def edge_cells(self, walk: np.ndarray) -> np.ndarray:
+        """(L, nx, ny) walkable cell levels beside an unwalkable cell (no ground, or an
+        obstacle too near): a footprint there has little room."""
+        pw = np.pad(walk.any(axis=0), 1)
+        inner = pw[2:, 1:-1] & pw[:-2, 1:-1] & pw[1:-1, 2:] & pw[1:-1, :-2]
+        return walk & ~inner[None]
+
+    def neighbour_edges(self, walk: np.ndarray, step_height: float, edge: np.ndarray | None = None,
+                        edge_cost: float = 1.0) -> list[tuple]:
+        """(rows, cols, lengths) of the edges between 8-connected walkable cell levels
+        whose heights differ by at most ``step_height``; an edge touching a cell beside
+        an unwalkable one (``edge``) is ``edge_cost`` times as long, so the heuristic's
+        way keeps off edges and walls as footprints must."""
+        nx, ny, out = self.nx, self.ny, []
+        nl = walk.shape[0]
         for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):
-            a = walk[max(0, -di):nx - max(0, di), max(0, -dj):ny - max(0, dj)]
-            b = walk[max(0, di):, max(0, dj):][:a.shape[0], :a.shape[1]] if dj >= 0 else \
-                walk[max(0, di):, :ny + dj][:a.shape[0], :a.shape[1]]
-            ia = ids[max(0, -di):nx - max(0, di), max(0, -dj):ny - max(0, dj)]
-            ib = ids[max(0, di):, max(0, dj):][:a.shape[0], :a.shape[1]] if dj >= 0 else \
-                ids[max(0, di):, :ny + dj][:a.shape[0], :a.shape[1]]
-            m = a & b
-            out.append((ia[m], ib[m], np.full(m.sum(), np.hypot(di, dj) * self.cell)))
+            sa = (slice(0, nx - di), slice(max(0, -dj), ny - max(0, dj)))
+            sb = (slice(di, nx), slice(max(0, dj), ny + min(0, dj)))
+            for la in range(nl):
+                for lb in range(nl):
+                    m = walk[la][sa] & walk[lb][sb]
+                    m &= np.abs(np.nan_to_num(self.z[la][sa] - self.z[lb][sb], nan=np.inf)) <= step_height
+                    length = np.full(m.sum(), np.hypot(di, dj) * self.cell)
+                    if edge is not None and edge_cost != 1.0:
+                        length *= np.where(edge[la][sa][m] | edge[lb][sb][m], edge_cost, 1.0)
+                    out.append((self.ids[la][sa][m], self.ids[lb][sb][m], length))
         return out
 
-    def bridges(self, walk: np.ndarray, void: np.ndarray, blocked: np.ndarray, jump_reach: float) -> list[tuple]:
+    def bridges(self, walk: np.ndarray, void: np.ndarray, blocked: np.ndarray, jump_reach: float,
+                step_height: float) -> list[tuple]:
         """(rows, cols, lengths) of straight bridges up to ``jump_reach`` between walkable
-        cells on the border of a gap (missing ground), never across an obstacle."""
+        cell levels on the border of a gap (missing ground, ``void`` (nx, ny)), within a
+        step's height of each other, never across an obstacle."""
         nx, ny = self.nx, self.ny
-        border = walk & (np.pad(void, 1)[2:, 1:-1] | np.pad(void, 1)[:-2, 1:-1]
-                         | np.pad(void, 1)[1:-1, 2:] | np.pad(void, 1)[1:-1, :-2])
-        bi, bj = np.nonzero(border)
+        pv = np.pad(void, 1)
+        near_void = pv[2:, 1:-1] | pv[:-2, 1:-1] | pv[1:-1, 2:] | pv[1:-1, :-2]
+        border = walk & near_void[None]
+        bl, bi, bj = np.nonzero(border)
         r = int(np.ceil(jump_reach / self.cell))
         offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1)
                 if 1 < np.hypot(a, b) * self.cell <= jump_reach]
@@ -580,10 +1046,13 @@ class _Grid:
         for a, b in offs:
             ti, tj = bi + a, bj + b
             ok = (ti >= 0) & (ti < nx) & (tj >= 0) & (tj < ny)
-            ti, tj, si, sj = ti[ok], tj[ok], bi[ok], bj[ok]
-            ok = border[ti, tj]
+            ti, tj, si, sj, sl = ti[ok], tj[ok], bi[ok], bj[ok], bl[ok]
+            clear = np.ones(len(si), bool)
             for t in np.linspace(0.2, 0.8, 4):  # the line between crosses void or walkable cells only
-                ok &= ~blocked[np.rint(si + t * a).astype(int), np.rint(sj + t * b).astype(int)]
-            out.append((self.ids[si[ok], sj[ok]], self.ids[ti[ok], tj[ok]],
-                        np.full(ok.sum(), np.hypot(a, b) * self.cell)))
+                clear &= ~blocked[sl, np.rint(si + t * a).astype(int), np.rint(sj + t * b).astype(int)]
+            for tl in range(walk.shape[0]):
+                ok = clear & border[tl, ti, tj]
+                ok &= np.abs(np.nan_to_num(self.z[tl, ti, tj] - self.z[sl, si, sj], nan=np.inf)) <= step_height
+                out.append((self.ids[sl[ok], si[ok], sj[ok]], self.ids[tl, ti[ok], tj[ok]],
+                            np.full(ok.sum(), np.hypot(a, b) * self.cell)))
         return out

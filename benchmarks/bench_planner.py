@@ -1,0 +1,160 @@
+"""The planner on thirty generated scenes (``scene_generator.benchmark_scenes``) with the
+CMU subject-16 library: path length, footprints, footprints expanded, plan time (the
+distance field and the search, with a fresh support cache; the process's CPU time, so
+other work on the machine does not count), the cost found over the cost
+of plain A* (heuristic_weight 1, a large expansion budget), and the result or the
+failure message. Prints the table with medians and worsts; writes nothing.
+
+    .venv/bin/python benchmarks/bench_planner.py [--only NAME,...] [--no-reference] [--seed 15]
+
+The reference searches take minutes (plain A* expands thousands of footprints per scene);
+``--write-reference > ref.jsonl`` once, then ``--reference ref.jsonl``, compares the
+planner against them without searching again (the references do not depend on the
+planner's weighted-search tuning).
+"""
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+from scene_generator import benchmark_scenes, cmu_character, make_planner  # noqa: E402
+
+#: Plain A*'s expansion budget for the reference cost; a scene whose plain A* does not
+#: finish within it takes weighted A* with weight FALLBACK_WEIGHT (its ratio is then
+#: marked "*": the true ratio is at most that weight times the one printed).
+REFERENCE_BUDGET = 25_000
+FALLBACK_WEIGHT = 1.05
+
+
+def path_length(fs) -> float:
+    """Metres along the midpoints of consecutive footprints (the body's way)."""
+    p = np.array([f.position for f in fs], float)
+    if len(p) < 3:
+        return 0.0
+    mid = 0.5 * (p[1:] + p[:-1])
+    return float(np.linalg.norm(np.diff(mid[:, :2], axis=0), axis=1).sum())
+
+
+def loops(fs) -> int:
+    """How many footprints stand within 0.15 m of an earlier one of the same foot three
+    or more steps before (the path came back on itself)."""
+    p = np.array([f.position[:2] for f in fs], float)
+    foot = np.array([f.foot for f in fs])
+    d = np.linalg.norm(p[:, None] - p[None], axis=2)
+    k = np.arange(len(p))
+    near = (d < 0.15) & (foot[:, None] == foot[None]) & (k[:, None] - k[None] >= 3)
+    return int(near.any(axis=1).sum())
+
+
+def run_scene(scene, character, reference: bool):
+    """One row: (name, kind, length, footprints, expanded, ms, ratio, loops, ok, message)."""
+    from footstep_planner.core.navgraph import PlanError
+    from footstep_planner.core.settings import Settings
+
+    pl, start, goal = make_planner(scene, character)
+    t = time.process_time()
+    try:
+        r = pl.plan(start, goal)
+    except PlanError as e:
+        ms = (time.process_time() - t) * 1e3
+        return (scene.name, scene.kind, np.nan, 0, e.expanded, ms, np.nan, 0, False, str(e))
+    ms = (time.process_time() - t) * 1e3
+    ratio, marked = np.nan, False
+    if isinstance(reference, dict):
+        ratio, marked = (r.cost / reference[scene.name][0], reference[scene.name][1]) \
+            if scene.name in reference else (np.nan, False)
+    elif reference:
+        ratio, marked = r.cost / reference_cost(scene, character)[0], reference_cost(scene, character)[1]
+    return (scene.name, scene.kind, path_length(r.footprints), len(r.footprints), r.expanded, ms, ratio,
+            loops(r.footprints), True, "reached" + (" (ratio against weight 1.05)" if marked else ""))
+
+
+_REFERENCE = {}
+
+
+def reference_cost(scene, character) -> tuple[float, bool]:
+    """(cost of plain A*, or of FALLBACK_WEIGHT A* where plain A* runs out of its budget;
+    whether it is the fallback's). nan when neither finds a path."""
+    from footstep_planner.core.navgraph import PlanError
+    from footstep_planner.core.settings import Settings
+
+    if scene.name not in _REFERENCE:
+        _REFERENCE[scene.name] = (np.nan, False)
+        for w, marked in ((1.0, False), (FALLBACK_WEIGHT, True)):
+            ref, s, g = make_planner(scene, character, Settings(heuristic_weight=w, max_expansions=REFERENCE_BUDGET))
+            try:
+                _REFERENCE[scene.name] = (ref.plan(s, g).cost, marked)
+                break
+            except PlanError:
+                continue
+    return _REFERENCE[scene.name]
+
+
+def print_table(rows, scenes) -> None:
+    head = (f"{'scene':20s} {'kind':9s} {'path m':>6s} {'footprints':>10s} {'expanded':>8s} {'cpu ms':>7s} "
+            f"{'cost ratio':>10s} {'loops':>5s}  result")
+    print(head)
+    print("-" * len(head))
+    for row, sc in zip(rows, scenes):
+        name, kind, length, n, exp, ms, ratio, lp, ok, msg = row
+        want = "" if ok == sc.reachable else "  (meant to be reachable)" if sc.reachable else "  (meant not to be)"
+        print(f"{name:20s} {kind:9s} {length:6.1f} {n:10d} {exp:8d} {ms:7.0f} {ratio:10.3f} {lp:5d}  "
+              f"{msg}{want}")
+    ms = np.array([r[5] for r in rows])
+    ratio = np.array([r[6] for r in rows])
+    ok = np.array([r[8] for r in rows])
+    fin = ratio[np.isfinite(ratio)]
+    print(f"\nplan cpu ms: median {np.median(ms):.0f}, worst {ms.max():.0f} ({rows[int(ms.argmax())][0]}); "
+          f"unreachable answered in at most {ms[~ok].max() if (~ok).any() else 0:.0f} ms")
+    if len(fin):
+        print(f"cost ratio vs plain A*: median {np.median(fin):.3f}, worst {fin.max():.3f} "
+              f"({len(fin)} scenes with a reference)")
+    print(f"reached {ok.sum()} of {len(rows)}; loops in {sum(r[7] > 0 for r in rows)} paths; "
+          f"machine: {os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--only", default="")
+    ap.add_argument("--seed", type=int, default=15)
+    ap.add_argument("--no-reference", action="store_true")
+    ap.add_argument("--reference", default="", help="JSON lines {name, cost, fallback} of reference costs "
+                    "computed before (by --write-reference on stdout), instead of searching again")
+    ap.add_argument("--write-reference", action="store_true", help="print only the reference costs, as JSON lines")
+    ap.add_argument("--progress", action="store_true", help="each scene's figures on stderr as it ends")
+    args = ap.parse_args()
+    scenes = benchmark_scenes(args.seed)
+    if args.only:
+        keep = args.only.split(",")
+        scenes = [s for s in scenes if any(k in s.name for k in keep)]
+    character = cmu_character()
+    if args.write_reference:
+        for sc in scenes:
+            cost, marked = reference_cost(sc, character)
+            print(json.dumps({"name": sc.name, "cost": None if np.isnan(cost) else cost, "fallback": marked}),
+                  flush=True)
+        return
+    reference = not args.no_reference
+    if args.reference:
+        with open(args.reference) as fh:
+            rows_ = [json.loads(line) for line in fh if line.strip()]
+        reference = {r["name"]: (r["cost"], r.get("fallback", False)) for r in rows_ if r["cost"]}
+    rows = []
+    for sc in scenes:
+        rows.append(run_scene(sc, character, reference))
+        if args.progress:
+            print(rows[-1][:8], file=sys.stderr, flush=True)
+    print(f"Planner benchmark: {len(scenes)} generated scenes (seed {args.seed}), CMU subject-16 library "
+          f"({character.steps.n} steps)")
+    print_table(rows, scenes)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,110 @@
+"""A handful of the planner benchmark's generated scenes (benchmarks/scene_generator.py)
+with the CMU subject-16 library: paths without loops where the goal is reachable, and
+where it is not, a quick refusal that names what blocks the way (issue 15)."""
+
+import re
+import time
+
+import numpy as np
+import pytest
+
+from benchmarks.bench_planner import loops
+from benchmarks.scene_generator import benchmark_scenes, cmu_character, corridor, make_planner, stairs
+from conftest import needs_cmu
+from footstep_planner.core.navgraph import PlanError
+from footstep_planner.core.settings import Settings, SettingsError
+
+pytestmark = needs_cmu
+
+SCENES = {s.name: s for s in benchmark_scenes()}
+
+
+@pytest.fixture(scope="module")
+def character(fp):
+    return cmu_character(fp.__name__)
+
+
+def plan(scene, character, **settings):
+    pl, start, goal = make_planner(scene, character, Settings(**settings))
+    t = time.process_time()
+    return pl, pl.plan(start, goal), time.process_time() - t
+
+
+def check_path(pl, result, scene):
+    fs = result.footprints
+    assert np.linalg.norm(fs[-1].position[:2] - np.asarray(scene.goal)[:2]) <= pl.settings.goal_radius
+    assert [f.foot for f in fs[1:]] == [1 - f.foot for f in fs[:-1]]
+    assert loops(fs) == 0
+
+
+@pytest.mark.parametrize("name", ["zigzag1", "bridge_down", "clutter10"])
+def test_reachable_scenes_find_a_path_without_loops(character, name):
+    scene = SCENES[name]
+    pl, result, _ = plan(scene, character)
+    check_path(pl, result, scene)
+    if name == "zigzag1":  # the gap is jumped, from a run
+        jumps = [(a, b) for a, b in zip(result.footprints[:-1], result.footprints[1:]) if b.jump]
+        assert len(jumps) == 1 and jumps[0][0].gait == "run"
+    if name == "bridge_down":  # down from the bridge by the ramp, not through it
+        assert result.footprints[-1].position[2] == pytest.approx(0.0, abs=0.01)
+        assert max(f.position[1] for f in result.footprints) > 12.5
+
+
+def test_an_island_is_refused_quickly_saying_why(character):
+    scene = SCENES["island_far"]
+    pl, start, goal = make_planner(scene, character)
+    t = time.process_time()
+    with pytest.raises(PlanError, match="no walkable way, nor a gap a jump clip can clear.*nearest reachable "
+                                        r"point is \(1[34]\.") as err:
+        pl.plan(start, goal)
+    assert time.process_time() - t < 1.0 and err.value.expanded == 0
+    assert re.search(r"the gap beyond is 3\.0\d m wide; the library's jump reaches 1\.8\d m", str(err.value)), err.value
+
+
+@pytest.mark.parametrize("width", [1.2, 2.0, 3.0])
+def test_a_corridor_start_facing_along_it_walks_along_it(character, width):
+    scene = corridor(np.random.default_rng(7), "c", width, "along")
+    pl, result, _ = plan(scene, character)
+    check_path(pl, result, scene)
+    assert all(abs(f.position[1]) < width / 2 for f in result.footprints)
+
+
+@pytest.mark.parametrize("width", [2.0, 3.0])
+def test_a_corridor_start_facing_across_turns_where_the_turns_fit(character, width):
+    scene = corridor(np.random.default_rng(7), "c", width, "across")
+    pl, result, _ = plan(scene, character)
+    check_path(pl, result, scene)
+
+
+def test_a_corridor_too_narrow_to_turn_in_names_the_wall(character):
+    """1.2 m across: the wall is 0.6 m ahead, and the shortest step with the body's
+    clearance does not fit before it."""
+    scene = corridor(np.random.default_rng(7), "c", 1.2, "across")
+    pl, start, goal = make_planner(scene, character)
+    with pytest.raises(PlanError) as err:
+        pl.plan(start, goal)
+    msg = str(err.value)
+    assert "the start itself: no step of the library leaves it towards the goal" in msg
+    assert re.search(r"an obstacle \(a wall or an object\) at \([\d.-]+, -0\.60\)", msg), msg
+    assert "clearance (0.25 m)" in msg and "the shortest goes 0.38 m" in msg
+
+
+def test_steps_with_treads_shorter_than_the_foot_say_so(character):
+    """Three 12 cm steps with 8 cm treads: refused at once, at the foot of the steps (not
+    "the start"), saying that no footprint fits on a tread."""
+    scene = stairs(np.random.default_rng(3), "s", 0.12, 0.08, 3)
+    pl, start, goal = make_planner(scene, character)
+    t = time.process_time()
+    with pytest.raises(PlanError) as err:
+        pl.plan(start, goal)
+    assert time.process_time() - t < 1.0
+    msg = str(err.value)
+    m = re.search(r"nearest reachable point is \(([\d.-]+), ([\d.-]+)\)", msg)
+    assert m and 5.0 < float(m.group(1)) < 6.1, msg  # at the foot of the steps, 4 m from the start
+    assert "steps ahead, rising 0.12 m with treads 0.08 m deep" in msg and "on one tread" in msg, msg
+    assert "start" not in msg.split("nearest reachable point")[1]
+
+
+def test_a_negative_goal_radius_is_refused_before_any_search():
+    with pytest.raises(SettingsError, match="goal_radius"):
+        Settings(goal_radius=-1.0)
