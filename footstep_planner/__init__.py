@@ -5,10 +5,8 @@ panels and the ``footstep`` command-line verb). All the maths lives in ``core`` 
 imports bpy, so ``footstep_planner.core`` can be used and tested without Blender.
 """
 
-try:  # the core is importable without Blender; only the glue below needs bpy
-    import bpy  # noqa: F401
-except ImportError:  # pragma: no cover - plain-Python use of the core
-    bpy = None
+# (bpy is imported only by the Blender layer, when registered: the core stays importable
+# without Blender, and ``python -m footstep_planner`` loads Blender inside its own guard)
 
 
 def register():

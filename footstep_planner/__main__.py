@@ -7,9 +7,25 @@ import signal
 import sys
 
 
-def main() -> int:
+def _load_blender() -> bool:
+    """Import bpy with Ctrl-C held off (Blender swallows an interrupt while it loads its
+    scripts and is left half-made); False when a Ctrl-C came meanwhile."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         import bpy  # noqa: F401
+    finally:
+        interrupted = signal.SIGINT in signal.sigpending()
+        if interrupted:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)  # (drop the pending one)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    return not interrupted
+
+
+def main() -> int:
+    try:
+        if not _load_blender():
+            print("\nfootstep: interrupted, nothing written", file=sys.stderr)
+            return 130
     except ImportError:
         print("footstep: error: this needs Blender's Python module: pip install bpy==5.0.1",
               file=sys.stderr)

@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from importlib import import_module
 
 import pytest
@@ -185,18 +184,26 @@ def test_ctrl_c_is_exit_130_and_nothing_written(cli, capsys, shot, monkeypatch, 
 
 
 def test_ctrl_c_of_a_real_process(shot):
-    """SIGINT to ``python -m footstep_planner bake`` while it works: status 130, one line."""
-    args = [sys.executable, "-m", "footstep_planner", *bake_args(str(shot / "shot.blend"), "--out",
-                                                                 str(shot / "previous.blend"))]
+    """SIGINT to ``python -m footstep_planner bake --job`` after its first job: status 130,
+    one line, and neither the scene nor any report written."""
+    jobs = shot / "jobs.json"
+    jobs.write_text(json.dumps([{"character": CHAR, "goal": "Goal", "name": f"j{i}", "frame_start": 1 + 800 * i}
+                                for i in range(6)]))
+    args = [sys.executable, "-m", "footstep_planner", "bake", str(shot / "shot.blend"), "--job", str(jobs),
+            "--out", str(shot / "previous.blend"), "--report", str(shot / "r.json")]
     before = digest(shot)
     p = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          start_new_session=True)
-    time.sleep(0.6)
+    seen = ""
+    while "jobs 1/6" not in seen:  # (progress lines are flushed as each job ends)
+        line = p.stderr.readline()
+        assert line, "the command ended before its first job did"
+        seen += line
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=120)
     if p.returncode == 0:
-        pytest.skip("the bake finished before the signal came")
-    assert p.returncode == 130, err
+        pytest.skip("the jobs finished before the signal came")
+    assert p.returncode == 130, seen + err
     assert "Traceback" not in err and err.strip().endswith("interrupted, nothing written")
     assert digest(shot) == before
 

@@ -56,3 +56,16 @@ def test_the_facing_arrow_points_along_minus_y_turned_by_the_z_rotation():
         # the head's two strokes start at the tip and lean back either side of the shaft
         assert np.allclose(seg[2], seg[1]) and np.allclose(seg[4], seg[1])
         assert (seg[3] - seg[1]) @ shaft < 0 and (seg[5] - seg[1]) @ shaft < 0
+
+
+def test_rings_lie_flat_round_each_point():
+    from footstep_planner.core.overlay import LIFT, rings
+
+    pts = np.array([[0.0, 0.0, 0.0], [2.0, 1.0, 0.5]])
+    seg = rings(pts, radius=0.2, segments=12)
+    assert seg.shape == (2 * 12 * 2, 3)
+    for k, p in enumerate(pts):
+        mine = seg[k * 24:(k + 1) * 24]
+        assert np.allclose(np.linalg.norm(mine[:, :2] - p[:2], axis=1), 0.2)
+        assert np.allclose(mine[:, 2], p[2] + LIFT)
+    assert rings(np.zeros((0, 3))).shape == (0, 3)

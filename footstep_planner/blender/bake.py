@@ -281,6 +281,17 @@ class _Keys:
             points.foreach_set("interpolation", np.full(n, self.lin, np.int32))
             kp.update()
 
+    def constant(self, path: str, values, group: str) -> None:
+        """Key ``values`` (K,) on ``path`` once, at the first frame: held throughout, so the
+        channel plays the same whatever value the pose had before (no leftover state)."""
+        values = np.asarray(values, float).ravel()
+        for i, v in enumerate(values):
+            fc = self.cbag.fcurves.new(path, index=i, group_name=group)
+            fc.keyframe_points.add(1)
+            fc.keyframe_points[0].co = (float(self.frames[0]), float(v))
+            fc.keyframe_points[0].interpolation = "CONSTANT"
+            fc.update()
+
 
 def _new_action(ob, name: str, rest: list[float], body_on: str, frames: np.ndarray):
     """A new slotted Action of the planner's for ``ob``: (action, slot, key writer)."""
@@ -328,6 +339,9 @@ def _key_bones(keys: _Keys, ob, basis: np.ndarray) -> None:
         _key_rotation(keys, path, q[:, b], pb.rotation_mode, pb.name, [0.0, 1.0, 0.0])
         if moved[b]:
             keys(f"{path}location", basis[:, b, :3, 3], pb.name)
+        else:
+            keys.constant(f"{path}location", np.zeros(3), pb.name)
+        keys.constant(f"{path}scale", np.ones(3), pb.name)
 
 
 def _key_rigify_controls(ob, rig: Rig, act, slot, frames: np.ndarray, res: IKResult, spin: float,

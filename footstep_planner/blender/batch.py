@@ -13,6 +13,7 @@ import traceback
 from dataclasses import dataclass
 
 import bpy
+import numpy as np
 
 from ..core.errors import FootstepError
 from ..core.files import Outputs, describe_os_error
@@ -46,6 +47,9 @@ def scene_problems(scene, job: dict) -> list[str]:
     for key in ("goal", "start"):
         if job.get(key) and scene.objects.get(job[key]) is None:
             problems.append(f"no object named {job[key]!r} for the {key}")
+    for name in job.get("via") or ():
+        if scene.objects.get(name) is None:
+            problems.append(f"no object named {name!r} for a waypoint")
     return problems
 
 
@@ -101,8 +105,11 @@ def _heading(job: dict):
     return None if value is None else math.radians(float(value))
 
 
-def bake_job(scene, job: dict, common: dict, settings: Settings) -> dict:
-    """Bake one checked job into ``scene``; returns its report."""
+def bake_job(scene, job: dict, common: dict, settings: Settings, plan=None) -> dict:
+    """Bake one checked job into ``scene``; returns its report. Through the job's ``via``
+    waypoints (object names) in order, or along ``plan`` (a ``core.plan_file.PlanFile``:
+    its locked and moved footprints kept, only what changed re-planned and, over an
+    earlier bake of that plan, re-keyed)."""
     from . import planning
 
     ob = bpy.data.objects[job["character"]]
@@ -110,11 +117,46 @@ def bake_job(scene, job: dict, common: dict, settings: Settings) -> dict:
     if job.get("goal_heading") is not None:
         heading = _heading(job)
     start = scene.objects.get(job["start"]) if job.get("start") else None
-    return planning.run(scene, ob, position, heading, start, settings.replace(**job.get("settings", {})),
-                        common.get("traversable", ()), common.get("obstacles", ()), name=job.get("name"),
-                        frame_start=job.get("frame_start"), markers=bool(common.get("markers")),
-                        body_on=str(job.get("body_on") or common.get("body_on") or "object").upper(),
-                        frame_range=not common.get("keep_frame_range"))
+    route, splice = _route(scene, job, plan, ob, position, heading)
+    if plan is not None and job.get("goal") is None and plan.goal is not None:
+        position = plan.goal
+    doc = planning.run(scene, ob, position, heading, start, settings.replace(**job.get("settings", {})),
+                       common.get("traversable", ()), common.get("obstacles", ()), name=job.get("name"),
+                       frame_start=job.get("frame_start"), markers=bool(common.get("markers")),
+                       body_on=str(job.get("body_on") or common.get("body_on") or "object").upper(),
+                       frame_range=not common.get("keep_frame_range"), route=route, splice=splice)
+    _route_report(doc, route, splice, job)
+    return doc
+
+
+def _route(scene, job: dict, plan, ob, position, heading):
+    """(route, splice) for ``planning.run``: waypoints, an edited plan, or (None, None)."""
+    from . import directing
+
+    if plan is not None:
+        route = directing.EditedRoute(plan)
+        return route, directing.Splice.of(ob, route)
+    if job.get("via"):
+        wps = directing.waypoints_of(scene, job["via"])
+        return directing.ViaRoute(wps + [(job.get("goal") or "the goal", position, heading)]), None
+    return None, None
+
+
+def _route_report(doc: dict, route, splice, job: dict) -> None:
+    """What a route adds to the report: each waypoint's footprint and frame, or the
+    re-planned spans and the frames re-keyed."""
+    from . import directing
+
+    if isinstance(route, directing.ViaRoute):
+        names = [w[0] for w in route.waypoints]
+        planned = np.array([f["planned"] for f in doc["synthesis"]["footprints"]], float)
+        at = [int(np.argmin(np.linalg.norm(planned - np.round(p, 4), axis=1))) for p in route.arrivals]
+        doc["waypoints"] = [{"name": n, "footprint": i, "frame": doc["footprints"][i]["frame"],
+                             "position": doc["synthesis"]["footprints"][i]["planned"]} for n, i in zip(names, at)]
+    elif isinstance(route, directing.EditedRoute) and route.edited is not None:
+        doc["replanned"] = [list(s) for s in route.edited.spans]
+        if splice is not None and splice.span is not None:
+            doc["rebaked_frames"] = list(splice.span.changed())
 
 
 def _failure(ex: BaseException) -> str:

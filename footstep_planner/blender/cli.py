@@ -28,7 +28,7 @@ import numpy as np
 
 from ..core.errors import FootstepError
 from ..core.files import Outputs, describe_os_error
-from ..core.jobs import MAX_FRAME, JobOutcome, exit_status, read_jobs, summary_table
+from ..core.jobs import MAX_FRAME, JobOutcome, exit_status, is_text, read_jobs, summary_table
 from ..core.report import plan_report
 from ..core.settings import Settings
 from ..core.tables import format_bake, format_demo_plan, format_library, format_plan, format_table
@@ -70,6 +70,7 @@ def _typed(convert, what: str, ok, why: str):
 
 
 _finite = _typed(float, "a number", math.isfinite, "not a finite number")
+_text = _typed(str, "text", is_text, "not valid text (undecodable bytes?)")
 _positive = _typed(float, "a number", lambda v: math.isfinite(v) and v > 0, "must be a finite number above 0")
 _frame = _typed(int, "a whole frame number", lambda v: abs(v) <= MAX_FRAME,
                 f"beyond Blender's timeline (±{MAX_FRAME})")
@@ -86,16 +87,19 @@ def _scene_options(character_required: bool) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(add_help=False)
     p.add_argument("blend", nargs="?", metavar="SCENE.blend",
                    help="the scene (default: the file Blender has open)")
-    p.add_argument("--character", required=character_required, metavar="ARMATURE")
-    p.add_argument("--goal", metavar="OBJECT", help="walk to this object (default: the 3D cursor)")
+    p.add_argument("--character", type=_text, required=character_required, metavar="ARMATURE")
+    p.add_argument("--goal", type=_text, metavar="OBJECT", help="walk to this object (default: the 3D cursor)")
     p.add_argument("--goal-heading", type=_finite, metavar="DEG",
                    help="arrive facing this way: the Z rotation in degrees of an empty facing that "
                         "way (empties face their -Y axis: 0 faces -Y, 90 faces +X); default: the "
                         "goal empty's own")
-    p.add_argument("--start", metavar="OBJECT",
+    p.add_argument("--start", type=_text, metavar="OBJECT",
                    help="start standing at this object instead of where the feet are now")
-    p.add_argument("--traversable", default="", metavar="NAME,...", help="tag these objects traversable for this run")
-    p.add_argument("--obstacles", default="", metavar="NAME,...", help="tag these objects obstacles for this run")
+    p.add_argument("--via", type=_text, default="", metavar="NAME,...",
+                   help="pass through these objects in order on the way to the goal (an empty you "
+                        "turned: facing its way; else facing the next; a curve object: each of its points)")
+    p.add_argument("--traversable", type=_text, default="", metavar="NAME,...", help="tag these objects traversable for this run")
+    p.add_argument("--obstacles", type=_text, default="", metavar="NAME,...", help="tag these objects obstacles for this run")
     _set_option(p)
     return p
 
@@ -113,8 +117,8 @@ def _add_import_clips(sub) -> None:
     p.add_argument("--out", required=True, metavar="LIB.blend", help="file to save")
     p.add_argument("--blend", metavar="IN.blend", help="start from this file (default: the "
                    "file Blender has open, or an empty scene)")
-    p.add_argument("--into", metavar="ARMATURE", help="add the clips to this armature")
-    p.add_argument("--name", help="name of a new armature (default: the first file's name)")
+    p.add_argument("--into", type=_text, metavar="ARMATURE", help="add the clips to this armature")
+    p.add_argument("--name", type=_text, help="name of a new armature (default: the first file's name)")
     p.add_argument("--fps", type=_positive, help="scene frame rate to key at (default: the "
                    "scene's; an empty scene takes the first file's rate)")
     p.add_argument("--scale", type=_positive, help="metres per BVH unit (default: guessed; FBX "
@@ -129,7 +133,7 @@ def _add_analyze(sub) -> None:
     p.set_defaults(run=_analyze)
     p.add_argument("inputs", nargs="*", metavar="CLIP.bvh|LIB.blend",
                    help="BVH files, or one .blend (default: the file Blender has open)")
-    p.add_argument("--character", metavar="ARMATURE", help="only this armature's clips")
+    p.add_argument("--character", type=_text, metavar="ARMATURE", help="only this armature's clips")
     p.add_argument("--clip", action="append", metavar="NAME", help="only these clips (repeatable)")
     p.add_argument("--fps", type=_positive, help="sample the clips at this rate (default: the "
                    "scene's; for BVH input, the first file's rate)")
@@ -149,6 +153,8 @@ def _add_plan(sub) -> None:
     p.add_argument("--json", action="store_true", help="print JSON: the footprints, the search, "
                    "and the synthesis (per frame: body, clip weights and times, tau and s curves)")
     p.add_argument("--report", metavar="REPORT.json", help="also write that JSON to this file")
+    p.add_argument("--out-plan", metavar="PLAN.json", help="write the plan's footprints as data, to edit "
+                   "(move, lock) and bake with: bake --plan PLAN.json")
 
 
 def _add_bake(sub) -> None:
@@ -167,7 +173,7 @@ def _add_bake(sub) -> None:
                     "run and the exit status is the number of jobs that failed. Files are written "
                     "only when complete, and never over an input.")
     p.set_defaults(run=_bake)
-    p.add_argument("--name", help="name of the bake (track and action; default: character to goal)")
+    p.add_argument("--name", type=_text, help="name of the bake (track and action; default: character to goal)")
     p.add_argument("--frame-start", type=_frame, metavar="FRAME")
     p.add_argument("--markers", action="store_true", help="add a timeline marker at each footstep")
     p.add_argument("--body-on", choices=("object", "root"), default="object",
@@ -175,6 +181,9 @@ def _add_bake(sub) -> None:
     p.add_argument("--keep-frame-range", action="store_true",
                    help="leave the scene's frame range as it is (by default it grows to cover the bake)")
     p.add_argument("--job", metavar="JOBS.json", help="several jobs, run one after another")
+    p.add_argument("--plan", metavar="PLAN.json", help="bake this plan (from plan --out-plan, maybe edited): "
+                   "its locked and moved footprints are kept, the way around what changed is searched "
+                   "again, and over an earlier bake of the plan only that span is re-keyed")
     p.add_argument("--ray", metavar="ADDRESS", help="run the --job list as Ray tasks, each job in a "
                    "worker process of its own on a copy of the scene: 'local' (a local instance), "
                    "'auto' (the running cluster) or a cluster's address; each job's scene is saved "
@@ -382,7 +391,7 @@ def _import_clips(args) -> int:
 
     for path in args.clips:
         check_input(path, "clip file")
-    with Outputs(args.clips + [args.blend]) as outs:
+    with Outputs(args.clips + [args.blend or bpy.data.filepath]) as outs:
         out = claim_blend(outs, args.out, "--out library")
         if args.blend:
             open_blend(args.blend)
@@ -407,7 +416,7 @@ def _analyze(args) -> int:
     from .character import analyze_character, library_for
 
     settings = settings_from_args(args.set)
-    with Outputs(args.inputs) as outs:
+    with Outputs(args.inputs + [bpy.data.filepath]) as outs:
         if args.plot:
             outs.claim(os.path.join(args.plot, ".footstep-plots"), "--plot folder")
         characters, from_bvh = _characters_to_analyze(args)
@@ -456,26 +465,42 @@ def _print_analyses(args, out, failed, from_bvh) -> None:
 def _plan(args) -> int:
     from . import planning
 
-    with Outputs([args.blend]) as outs:
+    with Outputs([args.blend or bpy.data.filepath]) as outs:
         report = outs.claim(args.report, "--report") if args.report else None
+        out_plan = outs.claim(args.out_plan, "--out-plan") if args.out_plan else None
         settings = settings_from_args(args.set)
         if args.blend:
             open_blend(args.blend)
         scene = bpy.context.scene
         ob = find_armature(args.character)
         goal, heading, start = _goal_and_start(scene, args.goal, args.goal_heading, args.start)
+        route = _via_route(scene, args, goal, heading)
         planned = planning.plan_and_synthesize(scene, ob, goal, heading, start, settings,
-                                               _names(args.traversable), _names(args.obstacles))
+                                               _names(args.traversable), _names(args.obstacles), route)
         result, syn = planned.result, planned.synthesis
         doc = plan_report(result, syn, ob.name, goal, scene.frame_current)
         if report:
             outs.write_json(report, doc)
+        if out_plan:
+            from .directing import plan_document
+
+            outs.write_json(out_plan, plan_document(ob, planned, goal))
         outs.commit()
     if args.json:
         say(json.dumps(doc))
     else:
         say(format_plan(ob.name, goal, result, syn, scene.frame_current, scene_fps(scene), doc["stages"]))
     return 0
+
+
+def _via_route(scene, args, goal, heading):
+    """The route through ``--via``'s waypoints (then the goal), or None."""
+    names = _names(args.via)
+    if not names:
+        return None
+    from .directing import ViaRoute, waypoints_of
+
+    return ViaRoute(waypoints_of(scene, names) + [(args.goal or "the goal", goal, heading)])
 
 
 def _common(args, names: bool = False) -> dict:
@@ -491,10 +516,13 @@ def _common(args, names: bool = False) -> dict:
 def _bake(args) -> int:
     if args.ray and not args.job:
         raise CliError("--ray runs a job list: give --job JOBS.json")
-    if not args.job and not args.character:
-        raise CliError("bake needs --character (or --job JOBS.json)")
-    with Outputs([args.blend, args.job]) as outs:
+    if args.plan and args.job:
+        raise CliError("--plan bakes one plan: give it without --job")
+    if not args.job and not args.character and not args.plan:
+        raise CliError("bake needs --character (or --job JOBS.json, or --plan PLAN.json)")
+    with Outputs([args.blend or bpy.data.filepath, args.job, args.plan]) as outs:
         out = claim_blend(outs, args.out, "--out scene")
+        plan = _read_plan(args.plan) if args.plan else None
         raw = read_jobs(_read_text(args.job, "job list"), args.job) if args.job else None
         settings = settings_from_args(args.set)
         if args.blend:
@@ -502,12 +530,13 @@ def _bake(args) -> int:
         if raw is not None:
             return _bake_jobs(args, raw, settings, outs, out)
         report = outs.claim(args.report, "--report") if args.report else None
-        job = {"character": args.character, "goal": args.goal, "start": args.start, "name": args.name,
-               "frame_start": args.frame_start, "goal_heading": args.goal_heading, "body_on": args.body_on}
+        job = {"character": args.character or (plan.character if plan else None), "goal": args.goal,
+               "start": args.start, "name": args.name, "frame_start": args.frame_start,
+               "goal_heading": args.goal_heading, "body_on": args.body_on, "via": _names(args.via)}
         problems = batch.scene_problems(bpy.context.scene, job)
         if problems:
             raise CliError(problems[0])
-        doc = batch.bake_job(bpy.context.scene, job, _common(args, names=True), settings)
+        doc = batch.bake_job(bpy.context.scene, job, _common(args, names=True), settings, plan)
         if report:
             outs.write_json(report, doc)
         if out:
@@ -517,6 +546,12 @@ def _bake(args) -> int:
     if out:
         say(f"saved {out}")
     return 0
+
+
+def _read_plan(path: str):
+    from ..core.plan_file import read_plan
+
+    return read_plan(_read_text(path, "plan"), path)
 
 
 def _job_paths(args, outs: Outputs, n: int, job: dict, many: bool) -> tuple[str | None, str | None]:
@@ -586,28 +621,42 @@ def _on_ray(args, jobs: list, outs: Outputs, tell) -> list:
                       progress=tell)
 
 
+#: the pictures ``plot`` draws, by suffix (``core.plots.plot_synthesis``)
+PLOTS = ("tau", "speed", "path")
+
+
 def _plot(args) -> int:
     from ..core.plots import plot_synthesis
 
+    name = args.name or os.path.splitext(os.path.basename(args.report))[0]
     with Outputs([args.report]) as outs:
-        outs.claim(os.path.join(args.out, ".footstep-plots"), "--out folder")
-        try:
-            doc = json.loads(_read_text(args.report, "plan report"))
-        except ValueError as ex:
-            raise CliError(f"cannot read the plan report {args.report!r}: {ex}") from None
-        if not isinstance(doc, dict) or "synthesis" not in doc:
-            raise CliError(f"{args.report!r} is not a plan report (no \"synthesis\" section): make it "
-                           "with: footstep plan ... --report REPORT.json")
-        name = args.name or os.path.splitext(os.path.basename(args.report))[0]
+        finals = [outs.claim(os.path.join(args.out, f"{name}_{k}.png"), f"{k} plot") for k in PLOTS]
+        doc = _plan_report(args.report)
         scratch = outs.scratch(args.out)
-        finals = []
-        for made in plot_synthesis(doc, scratch, name):
-            finals.append(os.path.join(args.out, os.path.basename(made)))
-            outs.adopt(made, finals[-1])
+        try:
+            made = plot_synthesis(doc, scratch, name)
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError, RecursionError) as ex:
+            raise CliError(f"{args.report!r} is not a plan report this version can draw: its synthesis lacks "
+                           f"or garbles {ex} ({type(ex).__name__}); make it with: footstep plan ... --report "
+                           "REPORT.json") from None
+        for m in made:
+            outs.adopt(m, os.path.join(os.path.dirname(finals[0]), os.path.basename(m)))
         outs.commit()
-    for path in finals:
+    for path in outs.committed:
         say(path)
     return 0
+
+
+def _plan_report(path: str) -> dict:
+    """A plan report's document, checked for its synthesis section."""
+    try:
+        doc = json.loads(_read_text(path, "plan report"))
+    except (ValueError, RecursionError) as ex:
+        raise CliError(f"cannot read the plan report {path!r}: {str(ex)[:200]}") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("synthesis"), dict):
+        raise CliError(f"{path!r} is not a plan report (no \"synthesis\" section): make it "
+                       "with: footstep plan ... --report REPORT.json")
+    return doc
 
 
 def _demo(args) -> int:

@@ -67,7 +67,8 @@ def make_handles(scene, ob, footprints: list[PathFootprint], forward, goal=None,
     coll[OWNED] = ob.name
     nan = float("nan")
     g = list(np.asarray(goal, float)) if goal is not None else [nan] * 3
-    coll[META] = [*map(float, forward), *map(float, g), nan if goal_heading is None else float(goal_heading)]
+    f3 = [float(forward[0]), float(forward[1]), 0.0]  # (the planner's forward is (x, y))
+    coll[META] = [*f3, *map(float, g), nan if goal_heading is None else float(goal_heading)]
     scene.collection.children.link(coll)
     locked = np.zeros(len(footprints), bool) if locked is None else np.asarray(locked, bool)
     return [_handle(coll, ob, i, f, forward, bool(lk)) for i, (f, lk) in enumerate(zip(footprints, locked))]
@@ -123,7 +124,8 @@ def read_plan(ob) -> tuple[PlanFile, np.ndarray]:
         touched.append(moved)
     goal = np.array(meta[3:6], float) if meta and np.isfinite(meta[3]) else None
     gh = float(meta[6]) if meta and np.isfinite(meta[6]) else None
-    return PlanFile(ob.name, forward, fps, np.array(locked, bool), goal, gh), np.array(touched, bool)
+    touched = np.array(touched, bool)
+    return PlanFile(ob.name, forward, fps, np.array(locked, bool), goal, gh, touched), touched
 
 
 def set_locked(objs, state: bool) -> int:

@@ -127,11 +127,18 @@ class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
         ob = character(context)
         try:
             goal, heading = _goal(context)
-            planned = planning.plan_and_synthesize(context.scene, ob, goal, heading, fs.start, _settings(context))
+            planned = planning.plan_and_synthesize(context.scene, ob, goal, heading, fs.start, _settings(context),
+                                                   route=_via(context, goal, heading))
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
         result, syn = planned.result, planned.synthesis
+        if fs.edit_footprints:
+            from . import handles
+
+            handles.make_handles(context.scene, ob, result.footprints, planned.setup.forward, goal,
+                                 planned.goal_heading)
+        fs.edit_problem = ""
         doc = plan_report(result, syn, ob.name, goal, context.scene.frame_current, synthesis=False)
         fs.plan_json = json.dumps(doc)
         st = doc["stages"]
@@ -148,6 +155,22 @@ def _goal(context):
 
     fs = context.scene.footstep
     return planning.goal_of(context.scene, fs.goal.name if fs.goal else None)
+
+
+def _via(context, goal, heading):
+    """The route through the panel's Waypoints collection (objects in name order), or None;
+    the overlay rings the waypoints."""
+    from . import overlay
+    from .directing import ViaRoute, waypoints_of
+
+    coll = context.scene.footstep.waypoints
+    names = sorted(o.name for o in coll.all_objects) if coll is not None else []
+    wps = waypoints_of(context.scene, names) if names else []
+    overlay.mark(context.scene, waypoints=np.array([w[1] for w in wps], float).reshape(-1, 3))
+    if not wps:
+        return None
+    return ViaRoute(wps + [(context.scene.footstep.goal.name if context.scene.footstep.goal else "the 3D cursor",
+                            goal, heading)])
 
 
 class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
@@ -204,7 +227,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
         goal, heading = _goal(context)
         return planning.run_steps(context.scene, character(context), goal, heading, fs.start,
                                   _settings(context), markers=self.markers, body_on=fs.body_on,
-                                  frame_range=fs.grow_frame_range)
+                                  frame_range=fs.grow_frame_range, route=_via(context, goal, heading))
 
     def _finish(self, context, doc):
         import json
@@ -218,6 +241,8 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
                           f"{q['goal']['distance_m'] * 100:.1f} cm; synthesis {st['synthesis_ms']:.0f} ms, "
                           f"IK {st['ik_ms']:.0f} ms, bake {st['bake_ms']:.0f} ms")
         self.report({"INFO"}, fs.last_report)
+        if fs.edit_footprints:
+            _handles_of_last_plan(context)
         stashed = doc.get("stashed_action")
         if stashed:
             self.report({"INFO"}, f"the character's active action {stashed!r} is stashed in a muted NLA track "
@@ -276,6 +301,79 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
             return {"CANCELLED"}
 
 
+def _handles_of_last_plan(context) -> None:
+    """Footprint handles for the path the last plan or bake of this scene made."""
+    from . import handles
+    from .overlay import LAST
+
+    from .planning import rotation_heading
+
+    last = LAST.get(context.scene.name)
+    if last and last.get("path"):
+        goal, heading = _goal(context)
+        heading = None if heading is None else rotation_heading(heading, last["forward"])
+        handles.make_handles(context.scene, character(context), last["path"], last["forward"], goal, heading)
+
+
+def _show_refused(context, ex) -> None:
+    """Ring in the warning colour the footprint an edit put where it can't be."""
+    from . import handles, overlay
+
+    i = getattr(ex, "footprint", None)
+    hs = handles.handles(character(context))
+    if i is not None and i < len(hs):
+        overlay.mark(context.scene, refused=[np.array(hs[i].matrix_world.translation)])
+
+
+class FOOTSTEP_OT_lock_footprints(_OnCharacter, bpy.types.Operator):
+    """Lock the selected footprints (a re-plan keeps them where they are), or unlock them"""
+
+    bl_idname = "footstep.lock_footprints"
+    bl_label = "Lock Footprints"
+    bl_options = {"REGISTER", "UNDO"}
+
+    lock: BoolProperty(name="Lock", default=True)
+
+    def execute(self, context):
+        from . import handles
+
+        n = handles.set_locked(context.selected_objects, self.lock)
+        if not n:
+            self.report({"WARNING"}, "select footprint handles (the empties in 'Footprints: ...') first")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{'locked' if self.lock else 'unlocked'} {n} footprint(s)")
+        return {"FINISHED"}
+
+
+class FOOTSTEP_OT_replan(_OnCharacter, bpy.types.Operator):
+    """Re-plan around the footprints you moved (they stay where you put them, as do the
+    locked ones) and re-bake: only the re-planned span is re-keyed"""
+
+    bl_idname = "footstep.replan"
+    bl_label = "Re-plan"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from . import directing
+
+        fs = context.scene.footstep
+        try:
+            doc, route, splice = directing.rebake_handles(context.scene, character(context), _settings(context),
+                                                          body_on=fs.body_on, frame_range=fs.grow_frame_range)
+        except FootstepError as ex:
+            fs.edit_problem = str(ex)
+            _show_refused(context, ex)
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        fs.edit_problem = ""
+        span = doc.get("rebaked_frames")
+        fs.last_report = (f"re-planned {len(route.edited.spans)} span(s); "
+                          + (f"re-keyed frames {span[0]}-{span[1]} only; " if span else "baked the whole path; ")
+                          + f"skate {doc['quality']['foot_skate']['max_mm']:.1f} mm max")
+        self.report({"INFO"}, fs.last_report)
+        return {"FINISHED"}
+
+
 class FOOTSTEP_OT_clear(_OnCharacter, bpy.types.Operator):
     """Remove the planner's own bake from the character (its NLA track, action and
     markers); nothing of yours is touched"""
@@ -286,14 +384,16 @@ class FOOTSTEP_OT_clear(_OnCharacter, bpy.types.Operator):
 
     def execute(self, context):
         from .bake import clear
+        from .handles import clear_handles
 
         n = clear(character(context), context.scene)
+        clear_handles(character(context))
         self.report({"INFO"}, f"removed {n} planner track(s)" if n else "nothing of the planner's to remove")
         return {"FINISHED"}
 
 
 CLASSES = (FOOTSTEP_OT_import_clips, FOOTSTEP_OT_analyze_clips, FOOTSTEP_OT_plan, FOOTSTEP_OT_build_graph,
-           FOOTSTEP_OT_bake, FOOTSTEP_OT_clear)
+           FOOTSTEP_OT_bake, FOOTSTEP_OT_lock_footprints, FOOTSTEP_OT_replan, FOOTSTEP_OT_clear)
 
 
 def _menu_import(self, context):

@@ -22,6 +22,7 @@ def remember(scene, path, positions, headings, forward, foot, body=None, sampled
         "triangles": tri.astype(np.float32), "colours": col.astype(np.float32),
         "body": geo.polyline_segments(body).astype(np.float32) if body is not None else np.zeros((0, 3), np.float32),
         "sampled": geo.crosses(sampled).astype(np.float32) if sampled is not None else np.zeros((0, 3), np.float32),
+        "path": list(path), "forward": np.asarray(forward, float),  # (for the footprint handles)
     }
     _redraw()
 
@@ -55,12 +56,40 @@ def _draw():
         if len(data[key]):
             sh.uniform_float("color", colour)
             batch_for_shader(sh, "LINES", {"pos": data[key]}).draw(sh)
+    for points, colour in _marks(scene, data):
+        sh.uniform_float("color", colour)
+        batch_for_shader(sh, "LINES", {"pos": points}).draw(sh)
     arrows = _facing_arrows(scene, fs)
     if len(arrows):
         sh.uniform_float("color", geo.MARKER)
         batch_for_shader(sh, "LINES", {"pos": arrows}).draw(sh)
     gpu.state.depth_test_set("NONE")
     gpu.state.blend_set("NONE")
+
+
+def mark(scene, **points) -> None:
+    """Points to ring in the overlay until the next plan: ``replanned`` (the footprints the
+    last re-plan made), ``waypoints``, ``refused`` (footprints an edit put where they
+    can't be)."""
+    data = LAST.setdefault(scene.name, {})
+    for key, value in points.items():
+        data[key] = np.asarray(value, float).reshape(-1, 3)
+    _redraw()
+
+
+def _marks(scene, data) -> list:
+    """(segments, colour) of the rings: locked and moved handles, the last re-plan's
+    footprints, waypoints and refused footprints."""
+    from . import handles
+
+    locked = [np.array(h.matrix_world.translation) for ob in scene.objects if ob.type == "ARMATURE"
+              for h in handles.handles(ob) if h.get(handles.LOCKED)]
+    out = [(geo.rings(locked, 0.13), geo.LOCKED)]
+    for key, colour, radius in (("replanned", geo.REPLANNED, 0.17), ("waypoints", geo.WAYPOINT, 0.35),
+                                ("refused", geo.WARNING, 0.2)):
+        if len(data.get(key, ())):
+            out.append((geo.rings(data[key], radius), colour))
+    return [(seg.astype(np.float32), c) for seg, c in out if len(seg)]
 
 
 def _facing_arrows(scene, fs) -> np.ndarray:

@@ -43,6 +43,7 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
         box.label(text="Plan", icon="TRACKING")
         box.prop(fs, "goal")
         box.prop(fs, "start")
+        box.prop(fs, "waypoints")
         row = box.row(align=True)
         row.operator("footstep.build_graph", icon="OUTLINER_DATA_LIGHTPROBE")
         row.operator("footstep.plan", icon="TRACKING_FORWARDS")
@@ -51,6 +52,7 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
         row = box.row(align=True)
         row.operator("footstep.bake", icon="REC")
         row.operator("footstep.clear", icon="TRASH")
+        _draw_footprint_edit(box, fs)
         row = box.row(align=True)
         row.prop(fs, "show_overlay")
         row.prop(fs, "show_sampled")
@@ -67,6 +69,22 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
             for name in fs.settings.bl_rna.properties.keys():
                 if name not in {"rna_type", "name"}:
                     col.prop(fs.settings, name)
+
+
+def _draw_footprint_edit(layout, fs) -> None:
+    """Editable footprints: lock, unlock, re-plan; why an edit can't be honoured."""
+    layout.prop(fs, "edit_footprints")
+    if not fs.edit_footprints:
+        return
+    row = layout.row(align=True)
+    row.operator("footstep.lock_footprints", text="Lock", icon="LOCKED").lock = True
+    row.operator("footstep.lock_footprints", text="Unlock", icon="UNLOCKED").lock = False
+    row.operator("footstep.replan", icon="FILE_REFRESH")
+    if fs.edit_problem:
+        col = layout.column(align=True)
+        col.alert = True
+        for line in _wrap(fs.edit_problem, 60):
+            col.label(text=line, icon="ERROR" if line is fs.edit_problem else "NONE")
 
 
 def _wrap(text: str, width: int) -> list[str]:

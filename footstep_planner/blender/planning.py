@@ -181,14 +181,17 @@ def goal_of(scene, name: str | None):
 
 
 def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
-         traversable=(), obstacles=()) -> tuple[PlanResult, PlanSetup]:
+         traversable=(), obstacles=(), route=None) -> tuple[PlanResult, PlanSetup]:
     """The footprints from the start (``start_marker``, else where the character stands) to
     ``goal``, arriving facing ``goal_heading`` (a Z rotation, rad, see ``FACING``) when
-    one is given."""
+    one is given; or, with ``route``, ``route(setup, start footprints, goal heading in the
+    planner's frame)``'s (an edited plan, a way through waypoints)."""
     setup = plan_setup(scene, ob, settings, traversable, obstacles)
     start = marker_footprints(start_marker, setup) if start_marker is not None else character_footprints(ob, setup)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     setup.start = start
+    if route is not None:
+        return route(setup, start, heading), setup
     return setup.planner.plan(start, goal, heading), setup
 
 
@@ -220,12 +223,12 @@ class Planned:
 
 
 def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
-                        traversable=(), obstacles=()) -> Planned:
+                        traversable=(), obstacles=(), route=None) -> Planned:
     """Plan the footprints to ``goal`` and synthesize the motion along them; the overlay
     shows the result."""
     from . import overlay
 
-    result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles)
+    result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles, route)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)
     result = replace(result, footprints=list(syn.plan))  # with both standing feet at either end
@@ -309,13 +312,15 @@ def solve(planned: Planned, settings: Settings) -> Solved:
 
 
 def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal, goal_heading, fps: float,
-            body_on: str = "OBJECT") -> dict:
+            body_on: str = "OBJECT", planted=None, frames: int | None = None) -> dict:
     """The quality of the scene as Blender plays it (``bake.evaluate_played``: the bake
     with every other track and the active action as they are), measured by
-    ``core.report.measure_bake``."""
+    ``core.report.measure_bake``; ``planted`` and ``frames`` when the bake's timing is
+    not the synthesis's (a re-bake's splice)."""
     from . import bake as baking
 
-    setup, syn, frames = planned.setup, planned.synthesis, solved.ik.frames
+    setup, syn = planned.setup, planned.synthesis
+    frames = solved.ik.frames if frames is None else frames
     root = None
     if body_on == "ROOT":  # (a Rigify rig's torso carries the body: its hips stand for it)
         from . import rigify
@@ -324,7 +329,8 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
     world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, setup.rig, frame_start, frames, root)
     sched = syn.final.schedule
     walk = _walk_motion(setup)
-    stances = report.planted_stances(sched.feet, syn.planted(), *syn.footprints, fps, frames)
+    stances = report.planted_stances(sched.feet, syn.planted() if planted is None else planted, *syn.footprints,
+                                     fps, frames)
     allowance = report.source_steps(syn.tracks, sched.clips, sched.weights, fps)
     return report.measure_bake(world, bone_rot, body_pos, body_yaw - solved.spin,
                                [setup.rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local,
@@ -333,12 +339,13 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
 
 def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
         obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
-        progress=None, body_on: str = "OBJECT", frame_range: bool = True) -> dict:
+        progress=None, body_on: str = "OBJECT", frame_range: bool = True, route=None, splice=None) -> dict:
     """Plan, synthesize, IK and bake ``ob`` walking to ``goal``; returns the report
     (plan, stage times in the layout of thesis Table 4.1, quality of the baked result).
-    ``progress(fraction, stage)`` is called between stages."""
+    ``progress(fraction, stage)`` is called between stages; ``route`` and ``splice`` as
+    for ``run_steps``."""
     steps = run_steps(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
-                      name, frame_start, markers, body_on, frame_range)
+                      name, frame_start, markers, body_on, frame_range, route, splice)
     while True:
         try:
             fraction, stage = next(steps)
@@ -350,20 +357,30 @@ def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, tr
 
 def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
               obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
-              body_on: str = "OBJECT", frame_range: bool = True):
+              body_on: str = "OBJECT", frame_range: bool = True, route=None, splice=None):
     """``run`` one stage at a time: a generator yielding (fraction done, next stage) and
     returning the report. Nothing in the scene changes before the last stage (the bake),
-    so a caller may stop it at any yield and leave the scene as it was."""
+    so a caller may stop it at any yield and leave the scene as it was. ``route``
+    replaces the search (see ``plan``). A re-bake's ``splice`` (``directing.Splice``)
+    gets ``splice.before_ik(planned)`` (it may pin footprints) and
+    ``splice.after_bake(action, track, planted, frames, frame_start, fps)``: it may change
+    the baked keys before they are measured and returns the timing they then have
+    ((strike, stance, liftoff) s per footprint from ``frame_start``, and the number of
+    frames). Every bake records its footprints and their frames (``rebake.record``)."""
     from . import bake as baking
+    from . import rebake
 
     settings = settings or Settings()
     fps = scene_fps(scene)
     name = name or f"{ob.name} to goal"
     frame_start = int(scene.frame_current if frame_start is None else frame_start)
     yield 0.0, "planning"
-    planned = plan_and_synthesize(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles)
+    planned = plan_and_synthesize(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
+                                  route)
     result, syn = planned.result, planned.synthesis
     yield 0.5, "inverse kinematics"
+    if splice is not None:
+        splice.before_ik(planned)
     solved = solve(planned, settings)
     yield 0.7, "bake"
     timer = StageTimer()
@@ -371,13 +388,17 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
         act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
                                  result.footprints, syn.planted(), markers, body_on, frame_range,
                                  rigify_ik_feet=settings.rigify_ik_feet)
+    planted, frames = syn.planted(), solved.ik.frames
+    if splice is not None:
+        planted, frames = splice.after_bake(act, track, planted, frames, frame_start, fps)
+    rebake.record(act, planted, syn.footprints, frame_start, fps)
     yield 0.85, "quality"
-    qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on)
+    qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted, frames)
     stages = stage_row(len(result.footprints), result.seconds, syn, pose_blend=solved.pose_seconds,
                        ik=solved.ik_seconds, bake=timer.seconds["bake"])
     doc = report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,
-                             frame_start=frame_start, frames=solved.ik.frames, fps=fps, action=act.name,
-                             track=track.name, stages=stages, quality=qual)
+                             frame_start=frame_start, frames=frames, fps=fps, action=act.name,
+                             track=track.name, stages=stages, quality=qual, planted=planted)
     doc["stashed_action"] = act.get(baking.STASH_PROP)
     walk, rig = _walk_motion(planned.setup), planned.setup.rig
     doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")], walk.heel_local,

@@ -90,6 +90,15 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
     show_sampled: BoolProperty(name="Show sampled footprints", default=False,
                                description="Also draw the footprints the search tested")
     last_report: StringProperty(name="Last report", description="Summary of the last run")
+    waypoints: PointerProperty(name="Waypoints", type=bpy.types.Collection,
+                               description="Pass through the objects of this collection on the way to the "
+                                           "goal, in the order of their names (an empty with its heading, "
+                                           "else facing the next; a curve: each of its points)")
+    edit_footprints: BoolProperty(name="Editable footprints", default=True,
+                                  description="After Plan and Bake, show each footprint as a small empty "
+                                              "(in the collection 'Footprints: <character>') to move, turn, "
+                                              "lock and re-plan around")
+    edit_problem: StringProperty(name="Edit problem", description="Why the last edit can't be honoured")
 
 
 def _edited(self, context):

@@ -101,6 +101,9 @@ class Outputs:
                 raise OutputError(f"the {what} and the {other_what} are both {path!r}: give each its own path")
         if os.path.isdir(full):
             raise OutputError(f"the {what} {path!r} is a folder, not a file")
+        if os.path.exists(full) and not os.path.isfile(full):
+            raise OutputError(f"the {what} {path!r} is not a regular file (a pipe or a device?): "
+                              "refusing to replace it")
         parent = _existing_parent(full)
         if not os.path.isdir(parent):
             raise OutputError(f"cannot write the {what} {path!r}: {parent} is a file, not a folder")

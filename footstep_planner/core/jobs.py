@@ -46,6 +46,8 @@ def _field_problem(field: str, value) -> str | None:
             return f"got {json.dumps(value)[:40]}"
         if "\x00" in value:
             return "it holds a NUL character"
+        if not is_text(value):
+            return f"got {value.encode('utf-8', 'backslashreplace').decode()[:40]!r}, which is not valid text"
         return None
     if field == "frame_start":
         if not _number(value) or not float(value).is_integer():
@@ -55,7 +57,8 @@ def _field_problem(field: str, value) -> str | None:
         ok = _number(value) and abs(float(value)) < 1e6
         return None if ok else f"got {json.dumps(value)[:40]}"
     if field == "via":
-        ok = isinstance(value, list) and all(isinstance(v, str) and v.strip() and "," not in v for v in value)
+        ok = isinstance(value, list) and all(isinstance(v, str) and v.strip() and "," not in v and is_text(v)
+                                             for v in value)
         return None if ok else f"got {json.dumps(value)[:40]}"
     if field == "body_on":
         ok = isinstance(value, str) and value.lower() in ("object", "root")
@@ -63,13 +66,24 @@ def _field_problem(field: str, value) -> str | None:
     return None if isinstance(value, dict) else f"got {json.dumps(value)[:40]}"
 
 
+def is_text(value: str) -> bool:
+    """Whether ``value`` is text Blender can take (valid Unicode: no lone surrogates, as a
+    JSON "\\ud800" or a file name's undecodable bytes give)."""
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
 def job_label(n: int, job) -> str:
     """``job 3 'hero walk' (Hero to Door)``: how messages name a job."""
     if not isinstance(job, dict):
         return f"job {n}"
-    name = f" {job['name']!r}" if isinstance(job.get("name"), str) and job["name"] else ""
-    who = job.get("character") if isinstance(job.get("character"), str) else "?"
-    goal = job.get("goal") if isinstance(job.get("goal"), str) and job.get("goal") else "the 3D cursor"
+    text = lambda v: isinstance(v, str) and v and is_text(v)  # noqa: E731
+    name = f" {job['name']!r}" if text(job.get("name")) else ""
+    who = job.get("character") if text(job.get("character")) else "?"
+    goal = job.get("goal") if text(job.get("goal")) else "the 3D cursor"
     return f"job {n}{name} ({who} to {goal})"
 
 
@@ -188,5 +202,5 @@ def exit_status(outcomes: list[JobOutcome]) -> int:
     return min(100, sum(o.status != "baked" for o in outcomes))
 
 
-__all__ = ["JOB_FIELDS", "JobError", "JobOutcome", "check_job", "exit_status", "job_argv", "job_label",
+__all__ = ["JOB_FIELDS", "JobError", "JobOutcome", "check_job", "exit_status", "is_text", "job_argv", "job_label",
            "normalised", "read_jobs", "summary_table"]

@@ -21,6 +21,10 @@ JUMP = (1.0, 0.8, 0.1)
 BODY = (1.0, 0.5, 0.0, 1.0)
 SAMPLED = (0.6, 0.6, 0.6, 0.6)
 MARKER = (0.2, 0.85, 0.3, 1.0)  # the Start and Goal facing arrows
+LOCKED = (1.0, 1.0, 1.0, 1.0)  # rings round locked footprints
+REPLANNED = (0.95, 0.3, 0.9, 1.0)  # rings round the footprints the last re-plan made
+WAYPOINT = (0.2, 0.85, 0.3, 1.0)  # rings round waypoints
+WARNING = (1.0, 0.15, 0.1, 1.0)  # a footprint an edit put where it can't be
 LIFT = 0.01  # m above the surface, so the overlay is not hidden in the floor
 
 
@@ -84,6 +88,18 @@ def crosses(points, size: float = 0.04) -> np.ndarray:
     d = np.array([[size, 0, 0], [-size, 0, 0], [0, size, 0], [0, -size, 0]])
     out = p[:, None, :] + d[None] + [0.0, 0.0, LIFT]
     return out.reshape(-1, 3)
+
+
+def rings(points, radius: float = 0.15, segments: int = 16) -> np.ndarray:
+    """(2 segments M, 3) segment end points of a flat ring round each point (locked,
+    re-planned and refused footprints, waypoints)."""
+    p = np.atleast_2d(np.asarray(points, float))
+    if not len(p):
+        return np.zeros((0, 3))
+    a = np.linspace(0.0, 2 * np.pi, segments + 1)
+    circle = np.c_[radius * np.cos(a), radius * np.sin(a), np.zeros_like(a)]
+    seg = np.stack([circle[:-1], circle[1:]], axis=1).reshape(-1, 3)  # (2 segments, 3)
+    return (p[:, None, :] + seg[None] + [0.0, 0.0, LIFT]).reshape(-1, 3)
 
 
 def facing_arrow(position, z_rotation: float, length: float = 0.6, head: float = 0.15) -> np.ndarray:

@@ -21,6 +21,8 @@ from .surface import footprint_support
 #: m and rad: a step further than this from every step of the library is out of reach
 REACH_SLACK = 0.3
 TURN_SLACK = np.radians(35)
+#: m and rad: feet placed side by side (standing, starting, stopping) need no clip's step
+SIDE_FWD, SIDE_WIDTH, SIDE_TURN = 0.15, 0.5, np.radians(20)
 
 
 @dataclass
@@ -31,6 +33,7 @@ class Edited:
     result: PlanResult
     spans: list[tuple[int, int]]
     problems: list[str]
+    to_goal: bool = False  # the last span runs to the goal (no kept footprint after it)
 
 
 def _yaw(forward) -> float:
@@ -66,6 +69,8 @@ def problems_of(planner: Planner, fps: list[PathFootprint]) -> list[str]:
     out = [f"it is {r}" if not ok else "" for ok, r in zip(sup.ok, sup.reason)]
     st = planner.steps
     for i, (fwd, left, turn) in enumerate(step_offsets(fps, planner.forward), 1):
+        if abs(fwd) <= SIDE_FWD and abs(left) <= SIDE_WIDTH and abs(turn) <= SIDE_TURN and not fps[i].jump:
+            continue  # (the feet side by side)
         rows = (st.foot == fps[i - 1].foot) & (st.jump == fps[i].jump)
         if not rows.any():
             out[i] = out[i] or f"the library has no {'jump' if fps[i].jump else 'step'} from the " \
@@ -157,8 +162,10 @@ def edited_path(planner: Planner, plan: PlanFile, goal=None, goal_heading=None) 
     problems = problems_of(planner, fps)
     for i in np.flatnonzero(locked[1:]) + 1:
         if problems[i]:
-            raise PlanError(f"footprint {i} ({'LR'[fps[i].foot]}) is locked but {problems[i]}: unlock it "
+            err = PlanError(f"footprint {i} ({'LR'[fps[i].foot]}) is locked but {problems[i]}: unlock it "
                             "or move it")
+            err.footprint = int(i)  # (for the overlay to show which)
+            raise err
     bad = np.array([bool(p) for p in problems])
     if goal is None and plan.goal is not None:
         goal = plan.goal
@@ -187,7 +194,7 @@ def _rebuild(planner: Planner, fps: list[PathFootprint], spans, goal, goal_headi
     changed = [j for j in joints if j < len(out)]
     out = relabel(planner, out, changed, new_spans[0][0] + 1 if new_spans else None)
     return Edited(PlanResult(out, counts[0], counts[1], time.perf_counter() - t0, float("nan")), new_spans,
-                  problems)
+                  problems, bool(spans) and spans[-1][1] is None)
 
 
 __all__ = ["Edited", "edited_path", "in_frame", "nearest_steps", "problems_of", "relabel", "step_offsets"]

@@ -111,13 +111,14 @@ def plan_report(result: PlanResult, syn: Synthesis, character: str, goal, frame_
 
 def bake_report(result: PlanResult, syn: Synthesis, *, character: str, goal, name: str, forward,
                 frame_start: int, frames: int, fps: float, action: str, track: str, stages: dict,
-                quality: dict) -> dict:
+                quality: dict, planted=None) -> dict:
     """A bake's report: the plan's (``plan_report``) with the bake's name, frames, action
     and track, its stage times and quality, and per footprint the frames its foot is
-    planted (scene frames) and its final place."""
+    planted (scene frames; ``planted`` (strike, stance, liftoff) s per footprint when the
+    bake's timing is not the synthesis's, as after a re-bake's splice) and its final place."""
     doc = plan_report(result, syn, character, goal, frame_start, synthesis=False)
     pos, head = syn.footprints
-    planted = syn.planted()
+    planted = syn.planted() if planted is None else planted
     fr = lambda t: frame_start + frame_index(t, fps, frames)  # noqa: E731
     doc.update({"name": name, "forward": [round(float(v), 6) for v in forward],
                 "frame_start": frame_start, "frame_end": frame_start + frames - 1,

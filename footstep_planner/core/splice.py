@@ -2,11 +2,13 @@
 every frame outside the re-planned span keeps its old value exactly.
 
 Frames are whole scene frames. The old bake's span runs from frame ``fa`` (the stance of
-the lock before the change) to ``fb`` (the lock after it); the new bake's same span from
-``ga`` to ``gb``. The result keeps the old keys up to ``fa``, plays the new span from
-``fa`` on (``ga`` mapped to ``fa``), and the old keys after ``fb`` shifted by
-``delta = (gb - ga) - (fb - fa)`` frames; over ``blend`` frames inside each end of the
-span the values cross-fade (smoothstep) from the old to the new and back. Pure numpy.
+the kept footprint before the change) to ``fb`` (the kept one after it); the new bake's
+same span from ``ga`` to ``gb``. The spliced bake keeps the old keys up to the fade-in,
+plays the new span mapped so that ``ga`` falls on ``fa``, and keeps the old keys after
+the fade-out shifted by ``delta = (gb - ga) - (fb - fa)`` frames. The fades (smoothstep)
+lie where both bakes agree on the planted foot: while the kept footprint's foot stands
+and the other foot swings from a kept footprint to a re-planned one (fade in), or from a
+re-planned one to a kept one (fade out). Pure numpy.
 """
 
 from __future__ import annotations
@@ -18,17 +20,24 @@ import numpy as np
 
 @dataclass(frozen=True)
 class SpanMap:
-    """Where the old and the new bake's span lie (whole frames), and the blend."""
+    """Where the old and the new bake's span lie (whole frames) and the fades (frames of
+    the spliced bake: ``fade_in`` at the span's start, ``fade_out`` at its end)."""
 
     fa: int
     fb: int
     ga: int
     gb: int
-    blend: int
+    fade_in: tuple[int, int]
+    fade_out: tuple[int, int]
 
     @property
     def delta(self) -> int:
         return (self.gb - self.ga) - (self.fb - self.fa)
+
+    @property
+    def end(self) -> int:
+        """The span's end in the spliced bake."""
+        return self.fa + (self.gb - self.ga)
 
     def frames(self, old_first: int, old_last: int) -> np.ndarray:
         """The spliced bake's frames: the old ones, the span's length changed by delta."""
@@ -37,7 +46,20 @@ class SpanMap:
     def changed(self) -> tuple[int, int]:
         """The first and last frame (of the spliced bake) whose value may differ from the
         old bake's (at the same frame before the span, shifted by delta after it)."""
-        return self.fa + 1, self.fa + (self.gb - self.ga) - 1
+        return self.fade_in[0] + 1, self.fade_out[1] - 1
+
+    @classmethod
+    def fitted(cls, fa: int, fb: int, ga: int, gb: int, fade_in, fade_out, least: int = 2) -> "SpanMap":
+        """A SpanMap with its fades put in order: each at least ``least`` frames, the
+        fade-in ending before the fade-out starts."""
+        end = fa + (gb - ga)
+        i0, i1 = int(min(fade_in[0], fa)), int(max(fade_in[1], fade_in[0] + least))
+        o0, o1 = int(fade_out[0]), int(max(fade_out[1], fade_out[0] + least, end))
+        o0 = min(o0, end)
+        if i1 > o0:  # (a very short span: fade straight from one into the other)
+            mid = (i0 + o1) // 2
+            i1, o0 = min(i1, mid), max(o0, mid)
+        return cls(int(fa), int(fb), int(ga), int(gb), (i0, i1), (o0, o1))
 
 
 def _smooth(x: np.ndarray) -> np.ndarray:
@@ -45,25 +67,30 @@ def _smooth(x: np.ndarray) -> np.ndarray:
     return x * x * (3.0 - 2.0 * x)
 
 
+def weights(out_f: np.ndarray, span: SpanMap) -> np.ndarray:
+    """(F,) the new bake's share at the spliced frames: 0 before the fade-in, rising over
+    it, 1 until the fade-out, falling over it, 0 after."""
+    (i0, i1), (o0, o1) = span.fade_in, span.fade_out
+    rise = _smooth((out_f - i0) / max(i1 - i0, 1))
+    fall = _smooth((o1 - out_f) / max(o1 - o0, 1))
+    return np.minimum(rise, fall)
+
+
 def splice_curve(old_first: int, old_values: np.ndarray, new_first: int, new_values: np.ndarray,
                  span: SpanMap) -> tuple[np.ndarray, np.ndarray]:
     """(frames, values) of one spliced channel: ``old_values`` are its keys at whole frames
     from ``old_first`` in the old bake, ``new_values`` from ``new_first`` in the new one.
-    Outside the span the old keys are copied as they are."""
+    Outside the fades the old keys are copied as they are."""
     old_values, new_values = np.asarray(old_values, float), np.asarray(new_values, float)
     out_f = span.frames(old_first, old_first + len(old_values) - 1)
-    end = span.fa + (span.gb - span.ga)  # where the span ends in the spliced bake
-    # the old value to keep (or to cross-fade from): unshifted in the span's first half,
-    # shifted by delta in its second half and after it
-    late = (out_f - span.fa) > (end - out_f)
+    late = out_f >= span.fade_out[0]  # the old value comes shifted by delta from here on
     old_idx = np.clip(np.where(late, out_f - span.delta, out_f) - old_first, 0, len(old_values) - 1)
     new_idx = np.clip(out_f - span.fa + span.ga - new_first, 0, len(new_values) - 1)
     values = old_values[old_idx]
-    inside = (out_f > span.fa) & (out_f < end)
-    b = max(int(span.blend), 1)
-    w = np.minimum(_smooth((out_f - span.fa) / b), _smooth((end - out_f) / b))[inside]
-    values[inside] = (1.0 - w) * values[inside] + w * new_values[new_idx[inside]]
+    w = weights(out_f, span)
+    mix = w > 0
+    values[mix] = (1.0 - w[mix]) * values[mix] + w[mix] * new_values[new_idx[mix]]
     return out_f, values
 
 
-__all__ = ["SpanMap", "splice_curve"]
+__all__ = ["SpanMap", "splice_curve", "weights"]

@@ -5,7 +5,7 @@ footprint the last one arrived on, spliced into one path. Pure numpy.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -45,7 +45,7 @@ def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypo
     origin, here = start, "the start"
     for i, wp in enumerate(waypoints):
         try:
-            leg = planner.plan(origin, np.asarray(wp.position, float), _passing_heading(planner, waypoints, i))
+            leg = _leg(planner, origin, wp, _passing_heading(planner, waypoints, i))
         except PlanError as ex:
             raise PlanError(f"no way from {here} to waypoint {wp.name!r}: {ex}", ex.expanded, ex.explored) from None
         shift = path[-1].time if path else 0.0
@@ -56,6 +56,31 @@ def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypo
         cost += leg.cost
         origin, here = [path[-1]], f"waypoint {wp.name!r}"
     return Route(PlanResult(path, counts[0], counts[1], time.perf_counter() - t0, cost), arrivals)
+
+
+#: rad: failing that, a waypoint without a heading of its own is passed facing within
+#: this of the next one
+PASSING_TOLERANCE = np.pi / 2
+#: of the expansion budget: what each stricter try at a passing heading may spend
+TRY_SHARE = 0.25
+
+
+def _leg(planner: Planner, origin, wp: Waypoint, heading) -> PlanResult:
+    """One leg: to the waypoint with its own heading (the planner's tolerance), or passing
+    it facing the next one (the planner's tolerance, then ``PASSING_TOLERANCE``), or with
+    any heading when the library can't turn that way in time."""
+    goal = np.asarray(wp.position, float)
+    if heading is None or wp.heading is not None:
+        return planner.plan(origin, goal, heading)
+    cfg = planner.settings
+    budget = max(1, int(cfg.max_expansions * TRY_SHARE))
+    for tol in (cfg.goal_heading_tolerance, max(cfg.goal_heading_tolerance, PASSING_TOLERANCE)):
+        trial = replace(planner, settings=cfg.replace(goal_heading_tolerance=tol, max_expansions=budget))
+        try:
+            return trial.plan(origin, goal, heading)
+        except PlanError:
+            continue
+    return planner.plan(origin, goal, None)
 
 
 def _passing_heading(planner: Planner, waypoints: list[Waypoint], i: int) -> float | None:

@@ -1,0 +1,193 @@
+"""The animator directs: a plan edited as data (PLAN.json) or in the viewport (handles),
+a way through waypoints, and a re-bake that keys only the re-planned span.
+
+Each is a ``route`` for ``planning.run_steps`` (it replaces the search) and, for a
+re-bake, an ``after_bake`` that splices the new keys into the old bake's
+(``rebake.splice_action``) so that every frame outside the span stays as it was.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.errors import FootstepError
+from ..core.plan_edit import Edited, edited_path
+from ..core.plan_file import PlanFile
+from ..core.waypoints import Waypoint, plan_via
+from . import rebake
+
+
+class DirectingError(FootstepError):
+    """An edit that can't be honoured: names the footprint or waypoint and why."""
+
+
+@dataclass
+class EditedRoute:
+    """``run_steps``'s route for an edited plan; keeps what the edit made (``edited``)."""
+
+    plan: PlanFile
+    edited: Edited | None = None
+
+    def __call__(self, setup, start, heading):
+        self.edited = edited_path(setup.planner, self.plan)
+        return self.edited.result
+
+
+@dataclass
+class ViaRoute:
+    """``run_steps``'s route through waypoints (their headings a Z rotation, or None);
+    ``arrivals`` the footprint reaching each."""
+
+    waypoints: list  # (name, position (3,), heading or None)
+    arrivals: list = field(default_factory=list)  # the position (3,) of the footprint reaching each
+
+    def __call__(self, setup, start, heading):
+        from .planning import rotation_heading
+
+        wps = [Waypoint(name, np.asarray(pos, float), None if h is None else rotation_heading(h, setup.forward))
+               for name, pos, h in self.waypoints]
+        route = plan_via(setup.planner, start, wps)
+        self.arrivals = [np.asarray(route.result.footprints[i].position, float) for i in route.arrivals]
+        return route.result
+
+
+def waypoints_of(scene, names) -> list:
+    """(name, position (3,), heading or None) per waypoint, in order: an object by name
+    (an empty you turned: with the way it faces; unturned, it sets no heading and is
+    passed facing the next), or each point of a curve object in its order."""
+    from . import planning
+
+    out = []
+    for name in names:
+        ob = scene.objects.get(name)
+        if ob is None:
+            raise DirectingError(f"no object named {name!r} for a waypoint")
+        if ob.type == "CURVE":
+            pts = [ob.matrix_world @ p.co.xyz for sp in ob.data.splines
+                   for p in (sp.bezier_points if sp.type == "BEZIER" else sp.points)]
+            if not pts:
+                raise DirectingError(f"curve {name!r} has no points to pass through")
+            out += [(f"{name}[{i}]", np.array(p, float), None) for i, p in enumerate(pts)]
+        else:
+            position, heading = planning.goal_of(scene, name)
+            turned = abs(ob.matrix_world.to_euler().z) > 1e-6
+            out.append((name, position, heading if turned else None))
+    return out
+
+
+def plan_document(ob, planned, goal) -> dict:
+    """The PLAN.json of a plan (``planning.Planned``): its footprints, none locked."""
+    fps = planned.result.footprints
+    fwd = np.asarray(planned.setup.forward, float)
+    return PlanFile(ob.name, np.array([fwd[0], fwd[1], 0.0]), fps, np.zeros(len(fps), bool),
+                    None if goal is None else np.asarray(goal, float), planned.goal_heading).to_dict()
+
+
+@dataclass
+class Splice:
+    """A re-bake's splice for ``run_steps``: the old bake's keys, footprints and frames,
+    read before the new bake replaced it. ``before_ik`` pins the new path's footprints
+    outside the re-planned region to the old bake's places; ``after_bake`` splices the
+    region into the old keys (``rebake.splice_action``)."""
+
+    old_keys: dict
+    old_planted: np.ndarray  # (N, 3) frames
+    old_footprints: np.ndarray  # (N, 4)
+    old_last: int
+    route: EditedRoute
+    span: object = None
+
+    @classmethod
+    def of(cls, ob, route: EditedRoute) -> "Splice | None":
+        """The splice for re-baking ``ob``, or None when it has no bake of the planner's
+        that recorded its footprints (then the whole path is baked)."""
+        from .bake import owned_tracks
+
+        acts = [st.action for tr in owned_tracks(ob) for st in tr.strips if rebake.recorded(st.action)]
+        if not acts:
+            return None
+        planted, footprints = rebake.recorded(acts[0])
+        return cls(rebake.channel_keys(acts[0]), planted, footprints, int(acts[0].frame_range[1]), route)
+
+    def _region(self, n_new: int):
+        ed = self.route.edited
+        if ed is None or not ed.spans or len(self.old_planted) != len(self.route.plan.footprints):
+            return None
+        return rebake.region(ed.spans, n_new, len(self.old_planted), ed.to_goal)
+
+    def before_ik(self, planned) -> None:
+        """Put the footprints outside the region where the old bake put them."""
+        refined = planned.synthesis.final.refined
+        reg = self._region(len(refined.position))
+        if reg is None:
+            return
+        a, b_new, b_old = reg
+        keep = [(i, i) for i in range(a + 1)]
+        if b_new is not None:
+            keep += [(b_new + j, b_old + j) for j in range(len(self.old_footprints) - b_old)]
+        for new_i, old_i in keep:
+            refined.position[new_i] = self.old_footprints[old_i, :3]
+            refined.heading[new_i] = self.old_footprints[old_i, 3]
+
+    def after_bake(self, act, track, planted, frames, frame_start, fps):
+        reg = self._region(len(planted))
+        if reg is None:
+            return planted, frames
+        a, b_new, b_old = reg
+        new = frame_start + np.asarray(planted, float) * fps
+        self.span = rebake.span_map(self.old_planted, new, a, b_new, b_old, self.old_last, int(act.frame_range[1]))
+        rebake.splice_action(act, self.old_keys, self.span)
+        rebake.fit_strips(track.id_data, act)
+        timed = (rebake.spliced_planted(self.old_planted, new, a, b_new, b_old, self.span) - frame_start) / fps
+        return [tuple(row) for row in timed], int(act.frame_range[1]) - int(frame_start) + 1
+
+
+def rebake_handles(scene, ob, settings=None, name: str | None = None, body_on: str = "OBJECT",
+                   frame_range: bool = True) -> tuple[dict, EditedRoute, "Splice | None"]:
+    """Re-plan from the character's handles (locked and moved footprints kept, the way
+    around what changed searched again) and re-bake: with an earlier bake of the planner's
+    whose stances are recorded, only the re-planned span is re-keyed. The handles then show
+    the new path (locks kept). Returns (report, route, splice)."""
+    from . import handles, planning
+    from .bake import owned_tracks
+
+    plan, moved = handles.read_plan(ob)
+    if not plan.footprints:
+        raise DirectingError(f"{ob.name!r} has no footprint handles: plan first, then edit the footprints")
+    route = EditedRoute(plan)
+    splice = Splice.of(ob, route)
+    tracks = owned_tracks(ob)
+    frame_start = int(tracks[0].strips[0].frame_start) if tracks else None
+    if name is None and tracks:
+        name = tracks[0].name.split(": ", 1)[-1]
+    goal = plan.goal if plan.goal is not None else plan.footprints[-1].position
+    doc = planning.run(scene, ob, goal, None, None, settings, name=name, frame_start=frame_start,
+                       body_on=body_on, frame_range=frame_range, route=route, splice=splice)
+    fps = route.edited.result.footprints
+    locked = _carried_locks(plan, route.edited, len(fps))
+    handles.make_handles(scene, ob, fps, plan.forward, plan.goal, plan.goal_heading, locked)
+    doc["replanned"] = [list(s) for s in route.edited.spans]
+    _show_replanned(scene, route.edited)
+    if splice is not None and splice.span is not None:
+        doc["rebaked_frames"] = list(splice.span.changed())
+    return doc, route, splice
+
+
+def _show_replanned(scene, edited: Edited) -> None:
+    """Ring the footprints the re-plan made in the overlay."""
+    from . import overlay
+
+    made = [f.position for a, b in edited.spans for f in edited.result.footprints[a + 1:b]]
+    overlay.mark(scene, replanned=np.array(made, float).reshape(-1, 3), refused=np.zeros((0, 3)))
+
+
+def _carried_locks(plan: PlanFile, edited: Edited, n: int) -> np.ndarray:
+    """The new path's locks: the old locks (and moved footprints) at their new indices."""
+    old = np.asarray(plan.locked, bool)
+    out = np.zeros(n, bool)
+    kept = {tuple(np.round(f.position, 9)) for f, lk in zip(plan.footprints, old) if lk}
+    for i, f in enumerate(edited.result.footprints):
+        out[i] = tuple(np.round(f.position, 9)) in kept
+    return out

@@ -1,0 +1,237 @@
+"""The animator directs (issue 16): moving one footprint of a baked Turns path and
+re-baking re-keys only the span between its neighbouring locks (every other frame, as
+Blender plays the scene, identical); paths through waypoints; plans as data through the
+command line."""
+
+import json
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+CHAR = "Footstep Mannequin"
+
+
+@pytest.fixture
+def turns(fp, empty_scene):
+    """The Turns sample scene with the sample character, baked once from frame 1."""
+    mannequin = import_module(fp.__name__ + ".blender.mannequin")
+    sample = import_module(fp.__name__ + ".blender.sample_scenes")
+    planning = import_module(fp.__name__ + ".blender.planning")
+    handles = import_module(fp.__name__ + ".blender.handles")
+    scene = sample.build("turns")
+    scene.render.fps, scene.render.fps_base = 30, 1.0
+    ob, _ = mannequin.add_to_scene(scene, "Start")
+    goal, heading = planning.goal_of(scene, "Goal")
+    planned = planning.plan_and_synthesize(scene, ob, goal, heading, scene.objects["Start"])
+    doc = planning.run(scene, ob, goal, heading, scene.objects["Start"], name="turns", frame_start=1)
+    handles.make_handles(scene, ob, planned.result.footprints, planned.setup.forward, goal, planned.goal_heading)
+    return scene, ob, doc
+
+
+def _played(fp, scene, ob, first, last):
+    """World matrices of every bone and the object, frame by frame, as Blender plays."""
+    import bpy
+
+    out = []
+    dg = bpy.context.evaluated_depsgraph_get()
+    for f in range(first, last + 1):
+        scene.frame_set(f)
+        ev = ob.evaluated_get(dg)
+        m = np.array(ev.matrix_world)
+        out.append(np.stack([m @ np.array(pb.matrix) for pb in ev.pose.bones]))
+    return np.array(out)
+
+
+def test_moving_one_footprint_rebakes_only_its_span(fp, turns):
+    import bpy
+
+    scene, ob, doc = turns
+    handles = import_module(fp.__name__ + ".blender.handles")
+    directing = import_module(fp.__name__ + ".blender.directing")
+    hs = handles.handles(ob)
+    k = len(hs) // 2
+    handles.set_locked([hs[k - 3], hs[k + 3]], True)
+    hs[k].location.y += 0.12
+    target = np.array(hs[k].location)
+    first, last = doc["frame_start"], doc["frame_end"]
+    before = _played(fp, scene, ob, first, last)
+
+    doc2, route, splice = directing.rebake_handles(scene, ob)
+    span = splice.span
+    assert route.edited.spans and route.edited.spans[0][0] == k - 3
+    assert doc2["frame_end"] == last + span.delta
+    after = _played(fp, scene, ob, first, doc2["frame_end"])
+    lo, hi = span.changed()
+    frames = np.arange(first, doc2["frame_end"] + 1)
+    same = frames < lo
+    assert np.abs(after[same] - before[frames[same] - first]).max() < 1e-6
+    later = frames > hi
+    assert np.abs(after[later] - before[frames[later] - span.delta - first]).max() < 1e-6
+    # the span itself changed, and the moved footprint is where it was put
+    assert np.abs(after[~same & ~later] - before[np.clip(frames[~same & ~later] - first, 0, len(before) - 1)]).max() > 1e-3
+    assert sum(np.allclose(f.position, target, atol=1e-6) for f in route.edited.result.footprints) == 1
+    q = doc2["quality"]
+    assert q["foot_skate"]["max_mm"] < 10 and q["goal"]["distance_m"] < 0.05
+    # the handles show the new path, the locks kept
+    plan, touched = handles.read_plan(ob)
+    assert not touched.any() and plan.locked.sum() == 3
+    assert bpy.data.actions[doc2["action"]]["footstep_planted_frames"]
+
+
+def test_the_panels_edit_lock_replan_and_undo(fp, empty_scene):
+    """As in the viewport: Bake makes the handles; select two and Lock them, move one
+    between them, Re-plan: only its span is re-keyed; Undo gives the bake back; an edit
+    that can't be honoured (a locked footprint moved off the floor) is refused with the
+    reason in the panel and nothing baked."""
+    import bpy
+
+    mannequin = import_module(fp.__name__ + ".blender.mannequin")
+    sample = import_module(fp.__name__ + ".blender.sample_scenes")
+    handles = import_module(fp.__name__ + ".blender.handles")
+    scene = sample.build("obstacles")
+    scene.render.fps, scene.render.fps_base = 30, 1.0
+    ob, _ = mannequin.add_to_scene(scene, "Start")
+    fs = scene.footstep
+    fs.character, fs.goal, fs.start = ob, scene.objects["Goal"], scene.objects["Start"]
+    assert bpy.ops.footstep.bake() == {"FINISHED"}
+    hs = handles.handles(ob)
+    assert len(hs) == len(json.loads(fs.plan_json)["footprints"])
+    k = len(hs) // 2
+    for o in scene.objects:
+        o.select_set(False)
+    hs[k - 3].select_set(True)
+    hs[k + 3].select_set(True)
+    assert bpy.ops.footstep.lock_footprints(lock=True) == {"FINISHED"}
+    hs[k].location.x += 0.1
+    name = ob.name
+    bpy.ops.ed.undo_push(message="before re-plan")
+    baked = lambda o: list(o.animation_data.nla_tracks[-1].strips[0].action["footstep_footprints"])  # noqa: E731
+    action = baked(ob)
+    assert bpy.ops.footstep.replan() == {"FINISHED"}
+    assert baked(ob) != action
+    assert "re-keyed frames" in fs.last_report and fs.edit_problem == ""
+    bpy.ops.ed.undo_push(message="Re-plan")
+    bpy.ops.ed.undo()
+    ob = bpy.data.objects[name]
+    assert baked(ob) == action
+    hs = handles.handles(ob)
+    hs[k].location.z -= 3.0  # (locked, as moved): off every surface
+    with pytest.raises(RuntimeError, match="is locked but it is off surface"):
+        bpy.ops.footstep.replan()
+    assert "off surface" in bpy.context.scene.footstep.edit_problem
+    assert baked(ob) == action  # nothing baked
+
+
+@pytest.fixture
+def shot(fp, empty_scene, tmp_path):
+    """The Turns scene with the sample character saved, and two waypoint empties A and B
+    near the direct path's thirds."""
+    import bpy
+
+    mannequin = import_module(fp.__name__ + ".blender.mannequin")
+    sample = import_module(fp.__name__ + ".blender.sample_scenes")
+    planning = import_module(fp.__name__ + ".blender.planning")
+    scene = sample.build("turns")
+    scene.render.fps, scene.render.fps_base = 30, 1.0
+    ob, _ = mannequin.add_to_scene(scene, "Start")
+    goal, heading = planning.goal_of(scene, "Goal")
+    fps = planning.plan(scene, ob, goal, heading, scene.objects["Start"])[0].footprints
+    for name, i in (("A", len(fps) // 3), ("B", 2 * len(fps) // 3)):
+        e = bpy.data.objects.new(name, None)
+        e.location = fps[i].position
+        scene.collection.objects.link(e)
+    path = str(tmp_path / "shot.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    return tmp_path, path
+
+
+def test_a_bake_through_waypoints_visits_them_in_order(fp, shot, capsys):
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    folder, path = shot
+    assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
+                "--report", str(folder / "r.json")]) == 0
+    doc = json.loads((folder / "r.json").read_text())
+    wps = doc["waypoints"]
+    assert [w["name"] for w in wps] == ["A", "B", "Goal"]
+    assert wps[0]["frame"] < wps[1]["frame"] < wps[2]["frame"]
+    import bpy
+
+    body = np.array(doc["synthesis"]["body"]["position"])
+    for w in wps[:2]:
+        target = np.array(bpy.data.objects[w["name"]].location)
+        planned = np.array(doc["synthesis"]["footprints"][w["footprint"]]["planned"])
+        assert np.linalg.norm(planned[:2] - target[:2]) <= 0.35  # the goal radius
+        assert np.linalg.norm(body[:, :2] - target[:2], axis=1).min() < 0.6  # (radius + half a stance)
+    assert doc["quality"]["goal"]["distance_m"] < 0.05
+
+
+def test_an_edited_plan_round_trips_through_bake_plan(fp, shot, capsys):
+    """plan --out-plan writes the footprints; unedited, bake --plan bakes exactly them;
+    edited (one footprint moved, two locked), bake --plan keeps the edit and re-plans only
+    between the locks, re-keying only that span of the earlier bake."""
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    folder, path = shot
+    plan_path = folder / "plan.json"
+    common = [path, "--character", CHAR, "--start", "Start", "--goal", "Goal"]
+    assert cli(["plan", *common, "--out-plan", str(plan_path)]) == 0
+    doc = json.loads(plan_path.read_text())
+    assert doc["format"] == "footstep-plan" and not any(f["locked"] for f in doc["footprints"])
+    assert cli(["bake", *common, "--out", str(folder / "direct.blend"), "--report", str(folder / "direct.json")]) == 0
+    assert cli(["bake", path, "--plan", str(plan_path), "--out", str(folder / "planned.blend"),
+                "--report", str(folder / "planned.json")]) == 0
+    direct, planned = (json.loads((folder / n).read_text()) for n in ("direct.json", "planned.json"))
+    assert [f["position"] for f in planned["footprints"]] == [f["position"] for f in direct["footprints"]]
+    assert planned["replanned"] == []
+    k = len(doc["footprints"]) // 2
+    doc["footprints"][k]["position"][0] += 0.1
+    for i in (k - 3, k + 3):
+        doc["footprints"][i]["locked"] = True
+    plan_path.write_text(json.dumps(doc))
+    assert cli(["bake", str(folder / "planned.blend"), "--plan", str(plan_path), "--report",
+                str(folder / "edited.json")]) == 0
+    edited = json.loads((folder / "edited.json").read_text())
+    assert edited["replanned"][0][0] == k - 3 and edited["rebaked_frames"]
+    lo, hi = edited["rebaked_frames"]
+    assert direct["frame_start"] < lo < hi < edited["frame_end"]
+    assert edited["quality"]["foot_skate"]["max_mm"] < 10 and edited["quality"]["goal"]["distance_m"] < 0.05
+
+
+def test_a_bad_plan_file_is_one_message(fp, shot, capsys):
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    folder, path = shot
+    (folder / "bad.json").write_text(json.dumps({"format": "footstep-plan", "version": 1, "character": CHAR,
+                                                  "forward": [0, -1, 0], "footprints": [{"foot": "L"}]}))
+    assert cli(["bake", path, "--plan", str(folder / "bad.json")]) == 2
+    err = capsys.readouterr().err
+    assert "at least two footprints" in err and "Traceback" not in err
+
+
+def test_waypoints_from_a_collection_and_a_curve_in_the_panel(fp, shot):
+    """The panel's Waypoints collection: its objects in name order, a curve's points in
+    their order; the plan passes each within the goal radius, in order."""
+    import bpy
+
+    folder, path = shot
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    coll = bpy.data.collections.new("Way")
+    scene.collection.children.link(coll)
+    a, b = bpy.data.objects["A"], bpy.data.objects["B"]
+    curve = bpy.data.curves.new("Route", "CURVE")
+    spline = curve.splines.new("POLY")
+    spline.points.add(1)
+    spline.points[0].co = (*a.location, 1.0)
+    spline.points[1].co = (*b.location, 1.0)
+    route_ob = bpy.data.objects.new("Route", curve)
+    coll.objects.link(route_ob)
+    fs = scene.footstep
+    fs.character, fs.goal, fs.start, fs.waypoints = (bpy.data.objects[CHAR], scene.objects["Goal"],
+                                                     scene.objects["Start"], coll)
+    assert bpy.ops.footstep.plan() == {"FINISHED"}
+    doc = json.loads(fs.plan_json)
+    pos = np.array([f["position"] for f in doc["footprints"]])[:, :2]
+    hits = [int(np.argmin(np.linalg.norm(pos - np.array(o.location[:2]), axis=1))) for o in (a, b)]
+    assert hits[0] < hits[1]
+    for o, i in zip((a, b), hits):
+        assert np.linalg.norm(pos[i] - np.array(o.location[:2])) <= 0.35
