@@ -326,3 +326,28 @@ def test_a_job_list_prints_progress_on_stderr_and_the_table_on_stdout(cli, capfd
     out, err = capfd.readouterr()
     assert "footstep: jobs 2/2" in err and "jobs 2/2" not in out
     assert out.strip().splitlines()[-1].startswith("2 of 2 jobs baked, 0 failed")
+
+
+def test_a_jobs_result_does_not_depend_on_the_jobs_before_it(cli, shot, fp):
+    """Baked after other jobs in one Blender, a job plans the footprints it plans alone:
+    what an earlier bake left in the pose does not reach the clips' analysis."""
+    import bpy
+
+    scene = str(shot / "shot.blend")
+    bpy.ops.wm.open_mainfile(filepath=scene)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    sc = bpy.context.scene
+    goal, heading = planning.goal_of(sc, "Goal")
+    fps = planning.plan(sc, bpy.data.objects[CHAR], goal, heading)[0].footprints
+    for name, i in (("Mid", len(fps) // 2), ("Side", len(fps) // 4)):
+        e = bpy.data.objects.new(name, bpy.data.meshes.new(name))  # (not an empty: no heading to arrive with)
+        e.location = fps[i].position
+        sc.collection.objects.link(e)
+    bpy.ops.wm.save_as_mainfile(filepath=scene)
+    jobs = shot / "jobs.json"
+    jobs.write_text(json.dumps([{"character": CHAR, "goal": g, "name": g, "report": str(shot / f"{g}.json")}
+                                for g in ("Goal", "Side", "Mid")]))
+    assert cli(["bake", scene, "--job", str(jobs)]) == 0
+    assert cli(["bake", scene, "--character", CHAR, "--goal", "Mid", "--report", str(shot / "alone.json")]) == 0
+    serial, alone = (json.loads((shot / n).read_text()) for n in ("Mid.json", "alone.json"))
+    assert [f["position"] for f in serial["footprints"]] == [f["position"] for f in alone["footprints"]]

@@ -168,3 +168,12 @@ def test_a_floor_under_a_platform_is_a_level_of_its_own():
     assert err.value.expanded == 0
     goal = np.array([10.0, 0.0, 0.0])  # under the deck and beyond
     check_path(pl, pl.plan(start(0, 0), goal), goal)
+
+
+def test_a_goal_reached_but_never_facing_its_heading_says_so():
+    """The search gets to the goal's place but the library can't arrive facing the way
+    asked: the message says that, not 'the nearest reachable point is the goal'."""
+    g = MeshGround(plane(-2, 4, -0.6, 0.6))
+    pl = Planner(g, None, steps(with_jump=False), FWD, settings=FASTEST.replace(max_expansions=400))
+    with pytest.raises(PlanError, match="reached the goal's place .* but never facing the goal's heading"):
+        pl.plan(start(0, 0), np.array([2.5, 0.0, 0.0]), goal_heading=-EAST)  # facing back, on a narrow strip

@@ -121,12 +121,15 @@ def action_frame_range(action) -> tuple[float, float]:
 
 def sample_basis(ob, action, frames: np.ndarray) -> np.ndarray:
     """Pose bases (N, B, 4, 4) of ``action`` on ``ob`` at the given (fractional) frames,
-    bones in ``ob.pose.bones`` order. The armature's pose is restored afterwards."""
+    bones in ``ob.pose.bones`` order; a channel the action doesn't key is at rest (so a clip
+    reads the same whatever the pose was left at). The armature's pose is restored
+    afterwards."""
     pbones = ob.pose.bones
     saved = np.empty(len(pbones) * 16, dtype=np.float32)
     pbones.foreach_get("matrix_basis", saved)
     out = np.empty((len(frames), len(pbones), 4, 4))
-    try:
+    try:  # (a channel the action doesn't key stays at rest, whatever played before)
+        pbones.foreach_set("matrix_basis", np.tile(np.eye(4, dtype=np.float32).ravel(), len(pbones)))
         for i, f in enumerate(frames):
             ob.pose.apply_pose_from_action(action, evaluation_time=float(f))
             out[i] = _matrices(pbones, "matrix_basis")

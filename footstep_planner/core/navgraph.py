@@ -581,6 +581,11 @@ class Planner:
                f"{search.expanded} footprints expanded)")
         if near is None:
             return PlanError(msg + "; no footprint of the start could be stood on", search.expanded, search.nodes)
+        if d_near <= self.settings.goal_radius and search.goal_heading is not None:
+            return PlanError(msg + f"; it reached the goal's place ({d_near:.2f} m off) but never facing the "
+                             f"goal's heading within {np.degrees(self.settings.goal_heading_tolerance):.0f} deg: "
+                             "turn the goal (or give --goal-heading), or raise goal_heading_tolerance",
+                             search.expanded, search.nodes)
         at_start = all(n.parent < 0 for n in search.nodes if np.array_equal(n.position, near))
         where = (f"; the nearest reachable point is ({near[0]:.2f}, {near[1]:.2f}, {near[2]:.2f}), "
                  f"{d_near:.2f} m from the goal")
