@@ -230,9 +230,17 @@ def cli_main(argv=None) -> int:
         return _run_guarded(args)
 
 
+def _no_empty_paths(args) -> None:
+    """An empty path given for a file or folder option is a mistake, not 'none'."""
+    for key in ("out", "report", "out_plan", "plan", "job", "blend", "plot", "into"):
+        if getattr(args, key, None) == "":
+            raise CliError(f"--{key.replace('_', '-')} is empty: give a path")
+
+
 def _run_guarded(args) -> int:
     """Run a verb; every way it can fail ends in one line on stderr and a status."""
     try:
+        _no_empty_paths(args)
         return args.run(args)
     except KeyboardInterrupt:
         print("\nfootstep: interrupted, nothing written", file=sys.stderr)
@@ -266,6 +274,8 @@ def check_input(path: str, what: str = "file") -> str:
         raise CliError(f"{path}: is a folder, not a {what}")
     if not os.path.exists(path):
         raise CliError(f"{path}: no such file")
+    if not os.path.isfile(path):
+        raise CliError(f"{path}: not a regular file (a pipe or a device?), not a {what}")
     if not os.access(path, os.R_OK):
         raise CliError(f"{path}: cannot read it (permission denied)")
     return path
@@ -466,8 +476,8 @@ def _plan(args) -> int:
     from . import planning
 
     with Outputs([args.blend or bpy.data.filepath]) as outs:
-        report = outs.claim(args.report, "--report") if args.report else None
-        out_plan = outs.claim(args.out_plan, "--out-plan") if args.out_plan else None
+        report = outs.claim(args.report, "--report") if args.report is not None else None
+        out_plan = outs.claim(args.out_plan, "--out-plan") if args.out_plan is not None else None
         settings = settings_from_args(args.set)
         if args.blend:
             open_blend(args.blend)
@@ -529,7 +539,7 @@ def _bake(args) -> int:
             open_blend(args.blend)
         if raw is not None:
             return _bake_jobs(args, raw, settings, outs, out)
-        report = outs.claim(args.report, "--report") if args.report else None
+        report = outs.claim(args.report, "--report") if args.report is not None else None
         job = {"character": args.character or (plan.character if plan else None), "goal": args.goal,
                "start": args.start, "name": args.name, "frame_start": args.frame_start,
                "goal_heading": args.goal_heading, "body_on": args.body_on, "via": _names(args.via)}
@@ -558,7 +568,7 @@ def _job_paths(args, outs: Outputs, n: int, job: dict, many: bool) -> tuple[str 
     """(report, scene) paths of job ``n``, claimed: its own, or derived from --report and
     (with --ray, where each job bakes its own copy of the scene) --out."""
     report = job.get("report") or (
-        (args.report if not many else f"{os.path.splitext(args.report)[0]}_{n}.json") if args.report else None)
+        (args.report if not many else f"{os.path.splitext(args.report)[0]}_{n}.json") if args.report is not None else None)
     scene = job.get("out") or (f"{os.path.splitext(args.out)[0]}_{n}.blend" if args.ray and args.out else None)
     return (outs.claim(report, f"report of job {n}") if report else None,
             claim_blend(outs, scene, f"scene of job {n}") if scene else None)
@@ -629,6 +639,8 @@ def _plot(args) -> int:
     from ..core.plots import plot_synthesis
 
     name = args.name or os.path.splitext(os.path.basename(args.report))[0]
+    if not name or name in (".", "..") or os.path.basename(name) != name or "/" in name:
+        raise CliError(f"--name {name!r} must be a plain file name prefix, without folders")
     with Outputs([args.report]) as outs:
         finals = [outs.claim(os.path.join(args.out, f"{name}_{k}.png"), f"{k} plot") for k in PLOTS]
         doc = _plan_report(args.report)

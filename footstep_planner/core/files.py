@@ -91,6 +91,9 @@ class Outputs:
         """Refuse ``path`` (one message naming it and what it would have held) when it is
         an input, already another output, a folder, or not writable; return its absolute
         path."""
+        if not path or path.endswith(("/", os.sep)):
+            raise OutputError(f"the {what} {path!r} is not a file name" + (": give one" if not path else
+                              " (it ends in a folder separator): add the file's name"))
         full = os.path.abspath(path)
         for inp in self.inputs:
             if same_file(full, inp):
@@ -127,7 +130,7 @@ class Outputs:
         full = os.path.abspath(path)
         self._make_dirs(os.path.dirname(full))
         base, ext = os.path.splitext(os.path.basename(full))
-        fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=os.path.dirname(full))
+        fd, tmp = tempfile.mkstemp(prefix=f".{base[:100]}.", suffix=f".tmp{ext[:20]}", dir=os.path.dirname(full))
         os.close(fd)
         os.unlink(tmp)  # (a random name kept free: a writer that finds a file there may back it up)
         self._staged.append((tmp, full))
@@ -172,11 +175,8 @@ class Outputs:
         """Rename every staged file into place (Ctrl-C held off meanwhile); returns the
         destinations."""
         with _signals_held():
-            for tmp, final in self._staged:
-                if os.path.exists(tmp):
-                    os.chmod(tmp, 0o644 & ~_umask())
-                os.replace(tmp, final)
-                self.committed.append(final)
+            _swap_in(self._staged)
+            self.committed += [final for _, final in self._staged]
             self._staged = []
             self._made_dirs = []
         self._remove_scratch()
@@ -198,6 +198,44 @@ class Outputs:
             with contextlib.suppress(OSError):
                 os.rmdir(d)
         self._made_dirs = []
+
+
+def _aside(final: str) -> str:
+    """A free name beside ``final`` to keep the file it replaces until all are in place."""
+    fd, bak = tempfile.mkstemp(prefix=f".{os.path.basename(final)[:100]}.", suffix=".old",
+                               dir=os.path.dirname(final))
+    os.close(fd)
+    os.unlink(bak)
+    return bak
+
+
+def _swap_in(staged: list[tuple[str, str]]) -> None:
+    """Put every staged file in place, all or none: each file it replaces is first moved
+    aside, and if any move fails (a file the system won't let go of), everything moved is
+    put back as it was and the error raised."""
+    aside, placed = [], []
+    try:
+        for tmp, final in staged:
+            if os.path.lexists(final):
+                bak = _aside(final)
+                os.rename(final, bak)
+                aside.append((final, bak))
+        for tmp, final in staged:
+            if os.path.exists(tmp):
+                os.chmod(tmp, 0o644 & ~_umask())
+            os.rename(tmp, final)
+            placed.append(final)
+    except BaseException:
+        for final in placed:
+            with contextlib.suppress(OSError):
+                os.unlink(final)
+        for final, bak in aside:
+            with contextlib.suppress(OSError):
+                os.rename(bak, final)
+        raise
+    for _, bak in aside:
+        with contextlib.suppress(OSError):
+            os.unlink(bak)
 
 
 @contextlib.contextmanager

@@ -541,7 +541,9 @@ def toe_tip(rig: Rig, side: str, foot_m: np.ndarray, toe_m: np.ndarray | None, h
         return np.tile(toe_local + length * ahead, (len(foot_m), 1))
     length = float(np.linalg.norm(rig.tails[toe] - rig.rest[toe, :3, 3]))
     rest = (np.linalg.inv(rig.rest[foot]) @ rig.rest[toe])[:3, :3]
-    bend = (np.linalg.inv(foot_m) @ toe_m)[:, :3, :3] @ rest.T
+    # (the pose's matrices are rigid: the rotation between them needs no general inverse,
+    # which costs a LAPACK call per frame)
+    bend = np.swapaxes(foot_m[:, :3, :3], 1, 2) @ toe_m[:, :3, :3] @ rest.T
     return toe_local + length * (bend @ ahead)
 
 
