@@ -100,7 +100,9 @@ class Outputs:
                 raise OutputError(f"the {what} {path!r} is one of the inputs ({inp}); refusing to "
                                   "write over it: choose another path")
         for other, other_what in self.claimed.items():
-            if same_file(full, other):
+            # (outputs replace the path itself, never write through a link: two links to
+            # one file are two outputs)
+            if os.path.normpath(full) == os.path.normpath(other):
                 raise OutputError(f"the {what} and the {other_what} are both {path!r}: give each its own path")
         if os.path.isdir(full):
             raise OutputError(f"the {what} {path!r} is a folder, not a file")
