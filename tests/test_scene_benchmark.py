@@ -3,7 +3,6 @@ with the CMU subject-16 library: paths without loops where the goal is reachable
 where it is not, a quick refusal that names what blocks the way (issue 15)."""
 
 import re
-import time
 
 import numpy as np
 import pytest
@@ -26,8 +25,7 @@ def character(fp):
 
 def plan(scene, character, **settings):
     pl, start, goal = make_planner(scene, character, Settings(**settings))
-    t = time.process_time()
-    return pl, pl.plan(start, goal), time.process_time() - t
+    return pl, pl.plan(start, goal)
 
 
 def check_path(pl, result, scene):
@@ -40,7 +38,7 @@ def check_path(pl, result, scene):
 @pytest.mark.parametrize("name", ["zigzag1", "bridge_down", "clutter10"])
 def test_reachable_scenes_find_a_path_without_loops(character, name):
     scene = SCENES[name]
-    pl, result, _ = plan(scene, character)
+    pl, result = plan(scene, character)
     check_path(pl, result, scene)
     if name == "zigzag1":  # the gap is jumped, from a run
         jumps = [(a, b) for a, b in zip(result.footprints[:-1], result.footprints[1:]) if b.jump]
@@ -53,18 +51,17 @@ def test_reachable_scenes_find_a_path_without_loops(character, name):
 def test_an_island_is_refused_quickly_saying_why(character):
     scene = SCENES["island_far"]
     pl, start, goal = make_planner(scene, character)
-    t = time.process_time()
     with pytest.raises(PlanError, match="no walkable way, nor a gap a jump clip can clear.*nearest reachable "
                                         r"point is \(1[34]\.") as err:
         pl.plan(start, goal)
-    assert time.process_time() - t < 1.0 and err.value.expanded == 0
+    assert err.value.expanded == 0  # refused before any search (its speed: benchmarks/bench_planner.py)
     assert re.search(r"the gap beyond is 3\.0\d m wide; the library's jump reaches 1\.8\d m", str(err.value)), err.value
 
 
 @pytest.mark.parametrize("width", [1.2, 2.0, 3.0])
 def test_a_corridor_start_facing_along_it_walks_along_it(character, width):
     scene = corridor(np.random.default_rng(7), "c", width, "along")
-    pl, result, _ = plan(scene, character)
+    pl, result = plan(scene, character)
     check_path(pl, result, scene)
     assert all(abs(f.position[1]) < width / 2 for f in result.footprints)
 
@@ -72,7 +69,7 @@ def test_a_corridor_start_facing_along_it_walks_along_it(character, width):
 @pytest.mark.parametrize("width", [2.0, 3.0])
 def test_a_corridor_start_facing_across_turns_where_the_turns_fit(character, width):
     scene = corridor(np.random.default_rng(7), "c", width, "across")
-    pl, result, _ = plan(scene, character)
+    pl, result = plan(scene, character)
     check_path(pl, result, scene)
 
 
@@ -94,10 +91,9 @@ def test_steps_with_treads_shorter_than_the_foot_say_so(character):
     "the start"), saying that no footprint fits on a tread."""
     scene = stairs(np.random.default_rng(3), "s", 0.12, 0.08, 3)
     pl, start, goal = make_planner(scene, character)
-    t = time.process_time()
     with pytest.raises(PlanError) as err:
         pl.plan(start, goal)
-    assert time.process_time() - t < 1.0
+    assert err.value.expanded == 0  # refused before any search
     msg = str(err.value)
     m = re.search(r"nearest reachable point is \(([\d.-]+), ([\d.-]+)\)", msg)
     assert m and 5.0 < float(m.group(1)) < 6.1, msg  # at the foot of the steps, 4 m from the start
