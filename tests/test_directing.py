@@ -12,17 +12,23 @@ import pytest
 CHAR = "Footstep Mannequin"
 
 
-@pytest.fixture
-def turns(fp, empty_scene):
-    """The Turns sample scene with the sample character, baked once from frame 1."""
+def _turns_scene(fp):
+    """The Turns sample scene at 30 fps with the sample character at Start: (scene, the
+    character, the planning module, the goal, its heading)."""
     mannequin = import_module(fp.__name__ + ".blender.mannequin")
     sample = import_module(fp.__name__ + ".blender.sample_scenes")
     planning = import_module(fp.__name__ + ".blender.planning")
-    handles = import_module(fp.__name__ + ".blender.handles")
     scene = sample.build("turns")
     scene.render.fps, scene.render.fps_base = 30, 1.0
     ob, _ = mannequin.add_to_scene(scene, "Start")
-    goal, heading = planning.goal_of(scene, "Goal")
+    return (scene, ob, planning, *planning.goal_of(scene, "Goal"))
+
+
+@pytest.fixture
+def turns(fp, empty_scene):
+    """The Turns sample scene with the sample character, baked once from frame 1."""
+    handles = import_module(fp.__name__ + ".blender.handles")
+    scene, ob, planning, goal, heading = _turns_scene(fp)
     planned = planning.plan_and_synthesize(scene, ob, goal, heading, scene.objects["Start"])
     doc = planning.run(scene, ob, goal, heading, scene.objects["Start"], name="turns", frame_start=1)
     handles.make_handles(scene, ob, planned.result.footprints, planned.setup.forward, goal, planned.goal_heading)
@@ -129,13 +135,7 @@ def shot(fp, empty_scene, tmp_path):
     near the direct path's thirds."""
     import bpy
 
-    mannequin = import_module(fp.__name__ + ".blender.mannequin")
-    sample = import_module(fp.__name__ + ".blender.sample_scenes")
-    planning = import_module(fp.__name__ + ".blender.planning")
-    scene = sample.build("turns")
-    scene.render.fps, scene.render.fps_base = 30, 1.0
-    ob, _ = mannequin.add_to_scene(scene, "Start")
-    goal, heading = planning.goal_of(scene, "Goal")
+    scene, ob, planning, goal, heading = _turns_scene(fp)
     fps = planning.plan(scene, ob, goal, heading, scene.objects["Start"])[0].footprints
     for name, i in (("A", len(fps) // 3), ("B", 2 * len(fps) // 3)):
         e = bpy.data.objects.new(name, None)

@@ -24,7 +24,7 @@ from ..core.errors import FootstepError
 from ..core.ik import IKResult, body_frames
 from ..core.quat import continuous
 from ..core.rig import Rig
-from .scene import scene_fps
+from .scene import CONSTANT, fill_keys, scene_fps
 
 OWNED_PROP = "footstep_bake"
 #: The character's own object transform before the first bake (row-major 4x4), put back
@@ -47,10 +47,6 @@ STASH_TRACK = "[Action Stash]"
 
 class BakeError(FootstepError):
     pass
-
-
-def _linear():
-    return bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items["LINEAR"].value
 
 
 def owned_tracks(ob) -> list:
@@ -264,33 +260,20 @@ class _Keys:
     """Writes whole F-Curves of linear keys at ``frames`` into a channel bag."""
 
     def __init__(self, cbag, frames: np.ndarray):
-        self.cbag, self.frames, self.lin = cbag, frames, _linear()
+        self.cbag, self.frames = cbag, frames
 
     def __call__(self, path: str, values: np.ndarray, group: str) -> None:
         """Key ``values`` (F,) or (F, K) on ``path``, one F-Curve per column (array index)."""
         values = np.asarray(values, float).reshape(len(self.frames), -1)
-        n = len(self.frames)
         for i in range(values.shape[1]):
-            kp = self.cbag.fcurves.new(path, index=i, group_name=group)
-            points = kp.keyframe_points
-            points.add(n)
-            co = np.empty(2 * n, np.float32)
-            co[0::2] = self.frames
-            co[1::2] = values[:, i]
-            points.foreach_set("co", co)
-            points.foreach_set("interpolation", np.full(n, self.lin, np.int32))
-            kp.update()
+            fill_keys(self.cbag.fcurves.new(path, index=i, group_name=group), self.frames, values[:, i])
 
     def constant(self, path: str, values, group: str) -> None:
         """Key ``values`` (K,) on ``path`` once, at the first frame: held throughout, so the
         channel plays the same whatever value the pose had before (no leftover state)."""
         values = np.asarray(values, float).ravel()
         for i, v in enumerate(values):
-            fc = self.cbag.fcurves.new(path, index=i, group_name=group)
-            fc.keyframe_points.add(1)
-            fc.keyframe_points[0].co = (float(self.frames[0]), float(v))
-            fc.keyframe_points[0].interpolation = "CONSTANT"
-            fc.update()
+            fill_keys(self.cbag.fcurves.new(path, index=i, group_name=group), self.frames[:1], [v], CONSTANT)
 
 
 def _new_action(ob, name: str, rest: list[float], body_on: str, frames: np.ndarray):

@@ -100,9 +100,21 @@ class Snapshot:
         self.ob.matrix_basis = self.matrix
 
 
-def _heading(job: dict):
-    value = job.get("goal_heading")
-    return None if value is None else math.radians(float(value))
+def goal_and_start(scene, goal: str | None, heading_deg, start: str | None):
+    """(goal position, goal heading (a Z rotation, rad) or None, start object or None)
+    from the names a command or a job gives (``heading_deg``, when given, overrides the
+    goal empty's own heading)."""
+    from . import planning
+
+    position, heading = planning.goal_of(scene, goal)
+    if heading_deg is not None:
+        heading = math.radians(float(heading_deg))
+    marker = None
+    if start:
+        marker = scene.objects.get(start)
+        if marker is None:
+            raise FootstepError(f"no object named {start!r} to start at")
+    return position, heading, marker
 
 
 def bake_job(scene, job: dict, common: dict, settings: Settings, plan=None) -> dict:
@@ -113,10 +125,7 @@ def bake_job(scene, job: dict, common: dict, settings: Settings, plan=None) -> d
     from . import planning
 
     ob = bpy.data.objects[job["character"]]
-    position, heading = planning.goal_of(scene, job.get("goal"))
-    if job.get("goal_heading") is not None:
-        heading = _heading(job)
-    start = scene.objects.get(job["start"]) if job.get("start") else None
+    position, heading, start = goal_and_start(scene, job.get("goal"), job.get("goal_heading"), job.get("start"))
     route, splice = _route(scene, job, plan, ob, position, heading)
     if plan is not None and job.get("goal") is None and plan.goal is not None:
         position = plan.goal
@@ -136,10 +145,7 @@ def _route(scene, job: dict, plan, ob, position, heading):
     if plan is not None:
         route = directing.EditedRoute(plan)
         return route, directing.Splice.of(ob, route)
-    if job.get("via"):
-        wps = directing.waypoints_of(scene, job["via"])
-        return directing.ViaRoute(wps + [(job.get("goal") or "the goal", position, heading)]), None
-    return None, None
+    return directing.via_route(scene, job.get("via"), job.get("goal") or "the goal", position, heading), None
 
 
 def _route_report(doc: dict, route, splice, job: dict) -> None:
@@ -193,4 +199,4 @@ def run_job(scene, job: Job, common: dict, settings: Settings, outputs: Outputs,
                                   [p for p in (job.report, job.out) if p])
 
 
-__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "run_job", "scene_problems"]
+__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "goal_and_start", "run_job", "scene_problems"]

@@ -167,7 +167,7 @@ def _add_bake(sub) -> None:
                     "--frame-start). Writes the report (plan, stage times, quality measured on "
                     "the scene as it plays). Several characters and goals: --job JOBS.json, a list "
                     "of {\"character\", \"goal\", \"start\", \"name\", \"frame_start\", "
-                    "\"report\", \"out\", \"goal_heading\", \"body_on\", \"settings\": {NAME: value}}. "
+                    "\"report\", \"out\", \"goal_heading\", \"body_on\", \"via\": [NAME, ...], \"settings\": {NAME: value}}. "
                     "Every job is checked before the first runs; a job that is invalid or fails is "
                     "reported by number and name and the others still run; a summary table ends the "
                     "run and the exit status is the number of jobs that failed. Files are written "
@@ -335,23 +335,6 @@ def _names(csv: str) -> list[str]:
     return [n.strip() for n in csv.split(",") if n.strip()]
 
 
-def _goal_and_start(scene, goal: str | None, heading_deg, start: str | None):
-    """(goal position, goal heading (a Z rotation, rad) or None, start object or None)
-    from the names given to plan and bake (``heading_deg``, when given, overrides the goal
-    empty's own heading)."""
-    from . import planning
-
-    position, heading = planning.goal_of(scene, goal)
-    if heading_deg is not None:
-        heading = math.radians(float(heading_deg))
-    marker = None
-    if start:
-        marker = scene.objects.get(start)
-        if marker is None:
-            raise CliError(f"no object named {start!r} to start at")
-    return position, heading, marker
-
-
 def _characters_to_analyze(args) -> tuple[list, bool]:
     """The armatures ``analyze`` works on, and whether they came from clip files: one per
     BVH or FBX file (imported into an empty scene), or those of a .blend (or the open
@@ -483,7 +466,7 @@ def _plan(args) -> int:
             open_blend(args.blend)
         scene = bpy.context.scene
         ob = find_armature(args.character)
-        goal, heading, start = _goal_and_start(scene, args.goal, args.goal_heading, args.start)
+        goal, heading, start = batch.goal_and_start(scene, args.goal, args.goal_heading, args.start)
         route = _via_route(scene, args, goal, heading)
         planned = planning.plan_and_synthesize(scene, ob, goal, heading, start, settings,
                                                _names(args.traversable), _names(args.obstacles), route)
@@ -505,12 +488,9 @@ def _plan(args) -> int:
 
 def _via_route(scene, args, goal, heading):
     """The route through ``--via``'s waypoints (then the goal), or None."""
-    names = _names(args.via)
-    if not names:
-        return None
-    from .directing import ViaRoute, waypoints_of
+    from .directing import via_route
 
-    return ViaRoute(waypoints_of(scene, names) + [(args.goal or "the goal", goal, heading)])
+    return via_route(scene, _names(args.via), args.goal or "the goal", goal, heading)
 
 
 def _common(args, names: bool = False) -> dict:
@@ -698,7 +678,7 @@ def _demo(args) -> int:
         for msg in clips.errors.values():
             print(f"footstep: error: {msg}", file=sys.stderr)
         t1 = time.perf_counter()
-        goal, heading, start = _goal_and_start(scene, "Goal", None, "Start")
+        goal, heading, start = batch.goal_and_start(scene, "Goal", None, "Start")
         doc = planning.run(scene, ob, goal, heading, start, name=f"{name} demo", frame_start=1)
         scene.frame_start, scene.frame_end = doc["frame_start"], doc["frame_end"]
         say("\n" + format_demo_plan(doc, 30, time.perf_counter() - t1))

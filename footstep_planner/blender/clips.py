@@ -34,7 +34,8 @@ from scipy.spatial.transform import Rotation
 
 from ..core.bvh import BvhError, read_bvh, read_skeleton
 from ..core.roles import map_roles
-from .scene import (ARMATURE_PROP, SOURCE_FILE_PROP, SOURCE_FPS_PROP, _matrices, sample_basis, scene_fps)
+from .scene import (ARMATURE_PROP, SOURCE_FILE_PROP, SOURCE_FPS_PROP, _matrices, fill_keys, sample_basis,
+                    scene_fps)
 from ..core.errors import FootstepError
 
 #: the clip files the import reads
@@ -809,8 +810,6 @@ def _euler_slot(mode: str, axis: int) -> int:
     return mode.lower().index("xyz"[axis])
 
 
-_LINEAR = None
-
 #: A clip of more frames than this is kept as sampled F-curve points (Blender's baked
 #: samples, one a scene frame: 16 bytes where a keyframe takes 72), so a 100,000 frame clip
 #: of 31 joints takes 200 MB, not 900 (a channel that never changes: two keys). It plays and
@@ -822,9 +821,6 @@ def _curve(cbag, path, index, group, frames, values):
     """A new F-curve ``path[index]`` in channel group ``group`` of ``cbag``, keyed
     ``values`` (F,) at ``frames`` (F,) with linear interpolation; past
     ``SAMPLED_FRAMES``, those keys sampled at every scene frame they span."""
-    global _LINEAR
-    if _LINEAR is None:
-        _LINEAR = bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items["LINEAR"].value
     sampled = len(frames) > SAMPLED_FRAMES
     if sampled:  # the keys' line at the whole frames (they are those frames at the file's rate)
         whole = np.arange(np.ceil(frames[0] - 1e-6), np.floor(frames[-1] + 1e-6) + 1)
@@ -832,13 +828,6 @@ def _curve(cbag, path, index, group, frames, values):
         if values.min() == values.max():  # a still channel: two keys hold it
             sampled, frames, values = False, frames[[0, -1]], values[[0, -1]]
     fc = cbag.fcurves.new(path, index=index, group_name=group)
-    kp = fc.keyframe_points
-    kp.add(len(frames))
-    co = np.empty(2 * len(frames), dtype=np.float32)
-    co[0::2] = frames
-    co[1::2] = values
-    kp.foreach_set("co", co)
-    kp.foreach_set("interpolation", np.full(len(frames), _LINEAR, dtype=np.int32))
-    fc.update()
+    fill_keys(fc, frames, values)
     if sampled:
         fc.convert_to_samples(int(frames[0]), int(frames[-1]) + 1)

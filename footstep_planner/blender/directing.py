@@ -77,6 +77,13 @@ def waypoints_of(scene, names) -> list:
     return out
 
 
+def via_route(scene, names, goal_name: str, goal, heading) -> "ViaRoute | None":
+    """The route through the waypoints ``names`` (``waypoints_of``), then the goal, or None
+    without any."""
+    wps = waypoints_of(scene, names) if names else []
+    return ViaRoute(wps + [(goal_name, goal, heading)]) if wps else None
+
+
 def plan_document(ob, planned, goal) -> dict:
     """The PLAN.json of a plan (``planning.Planned``): its footprints, none locked."""
     fps = planned.result.footprints

@@ -161,16 +161,14 @@ def _via(context, goal, heading):
     """The route through the panel's Waypoints collection (objects in name order), or None;
     the overlay rings the waypoints."""
     from . import overlay
-    from .directing import ViaRoute, waypoints_of
+    from .directing import via_route
 
-    coll = context.scene.footstep.waypoints
-    names = sorted(o.name for o in coll.all_objects) if coll is not None else []
-    wps = waypoints_of(context.scene, names) if names else []
+    fs = context.scene.footstep
+    names = sorted(o.name for o in fs.waypoints.all_objects) if fs.waypoints is not None else []
+    route = via_route(context.scene, names, fs.goal.name if fs.goal else "the 3D cursor", goal, heading)
+    wps = route.waypoints[:-1] if route is not None else []
     overlay.mark(context.scene, waypoints=np.array([w[1] for w in wps], float).reshape(-1, 3))
-    if not wps:
-        return None
-    return ViaRoute(wps + [(context.scene.footstep.goal.name if context.scene.footstep.goal else "the 3D cursor",
-                            goal, heading)])
+    return route
 
 
 class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):

@@ -18,6 +18,7 @@ import bpy
 import numpy as np
 
 from ..core.splice import SpanMap, splice_curve
+from .scene import fill_keys
 
 PLANTED = "footstep_planted_frames"  # per footprint: strike, stance, liftoff (scene frames)
 FOOTPRINTS = "footstep_footprints"  # per footprint: x, y, z, heading (the feet's final places)
@@ -62,18 +63,6 @@ def channel_keys(act) -> dict[Channel, Keys]:
             for fc in cb.fcurves}
 
 
-def _rewrite(fc, frames: np.ndarray, values: np.ndarray, interpolation: int) -> None:
-    kp = fc.keyframe_points
-    kp.clear()
-    n = len(frames)
-    kp.add(n)
-    co = np.empty(2 * n, np.float32)
-    co[0::2], co[1::2] = frames, values
-    kp.foreach_set("co", co)
-    kp.foreach_set("interpolation", np.full(n, interpolation, np.int32))
-    fc.update()
-
-
 def splice_action(act, old: dict[Channel, Keys], span: SpanMap) -> int:
     """Splice ``act``'s keys (the new bake) into the ``old`` bake's, channel by channel
     (those keyed on every frame in both); returns how many channels were spliced."""
@@ -86,7 +75,7 @@ def splice_action(act, old: dict[Channel, Keys], span: SpanMap) -> int:
                 continue
             frames, values = splice_curve(int(before.frames[0]), before.values, int(new.frames[0]), new.values,
                                           span)
-            _rewrite(fc, frames, values, int(new.interpolation[len(new.interpolation) // 2]))
+            fill_keys(fc, frames, values, int(new.interpolation[len(new.interpolation) // 2]))
             n += 1
     return n
 

@@ -77,12 +77,12 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
+from .scene import CONSTANT, LINEAR, fill_keys
+
 __all__ = ["is_rigify", "rigify_metarig", "deform_chain", "deform_bone_names",
            "key_controls", "sample_deform", "heads_tails"]
 
 _PREFIXES = ("ORG-", "MCH-", "DEF-", "VIS_", "VIS-")
-_LINEAR = 1  # Keyframe.interpolation enum value of 'LINEAR'
-_CONSTANT = 0
 
 
 # --------------------------------------------------------------------------------------------
@@ -805,20 +805,12 @@ def _channelbag(ob, dst):
     return act, slot, strip.channelbag(slot, ensure=True)
 
 
-def _write(cbag, path, index, frames, values, group, interp=_LINEAR):
+def _write(cbag, path, index, frames, values, group, interp=LINEAR):
     fc = cbag.fcurves.find(path, index=index)
     if fc is not None:
         cbag.fcurves.remove(fc)
     fc = cbag.fcurves.new(path, index=index, group_name=group)
-    n = len(frames)
-    kp = fc.keyframe_points
-    kp.add(n)
-    co = np.empty(2 * n, np.float32)
-    co[0::2] = frames
-    co[1::2] = values
-    kp.foreach_set("co", co)
-    kp.foreach_set("interpolation", np.full(n, interp, np.int32))
-    fc.update()
+    fill_keys(fc, frames, values, interp)
     return fc
 
 
@@ -828,7 +820,7 @@ def _key_bone(cbag, ob, name, frames, basis, with_location=True):
     base = f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
     count = 0
     one = len(frames) == 1
-    interp = _CONSTANT if one else _LINEAR
+    interp = CONSTANT if one else LINEAR
     bone = ob.data.bones[name]
     if with_location and not bone.use_connect:
         loc = basis[:, :3, 3]
@@ -870,7 +862,7 @@ def _key_bone(cbag, ob, name, frames, basis, with_location=True):
 def _key_scale(cbag, name, frame0):
     base = f'pose.bones["{bpy.utils.escape_identifier(name)}"]'
     for i in range(3):
-        _write(cbag, base + ".scale", i, np.array([frame0]), np.array([1.0]), name, _CONSTANT)
+        _write(cbag, base + ".scale", i, np.array([frame0]), np.array([1.0]), name, CONSTANT)
     return 3
 
 
@@ -971,7 +963,7 @@ def _write_keys(ob, cbag, frames, bases: dict, neutral_bones: list, props: dict,
         count += _key_bone(cbag, ob, c, frames[:1], eye)
         count += _key_scale(cbag, c, frames[0])
     for path, val in props.items():
-        _write(cbag, path, 0, frames[:1], np.array([val]), path.split('"')[1], _CONSTANT)
+        _write(cbag, path, 0, frames[:1], np.array([val]), path.split('"')[1], CONSTANT)
         count += 1
     return count
 

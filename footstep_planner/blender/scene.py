@@ -112,6 +112,25 @@ def _rigify_rig(ob, overrides: dict) -> Rig:
     return Rig.build(ob.name, names, parents, rest, tails, overrides=roles)
 
 
+#: Keyframe.interpolation enum values
+CONSTANT, LINEAR = 0, 1
+
+
+def fill_keys(fc, frames, values, interpolation: int = LINEAR) -> None:
+    """Replace the keys of the F-Curve ``fc`` by one key per (frame, value), written whole
+    with ``foreach_set`` (single precision, as Blender stores keys)."""
+    kp = fc.keyframe_points
+    if len(kp):
+        kp.clear()
+    n = len(frames)
+    kp.add(n)
+    co = np.empty(2 * n, np.float32)
+    co[0::2], co[1::2] = frames, values
+    kp.foreach_set("co", co)
+    kp.foreach_set("interpolation", np.full(n, interpolation, np.int32))
+    fc.update()
+
+
 def action_frame_range(action) -> tuple[float, float]:
     if action.use_frame_range:
         return float(action.frame_start), float(action.frame_end)
