@@ -235,3 +235,122 @@ def test_waypoints_from_a_collection_and_a_curve_in_the_panel(fp, shot):
     assert hits[0] < hits[1]
     for o, i in zip((a, b), hits):
         assert np.linalg.norm(pos[i] - np.array(o.location[:2])) <= 0.35
+
+
+def _played_body(fp, path, doc):
+    """The body's positions (F, 3) as Blender plays the saved scene ``path``."""
+    import bpy
+
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene, ob = bpy.context.scene, bpy.data.objects[CHAR]
+    out = []
+    for f in range(doc["frame_start"], doc["frame_end"] + 1):
+        scene.frame_set(f)
+        out.append(np.array(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).matrix_world.translation))
+    return np.array(out)
+
+
+def test_arrival_frames_are_met_and_a_pause_stands_still(fp, shot, capsys):
+    """Three waypoints: A with a 1.5 s pause, B on frame 560 and the goal on frame 800 (the
+    walk paced to them): each met within one frame as Blender plays the saved scene,
+    read independently of the report; at A the body stands still for the pause."""
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    directed = import_module(fp.__name__ + ".core.directed")
+    folder, path = shot
+    out = folder / "timed.blend"
+    assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
+                "--pause", "A=1.5", "--arrive", "B=560,Goal=800", "--out", str(out),
+                "--report", str(folder / "t.json")]) == 0
+    text = capsys.readouterr().out
+    assert "waypoints (frames" in text and "asked" in text
+    doc = json.loads((folder / "t.json").read_text())
+    rows = {r["name"]: r for r in doc["waypoints"]}
+    assert list(rows) == ["A", "B", "Goal"]
+    body = _played_body(fp, out, doc)
+    import bpy
+
+    marks = [directed.Mark(n, 0, np.array(bpy.data.objects[n].location), stop=n != "B") for n in rows]
+    windows = [(rows[n]["planned"] - 60 - doc["frame_start"], rows[n]["planned"] + 60 - doc["frame_start"])
+               for n in rows]
+    windows = [(max(int(a), 0), min(int(b), len(body) - 1)) for a, b in windows]
+    windows[-1] = (windows[-1][0], len(body) - 1)
+    windows[0] = (windows[0][0], int(rows["A"]["planned"] - doc["frame_start"] + 1.2 * 30))  # (into the pause)
+    got = doc["frame_start"] + directed.arrival_frames(body, marks, windows)
+    assert abs(got[1] - 560) <= 1.0 and abs(got[2] - 800) <= 1.0
+    for n, g in zip(rows, got):
+        assert abs(rows[n]["achieved"] - g) <= 0.5  # the report reads the played scene
+    # at A: stands still (under 2 mm a frame) for the pause, then walks on
+    a = int(round(rows["A"]["achieved"])) - doc["frame_start"]
+    speed = np.linalg.norm(np.diff(body[:, :2], axis=0), axis=1)
+    still = np.flatnonzero(speed[a:a + 150] < 0.002)
+    assert still[-1] - still[0] + 1 >= 1.5 * 30 - 2 and speed[a + 150:].max() > 0.02
+    assert np.linalg.norm(body[a + still[0], :2] - np.array(bpy.data.objects["A"].location[:2])) < 0.1
+    q = doc["quality"]
+    assert q["foot_skate"]["max_mm"] < 5 and q["goal"]["distance_m"] < 0.05
+    assert q["pops"]["introduced"]["count"] <= 5
+
+
+def test_a_frame_too_soon_is_refused_with_the_earliest_which_is_then_met(fp, shot, capsys):
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    folder, path = shot
+    common = [path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B"]
+    assert cli(["bake", *common, "--arrive", "B=200", "--out", str(folder / "x.blend")]) == 2
+    err = capsys.readouterr().err
+    import re
+
+    m = re.search(r"waypoint 'B' can't be reached by frame 200: the earliest is frame (\d+)", err)
+    assert m and "Traceback" not in err and not (folder / "x.blend").exists()
+    earliest = int(m.group(1))
+    assert cli(["bake", *common, "--arrive", f"B={earliest}", "--report", str(folder / "e.json")]) == 0
+    row = json.loads((folder / "e.json").read_text())["waypoints"][1]
+    assert abs(row["achieved"] - earliest) <= 1.0 and row["pace"] > 1.2
+
+
+def test_early_arrival_waits_standing_at_the_start(fp, shot, capsys):
+    """A goal frame later than the slowest pace reaches it: the character waits at the
+    start, standing, and leaves in time."""
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    folder, path = shot
+    assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--arrive", "Goal=1300",
+                "--report", str(folder / "w.json")]) == 0
+    doc = json.loads((folder / "w.json").read_text())
+    (row,) = doc["waypoints"]
+    assert abs(row["achieved"] - 1300) <= 1.0 and row["waited"] > 1.0 and abs(row["pace"] - 0.8) < 1e-6
+    first_lift = min(f["planted_frames"][1] for f in doc["footprints"][:2])
+    assert first_lift - doc["frame_start"] >= row["waited"] * 30
+
+
+@pytest.mark.parametrize("args, says", [
+    (["--pause", "Nowhere=1"], "--pause names 'Nowhere', which is not a waypoint"),
+    (["--arrive", "B=soon"], "--arrive: 'B=soon' is not NAME=NUMBER"),
+    (["--pause", "A=-2"], "--pause A=-2: must be 0 to 3600 seconds"),
+])
+def test_bad_timing_options_are_one_message(fp, shot, capsys, args, says):
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    folder, path = shot
+    assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
+                *args]) == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err
+
+
+def test_the_panel_takes_a_pause_and_an_arrival_frame(fp, shot):
+    """A waypoint's pause and the goal's arrival frame set on the objects (the panel's
+    fields) are what the panel's Bake honours; its report lists the frames."""
+    import bpy
+
+    folder, path = shot
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    coll = bpy.data.collections.new("Way")
+    scene.collection.children.link(coll)
+    coll.objects.link(bpy.data.objects["A"])
+    a, goal = bpy.data.objects["A"], scene.objects["Goal"]
+    a.footstep.pause = 1.0
+    goal.footstep.use_arrive, goal.footstep.arrive = True, 900
+    fs = scene.footstep
+    fs.character, fs.goal, fs.start, fs.waypoints = bpy.data.objects[CHAR], goal, scene.objects["Start"], coll
+    assert bpy.ops.footstep.bake() == {"FINISHED"}
+    rows = {w["name"]: w for w in json.loads(fs.plan_json)["waypoints"]}
+    assert rows["A"]["pause"] == 1.0 and rows["A"]["stops"]
+    assert abs(rows["Goal"]["achieved"] - 900) <= 1.0

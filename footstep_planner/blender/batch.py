@@ -145,7 +145,8 @@ def _route(scene, job: dict, plan, ob, position, heading):
     if plan is not None:
         route = directing.EditedRoute(plan)
         return route, directing.Splice.of(ob, route)
-    return directing.via_route(scene, job.get("via"), job.get("goal") or "the goal", position, heading), None
+    return directing.via_route(scene, job.get("via"), job.get("goal") or "the goal", position, heading,
+                               job.get("pause"), job.get("arrive")), None
 
 
 def _route_report(doc: dict, route, splice, job: dict) -> None:
@@ -154,11 +155,12 @@ def _route_report(doc: dict, route, splice, job: dict) -> None:
     from . import directing
 
     if isinstance(route, directing.ViaRoute):
-        names = [w[0] for w in route.waypoints]
-        planned = np.array([f["planned"] for f in doc["synthesis"]["footprints"]], float)
-        at = [int(np.argmin(np.linalg.norm(planned - np.round(p, 4), axis=1))) for p in route.arrivals]
-        doc["waypoints"] = [{"name": n, "footprint": i, "frame": doc["footprints"][i]["frame"],
-                             "position": doc["synthesis"]["footprints"][i]["planned"]} for n, i in zip(names, at)]
+        rows = doc.get("waypoints") or [{"name": w[0]} for w in route.waypoints]
+        for row, i in zip(rows, route.route.arrivals):
+            i += 1  # (the baked path begins with the other standing foot)
+            row.update({"footprint": i, "frame": doc["footprints"][i]["frame"],
+                        "position": doc["synthesis"]["footprints"][i]["planned"]})
+        doc["waypoints"] = rows
     elif isinstance(route, directing.EditedRoute) and route.edited is not None:
         doc["replanned"] = [list(s) for s in route.edited.spans]
         if splice is not None and splice.span is not None:

@@ -31,7 +31,7 @@ from ..core.files import Outputs, describe_os_error
 from ..core.jobs import MAX_FRAME, JobOutcome, exit_status, is_text, read_jobs, summary_table
 from ..core.report import plan_report
 from ..core.settings import Settings
-from ..core.tables import format_bake, format_demo_plan, format_library, format_plan, format_table
+from ..core.tables import format_bake, format_demo_plan, format_library, format_plan, format_table, format_waypoints
 from . import batch
 from .batch import BUG_LINE
 from .console import Progress, results_on_stdout, say
@@ -98,6 +98,12 @@ def _scene_options(character_required: bool) -> argparse.ArgumentParser:
     p.add_argument("--via", type=_text, default="", metavar="NAME,...",
                    help="pass through these objects in order on the way to the goal (an empty you "
                         "turned: facing its way; else facing the next; a curve object: each of its points)")
+    p.add_argument("--arrive", type=_text, default="", metavar="NAME=FRAME,...",
+                   help="arrive at these waypoints (or the goal) on these scene frames: the walk's pace "
+                        "is chosen (see the pace_min and pace_max settings) and, when early, the "
+                        "character waits standing at the stop before")
+    p.add_argument("--pause", type=_text, default="", metavar="NAME=SECONDS,...",
+                   help="stop and stand this long at these waypoints")
     p.add_argument("--traversable", type=_text, default="", metavar="NAME,...", help="tag these objects traversable for this run")
     p.add_argument("--obstacles", type=_text, default="", metavar="NAME,...", help="tag these objects obstacles for this run")
     _set_option(p)
@@ -472,6 +478,8 @@ def _plan(args) -> int:
                                                _names(args.traversable), _names(args.obstacles), route)
         result, syn = planned.result, planned.synthesis
         doc = plan_report(result, syn, ob.name, goal, scene.frame_current)
+        if planned.performance is not None:
+            doc["waypoints"] = planning.waypoint_rows(planned, scene.frame_current, scene_fps(scene))
         if report:
             outs.write_json(report, doc)
         if out_plan:
@@ -483,6 +491,8 @@ def _plan(args) -> int:
         say(json.dumps(doc))
     else:
         say(format_plan(ob.name, goal, result, syn, scene.frame_current, scene_fps(scene), doc["stages"]))
+        if doc.get("waypoints"):
+            say(format_waypoints(doc["waypoints"]))
     return 0
 
 
@@ -490,7 +500,23 @@ def _via_route(scene, args, goal, heading):
     """The route through ``--via``'s waypoints (then the goal), or None."""
     from .directing import via_route
 
-    return via_route(scene, _names(args.via), args.goal or "the goal", goal, heading)
+    return via_route(scene, _names(args.via), args.goal or "the goal", goal, heading,
+                     _pairs(args.pause, "--pause"), _pairs(args.arrive, "--arrive"))
+
+
+def _pairs(csv: str, option: str) -> dict:
+    """NAME=NUMBER,... as a dict; CliError naming the option and the pair at fault."""
+    out = {}
+    for item in _names(csv):
+        name, eq, value = item.rpartition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = None
+        if not eq or not name.strip() or number is None or not np.isfinite(number):
+            raise CliError(f"{option}: {item!r} is not NAME=NUMBER")
+        out[name.strip()] = number
+    return out
 
 
 def _common(args, names: bool = False) -> dict:
@@ -522,7 +548,8 @@ def _bake(args) -> int:
         report = outs.claim(args.report, "--report") if args.report is not None else None
         job = {"character": args.character or (plan.character if plan else None), "goal": args.goal,
                "start": args.start, "name": args.name, "frame_start": args.frame_start,
-               "goal_heading": args.goal_heading, "body_on": args.body_on, "via": _names(args.via)}
+               "goal_heading": args.goal_heading, "body_on": args.body_on, "via": _names(args.via),
+               "pause": _pairs(args.pause, "--pause"), "arrive": _pairs(args.arrive, "--arrive")}
         problems = batch.scene_problems(bpy.context.scene, job)
         if problems:
             raise CliError(problems[0])

@@ -37,20 +37,44 @@ class EditedRoute:
 
 @dataclass
 class ViaRoute:
-    """``run_steps``'s route through waypoints (their headings a Z rotation, or None);
-    ``arrivals`` the footprint reaching each."""
+    """``run_steps``'s route through waypoints (their headings a Z rotation, or None), each
+    with the seconds to stand there (``pauses``, by name) and the scene frame to arrive on
+    (``arrive``, by name; the goal's name too); ``arrivals`` the footprint reaching each."""
 
     waypoints: list  # (name, position (3,), heading or None)
+    pauses: dict = field(default_factory=dict)  # name -> s
+    arrive: dict = field(default_factory=dict)  # name -> scene frame
     arrivals: list = field(default_factory=list)  # the position (3,) of the footprint reaching each
+    route: object = None  # the core Route, once planned
+    stops: set = field(default_factory=set)  # names the path stops at with no pause of its own (to wait)
 
     def __call__(self, setup, start, heading):
         from .planning import rotation_heading
 
-        wps = [Waypoint(name, np.asarray(pos, float), None if h is None else rotation_heading(h, setup.forward))
-               for name, pos, h in self.waypoints]
-        route = plan_via(setup.planner, start, wps)
-        self.arrivals = [np.asarray(route.result.footprints[i].position, float) for i in route.arrivals]
-        return route.result
+        self.wps = [Waypoint(name, np.asarray(pos, float), None if h is None else rotation_heading(h, setup.forward),
+                             pause=float(self.pauses.get(name, 0.0)), stop=name in self.stops)
+                    for name, pos, h in self.waypoints]
+        self.route = plan_via(setup.planner, start, self.wps)
+        self.arrivals = [np.asarray(self.route.result.footprints[i].position, float) for i in self.route.arrivals]
+        return self.route.result
+
+    def marks(self, fps: float, frame_start: float) -> list:
+        """The waypoints on the planned path (``core.directed.Mark``), the goal last; their
+        arrival frames in seconds from ``frame_start``."""
+        from ..core.directed import Mark
+
+        out = []
+        for k, (wp, i) in enumerate(zip(self.wps, self.route.arrivals)):
+            last = k + 1 == len(self.wps)
+            frame = self.arrive.get(wp.name)
+            out.append(Mark(wp.name, i, wp.position, wp.heading, stop=wp.stops or last, pause=wp.pause,
+                            arrive=None if frame is None else (float(frame) - frame_start) / fps))
+        return out
+
+    @property
+    def directed(self) -> bool:
+        """Whether the path stops on the way or has frames to meet."""
+        return bool(self.arrive) or any(p > 0 for p in self.pauses.values()) or bool(self.stops)
 
 
 def waypoints_of(scene, names) -> list:
@@ -77,11 +101,26 @@ def waypoints_of(scene, names) -> list:
     return out
 
 
-def via_route(scene, names, goal_name: str, goal, heading) -> "ViaRoute | None":
+def via_route(scene, names, goal_name: str, goal, heading, pauses=None, arrive=None) -> "ViaRoute | None":
     """The route through the waypoints ``names`` (``waypoints_of``), then the goal, or None
-    without any."""
+    without any (and no arrival frame for the goal). ``pauses`` (name -> s) and ``arrive``
+    (name -> scene frame) must name waypoints (the goal too, for ``arrive``): DirectingError
+    naming the one that isn't, or a pause or frame out of range."""
     wps = waypoints_of(scene, names) if names else []
-    return ViaRoute(wps + [(goal_name, goal, heading)]) if wps else None
+    pauses, arrive = dict(pauses or {}), dict(arrive or {})
+    known = [n for n, _, _ in wps]
+    for what, table, allowed in (("--pause", pauses, known), ("--arrive", arrive, known + [goal_name])):
+        for n, v in table.items():
+            if n not in allowed:
+                raise DirectingError(f"{what} names {n!r}, which is not " + (
+                    f"a waypoint (--via {','.join(known)})" if known else "a waypoint (give --via)")
+                    + (f" nor the goal ({goal_name!r})" if what == "--arrive" else ""))
+            if not np.isfinite(v) or v < 0 or (what == "--pause" and v > 3600):
+                raise DirectingError(f"{what} {n}={v:g}: must be " + (
+                    "0 to 3600 seconds" if what == "--pause" else "a frame number, 0 or more"))
+    if not wps and not arrive:
+        return None
+    return ViaRoute(wps + [(goal_name, goal, heading)], pauses, arrive)
 
 
 def plan_document(ob, planned, goal) -> dict:

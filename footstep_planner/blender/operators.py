@@ -165,7 +165,11 @@ def _via(context, goal, heading):
 
     fs = context.scene.footstep
     names = sorted(o.name for o in fs.waypoints.all_objects) if fs.waypoints is not None else []
-    route = via_route(context.scene, names, fs.goal.name if fs.goal else "the 3D cursor", goal, heading)
+    objs = [context.scene.objects[n] for n in names] + ([fs.goal] if fs.goal else [])
+    pauses = {o.name: o.footstep.pause for o in objs[:len(names)] if o.footstep.pause > 0}
+    arrive = {o.name: o.footstep.arrive for o in objs if o.footstep.use_arrive}
+    route = via_route(context.scene, names, fs.goal.name if fs.goal else "the 3D cursor", goal, heading,
+                      pauses, arrive)
     wps = route.waypoints[:-1] if route is not None else []
     overlay.mark(context.scene, waypoints=np.array([w[1] for w in wps], float).reshape(-1, 3))
     return route
@@ -232,7 +236,8 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
 
         fs = context.scene.footstep
         fs.plan_json = json.dumps({k: doc[k] for k in ("footprints", "search", "character", "stages", "quality",
-                                                       "name", "track", "action", "frame_start", "frame_end")})
+                                                       "name", "track", "action", "frame_start", "frame_end",
+                                                       "waypoints") if k in doc})
         q, st = doc["quality"], doc["stages"]
         fs.last_report = (f"{doc['frames'] if 'frames' in doc else st['frames']} frames baked into "
                           f"{doc['track']!r}; skate {q['foot_skate']['max_mm']:.1f} mm max, goal "

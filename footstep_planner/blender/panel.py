@@ -44,6 +44,7 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
         box.prop(fs, "goal")
         box.prop(fs, "start")
         box.prop(fs, "waypoints")
+        _draw_waypoint(box, context, fs)
         row = box.row(align=True)
         row.operator("footstep.build_graph", icon="OUTLINER_DATA_LIGHTPROBE")
         row.operator("footstep.plan", icon="TRACKING_FORWARDS")
@@ -98,6 +99,25 @@ def _wrap(text: str, width: int) -> list[str]:
     return out + ([line] if line else [])
 
 
+def _draw_waypoint(layout, context, fs):
+    """The active object's pause and arrival frame, when it is a waypoint or the goal."""
+    ob = context.active_object
+    if ob is None:
+        return
+    way = fs.waypoints is not None and ob.name in fs.waypoints.all_objects
+    if not way and ob != fs.goal:
+        return
+    col = layout.column(align=True)
+    col.label(text=f"{'Waypoint' if way else 'Goal'} {ob.name}", icon="EMPTY_SINGLE_ARROW")
+    if way:
+        col.prop(ob.footstep, "pause")
+    row = col.row(align=True)
+    row.prop(ob.footstep, "use_arrive")
+    sub = row.row(align=True)
+    sub.enabled = ob.footstep.use_arrive
+    sub.prop(ob.footstep, "arrive")
+
+
 def _draw_report(layout, fs):
     """The last bake's stage times and quality figures."""
     import json
@@ -123,6 +143,10 @@ def _draw_report(layout, fs):
             ("ground penetration, max", f"{q['penetration']['max_mm']:.1f} mm"),
             ("goal", f"{q['goal']['distance_m'] * 100:.1f} cm"),
             ("pops made by the planner", f"{q['pops']['introduced']['count']}")]
+    for w in doc.get("waypoints") or ():
+        asked = "" if w.get("arrive") is None else f" (asked {w['arrive']:.0f})"
+        got = w.get("achieved") if w.get("achieved") is not None else w.get("planned")
+        rows.append((f"at {w['name']}", f"frame {got:.1f}{asked}"))
     for name, value in rows:
         row = col.row()
         row.label(text=name)

@@ -16,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from ..core import report
 from ..core.analysis import ClipAnalysis
+from ..core.directed import Performance, arrival_frames, arrival_times, perform
 from ..core.ik import IKResult, solve_ik
 from ..core.library import Library
 from ..core.rig import Rig, forward_kinematics
@@ -220,21 +221,79 @@ class Planned:
     setup: PlanSetup
     synthesis: Synthesis
     goal_heading: float | None  # the planner's heading to arrive with (rad), if any
+    performance: Performance | None = None  # through waypoints: when each is reached
 
 
 def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
-                        traversable=(), obstacles=(), route=None) -> Planned:
+                        traversable=(), obstacles=(), route=None, frame_start: float | None = None) -> Planned:
     """Plan the footprints to ``goal`` and synthesize the motion along them; the overlay
-    shows the result."""
+    shows the result. A route through waypoints (``directing.ViaRoute``) that stops at
+    some or has arrival frames (scene frames, the first frame being ``frame_start``,
+    default the current one) is performed leg by leg (``core.directed.perform``)."""
     from . import overlay
 
+    settings = settings or Settings()
     result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles, route)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
-    syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)
+    performance = None
+    if callable(getattr(route, "marks", None)):
+        fps = scene_fps(scene)
+        first = float(scene.frame_current if frame_start is None else frame_start)
+        marks = route.marks(fps, first)
+        if route.directed:
+            performance = _perform(scene, result, setup, settings, marks, goal, heading, first)
+            syn = performance.synthesis
+        else:
+            syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)
+            times, windows = arrival_times(syn, [syn], marks,
+                                           solve(Planned(result, setup, syn, heading), settings).ik.body_pos)
+            performance = Performance(syn, marks, times, np.ones(len(marks)), np.zeros(len(marks)), windows)
+    else:
+        syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)
     result = replace(result, footprints=list(syn.plan))  # with both standing feet at either end
     overlay.remember(scene, result.footprints, *syn.footprints, setup.forward, setup.planner.foot, syn.body_position,
                      result.explored_positions if result.explored else None)
-    return Planned(result, setup, syn, heading)
+    return Planned(result, setup, syn, heading, performance)
+
+
+def _perform(scene, result: PlanResult, setup: PlanSetup, settings: Settings, marks, goal, heading,
+             frame_start: float) -> Performance:
+    """The path through its marks leg by leg, stopping where they stop, their frames met."""
+    pl = setup.planner
+    snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
+                        step_height=pl.max_step_height)
+    fps = scene_fps(scene)
+
+    def leg(path, other, leg_goal, leg_heading, lead, hold, pace):
+        if other is None:
+            other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
+        return _synthesize(path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward, snap=snap,
+                           goal=leg_goal, standing=True, start_other=other, goal_heading=leg_heading, pace=pace,
+                           lead=lead, hold=hold)
+
+    def body(syn):  # (the arrivals are read on the body the bake will have: after the IK)
+        return solve(Planned(result, setup, syn, heading), settings).ik.body_pos
+
+    return perform(result.footprints, marks, leg, goal, heading, pace_range=(settings.pace_min, settings.pace_max),
+                   frame_start=frame_start, body=body)
+
+
+def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=None) -> list[dict]:
+    """Per waypoint (the goal last): the frame asked for, the frame the plan reaches it on
+    and, with the played body positions (F, 3), the frame the played scene does; the
+    pause, the pace of the walk to it, the seconds waited before."""
+    perf = planned.performance
+    if perf is None:
+        return []
+    played = None if played_body is None else arrival_frames(played_body, perf.marks, perf.windows)
+    rows = []
+    for k, m in enumerate(perf.marks):
+        rows.append({"name": m.name, "arrive": None if m.arrive is None else round(frame_start + m.arrive * fps, 2),
+                     "planned": round(float(frame_start + perf.times[k] * fps), 2),
+                     "achieved": None if played is None else round(float(frame_start + played[k]), 2),
+                     "stops": bool(m.stop), "pause": round(float(m.pause), 3), "pace": round(float(perf.pace[k]), 4),
+                     "waited": round(float(perf.waited[k]), 3)})
+    return rows
 
 
 def body_spin(forward, analyses) -> float:
@@ -312,7 +371,7 @@ def solve(planned: Planned, settings: Settings) -> Solved:
 
 
 def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal, goal_heading, fps: float,
-            body_on: str = "OBJECT", planted=None, frames: int | None = None) -> dict:
+            body_on: str = "OBJECT", planted=None, frames: int | None = None, played: dict | None = None) -> dict:
     """The quality of the scene as Blender plays it (``bake.evaluate_played``: the bake
     with every other track and the active action as they are), measured by
     ``core.report.measure_bake``; ``planted`` and ``frames`` when the bake's timing is
@@ -327,6 +386,8 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
 
         root = setup.rig.role_index("hips") if rigify.is_rigify(ob) else baking.root_bone(ob, setup.rig)
     world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, setup.rig, frame_start, frames, root)
+    if played is not None:  # (for the caller: the body as played)
+        played["body"] = body_pos
     sched = syn.final.schedule
     walk = _walk_motion(setup)
     stances = report.planted_stances(sched.feet, syn.planted() if planted is None else planted, *syn.footprints,
@@ -376,7 +437,7 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     frame_start = int(scene.frame_current if frame_start is None else frame_start)
     yield 0.0, "planning"
     planned = plan_and_synthesize(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
-                                  route)
+                                  route, frame_start)
     result, syn = planned.result, planned.synthesis
     yield 0.5, "inverse kinematics"
     if splice is not None:
@@ -393,13 +454,17 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
         planted, frames = splice.after_bake(act, track, planted, frames, frame_start, fps)
     rebake.record(act, planted, syn.footprints, frame_start, fps)
     yield 0.85, "quality"
-    qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted, frames)
+    played = {}
+    qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted, frames,
+                   played)
     stages = stage_row(len(result.footprints), result.seconds, syn, pose_blend=solved.pose_seconds,
                        ik=solved.ik_seconds, bake=timer.seconds["bake"])
     doc = report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,
                              frame_start=frame_start, frames=frames, fps=fps, action=act.name,
                              track=track.name, stages=stages, quality=qual, planted=planted)
     doc["stashed_action"] = act.get(baking.STASH_PROP)
+    if planned.performance is not None:
+        doc["waypoints"] = waypoint_rows(planned, frame_start, fps, played.get("body"))
     walk, rig = _walk_motion(planned.setup), planned.setup.rig
     doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")], walk.heel_local,
                                      walk.toe_local)

@@ -22,6 +22,8 @@ JOB_FIELDS = {
     "name": "text", "report": "a file path", "out": "a file path", "frame_start": "a whole number",
     "goal_heading": "a number (degrees)", "body_on": '"object" or "root"',
     "via": "a list of objects' names (waypoints, in order)",
+    "arrive": "an object of scene frames to arrive on (NAME: frame), waypoints or the goal",
+    "pause": "an object of seconds to stand at waypoints (NAME: seconds)",
     "settings": "an object of settings (NAME: value)"}
 
 #: a frame number beyond which Blender's timeline (1,048,574) has no room for a bake
@@ -60,6 +62,11 @@ def _field_problem(field: str, value) -> str | None:
         ok = isinstance(value, list) and all(isinstance(v, str) and v.strip() and "," not in v and is_text(v)
                                              for v in value)
         return None if ok else f"got {json.dumps(value)[:40]}"
+    if field in ("arrive", "pause"):
+        top = MAX_FRAME if field == "arrive" else 3600
+        ok = isinstance(value, dict) and all(
+            isinstance(k, str) and k.strip() and is_text(k) and _number(v) and 0 <= v <= top for k, v in value.items())
+        return None if ok else f"got {json.dumps(value)[:40]} (names with numbers from 0 to {top})"
     if field == "body_on":
         ok = isinstance(value, str) and value.lower() in ("object", "root")
         return None if ok else f"got {json.dumps(value)[:40]}"
@@ -143,6 +150,9 @@ def job_argv(job: dict, *, blend: str | None = None, out: str | None = None, rep
         argv += ["--goal-heading", repr(float(job["goal_heading"]))]
     if job.get("via"):
         argv += ["--via", ",".join(job["via"])]
+    for key in ("arrive", "pause"):
+        if job.get(key):
+            argv += [f"--{key}", ",".join(f"{k}={v!r}" for k, v in job[key].items())]
     argv += ["--body-on", str(job.get("body_on") or common.get("body_on") or "object").lower()]
     for key in ("traversable", "obstacles"):
         if common.get(key):

@@ -403,7 +403,8 @@ def ease_end(pos: np.ndarray, heading: np.ndarray, off, snap: SnapFn | None = No
 def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, ClipTrack],
                settings: Settings | None = None, fps: float = 30.0, forward=None,
                snap: SnapFn | None = None, goal=None, standing: bool = False, start_other=None,
-               goal_heading: float | None = None) -> Synthesis:
+               goal_heading: float | None = None, pace=None, lead: float | None = None,
+               hold: float | None = None) -> Synthesis:
     """Synthesize the motion of a planned path (``navgraph.PathFootprint`` list, feet
     alternating). ``analyses`` are the library's clips analysed (or their tracks);
     ``snap`` keeps footprints on the surface (see ``surface_snap``); ``forward`` is
@@ -412,7 +413,13 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
     within its goal radius; see ``ease_end``). With ``standing`` the character starts
     from standing on the path's first footprint and ``start_other`` (the other standing
     foot, default beside it) and stops to standing, the last two feet side by side facing
-    ``goal_heading`` when given (``standing_path``, ``blending.Standing``)."""
+    ``goal_heading`` when given (``standing_path``, ``blending.Standing``); ``lead`` and
+    ``hold`` (s) then set how long it stands before its first step and after its last
+    (default: ``Settings.stand_hold``, the lead at most STAND_LEAD).
+
+    ``pace`` (a number, or one per step of ``path``) plays the walking steps that much
+    faster (the clips' time warped: a step lasts its clips' duration over its pace; the
+    footprints stay where they are)."""
     settings = settings or Settings()
     if len(path) < 2:
         raise BlendError("the path has a single footprint: the character is already at its goal")
@@ -424,21 +431,26 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
         stand = None
         if standing and cyc:
             fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
-            stand = _standing(library, tracks, cyc, settings)
+            stand = _standing(library, tracks, cyc, settings, lead, hold)
+            n_plan = len(path)
             path = standing_path(path, library, cyc, fwd, start_other, goal_heading, tracks[stand.clip])
+            if pace is not None and np.ndim(pace):  # the standing steps at either end: their neighbours'
+                pace = np.r_[pace[0], np.asarray(pace, float)[:n_plan - 1], pace[-1]]
         steps = plan_steps(path, library, cyc)
+        rate = _step_pace(pace, len(steps))
         bends = np.array([library.bend_of(f.label) for f in path[1:]])  # steps bent beyond the clips
         with timer("smoothing"):  # 3.3
             smoothed = _smooth(path, settings, snap, goal, fixed=2 if stand else 1)
         # 3.5 / 3.6 with the plan's clips
-        sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand)
+        sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand,
+                              step_durations=None if rate is None else _own_durations(steps, tracks, cyc) / rate)
         first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1",
                           bends, stand)
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
             curves = _tau_curves(library, cyc, sch1, first, settings)
             pins = speed_pins(steps, tracks)
             loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
-            sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco, stand)
+            sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco, stand, rate)
         final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends, stand)
         tau_final = np.interp(sch2.u, sch1.u, curves.tau)
         s_final = loco.speed(sch2.u, sch2.n)
@@ -451,7 +463,7 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
                      standing=stand)
 
 
-def _side(fp, foot: int, forward, width: float, stand: ClipTrack | None = None):
+def beside_position(fp, foot: int, forward, width: float, stand: ClipTrack | None = None):
     """Where ``foot`` stands beside footprint ``fp`` (the other foot): where the standing
     clip ``stand`` puts it (its feet's heel/toe midpoints at its start), turned to ``fp``'s
     heading; without one ``width`` m to its side."""
@@ -485,7 +497,7 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
                                        abs(_clip_tau(library, c))))
     label = loco[0] if loco else straight
     if other is None or other.foot == first.foot:
-        other = replace(first, foot=1 - first.foot, position=_side(first, 1 - first.foot, forward, 2 * STAND_WIDTH))
+        other = replace(first, foot=1 - first.foot, position=beside_position(first, 1 - first.foot, forward, 2 * STAND_WIDTH))
     other = replace(other, label=STAND_LABEL, time=0.0)
     path = [other, replace(first, label=label, gait="walk")] + list(path[1:])
     if goal_heading is not None:
@@ -495,12 +507,32 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
         w[:2] = 0.0
         path = [replace(f, heading=f.heading + x * dh) if x > 0 else f for f, x in zip(path, w)]
     last = path[-1]
-    end = replace(last, foot=1 - last.foot, position=_side(last, 1 - last.foot, forward, 2 * STAND_WIDTH, stand),
+    end = replace(last, foot=1 - last.foot, position=beside_position(last, 1 - last.foot, forward, 2 * STAND_WIDTH, stand),
                   label=straight, gait="walk", jump=False)
     return path + [end]
 
 
-def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings) -> Standing:
+def _step_pace(pace, n: int) -> np.ndarray | None:
+    """(n,) the pace of each step (None: every step at its clips' own)."""
+    if pace is None:
+        return None
+    rate = np.broadcast_to(np.asarray(pace, float), (n,)).copy() if np.ndim(pace) == 0 else np.asarray(pace, float)
+    if rate.shape != (n,) or not np.isfinite(rate).all() or (rate <= 0).any():
+        raise BlendError(f"the pace must be one positive number per step ({n}), not {np.shape(pace)}")
+    return None if np.allclose(rate, 1.0) else rate
+
+
+def _own_durations(steps: list[PlanStep], tracks, cyc: list[str]) -> np.ndarray:
+    """(len(steps),) s each walking step lasts at its clips' own speed (a special step's
+    entry is not used: its clip sets its time)."""
+    feet = np.array([st.foot for st in steps])
+    w = np.array([st.weights if st.weights is not None else np.full(len(cyc), 1.0 / max(len(cyc), 1))
+                  for st in steps], float)
+    return (w * step_durations_of([tracks[c] for c in cyc])[feet]).sum(axis=1)
+
+
+def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings, lead: float | None = None,
+              hold: float | None = None) -> Standing:
     """The standing of a path's ends: the library's idle clip, held at its start, or one
     made from the straightest walk (``standing_track``) added to ``tracks``; the walk is
     held, at either end, where the stepping foot swings past the standing one
@@ -510,9 +542,11 @@ def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings
     if idle is None:
         idle = f"{walk}~stand"
         tracks[idle] = standing_track(tracks[walk], idle)
-    hold = float(settings.stand_hold)
+    own = float(settings.stand_hold)
+    hold = own if hold is None else max(float(hold), 0.0)
+    lead = min(own, STAND_LEAD) if lead is None else max(float(lead), 0.0)
     u = mid_swing(tracks[walk])
-    return Standing(clip=idle, lead=min(hold, STAND_LEAD), hold=hold, u_start=u, u_back=2.0 - u)
+    return Standing(clip=idle, lead=lead, hold=hold, u_start=u, u_back=2.0 - u)
 
 
 def mid_swing(track: ClipTrack) -> float:
@@ -606,12 +640,14 @@ class _LocoWeights:
 
 
 def _blend_group_schedule(steps: list[PlanStep], tracks, cyc: list[str], fps: float, settings: Settings,
-                          loco: _LocoWeights, standing: Standing | None = None) -> Schedule:
+                          loco: _LocoWeights, standing: Standing | None = None, rate=None) -> Schedule:
     """The schedule under the blend groups' weights, each step lasting what its clips'
-    weights (evaluated mid-step) make it last."""
+    weights (evaluated mid-step) make it last, over its pace ``rate`` (len(steps),)."""
     wmid = loco(np.arange(len(steps)) + 0.5)
     feet = np.array([st.foot for st in steps])
     dur = (wmid * step_durations_of([tracks[c] for c in cyc])[feet]).sum(axis=1)
+    if rate is not None:
+        dur = dur / rate
     return build_schedule(steps, tracks, cyc, fps, settings.transition_time, loco_weights=loco,
                           step_durations=dur, standing=standing)
 

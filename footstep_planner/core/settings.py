@@ -109,6 +109,12 @@ class Settings:
     stand_hold: float = setting(1.0, "s", 0.0, 60.0, """The character stands still at the goal this
         long after it stops, both feet planted (it also stands this long, at most half a second,
         before its first step).""")
+    pace_min: float = setting(0.8, "1", 0.5, 1.0, """To arrive at a waypoint on its frame, the walk
+        may be played this much slower than its clips (0.8: a step lasts 1.25 times as long); when
+        that is still early the character waits, standing, at the last stop before.""")
+    pace_max: float = setting(1.25, "1", 1.0, 2.0, """To arrive at a waypoint on its frame, the walk
+        may be played this much faster than its clips (1.25: a step lasts 0.8 times as long); a
+        frame even this pace can't meet is refused, naming the earliest frame it can.""")
 
     # --- blend groups (3.7) ---------------------------------------------------------
     tau_dt: float = setting(0.5, "s", 0.0, 10.0, """Half-width of the three-point circumradius

@@ -22,7 +22,12 @@ class Waypoint:
     position: np.ndarray
     heading: float | None = None
     pause: float = 0.0
-    arrive: int | None = None
+    arrive: float | None = None
+    stop: bool = False  # stand there (also with a pause), even for no time
+
+    @property
+    def stops(self) -> bool:
+        return self.stop or self.pause > 0
 
 
 @dataclass
@@ -55,7 +60,22 @@ def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypo
         counts = [counts[0] + leg.expanded, counts[1] + leg.generated]
         cost += leg.cost
         origin, here = [path[-1]], f"waypoint {wp.name!r}"
+        if wp.stops and i + 1 < len(waypoints):  # stand there: the next leg leaves from the other foot beside it
+            path.append(beside(planner, path[-1]))
+            origin = [path[-1]]
     return Route(PlanResult(path, counts[0], counts[1], time.perf_counter() - t0, cost), arrivals)
+
+
+def beside(planner: Planner, fp: PathFootprint) -> PathFootprint:
+    """The other foot standing beside ``fp``, side by side (STAND_WIDTH from the middle),
+    on the ground under it."""
+    from .pipeline import STAND_WIDTH, beside_position
+
+    p = beside_position(fp, 1 - fp.foot, planner.forward, 2 * STAND_WIDTH)
+    hit = planner.ground.ray_down(np.array([[p[0], p[1], p[2] + 0.5]]), 3.0)
+    if hit.hit[0]:
+        p[2] = hit.z[0]
+    return PathFootprint(1 - fp.foot, p, fp.heading, fp.time, fp.label, fp.gait)
 
 
 #: rad: failing that, a waypoint without a heading of its own is passed facing within
@@ -95,4 +115,4 @@ def _passing_heading(planner: Planner, waypoints: list[Waypoint], i: int) -> flo
     return float(np.arctan2(d[1], d[0]) - np.arctan2(planner.forward[1], planner.forward[0]))
 
 
-__all__ = ["Route", "Waypoint", "plan_via"]
+__all__ = ["Route", "Waypoint", "beside", "plan_via"]
