@@ -354,3 +354,7 @@ def test_the_panel_takes_a_pause_and_an_arrival_frame(fp, shot):
     rows = {w["name"]: w for w in json.loads(fs.plan_json)["waypoints"]}
     assert rows["A"]["pause"] == 1.0 and rows["A"]["stops"]
     assert abs(rows["Goal"]["achieved"] - 900) <= 1.0
+    overlay = import_module(fp.__name__ + ".blender.overlay")
+    labels = [text for _, text in overlay.LAST[scene.name]["labels"]]
+    assert labels[0].startswith("A: frame ") and "stands 1 s" in labels[0]
+    assert labels[-1].startswith("Goal: frame ") and labels[-1].endswith("(asked 900)")

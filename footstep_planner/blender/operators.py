@@ -140,6 +140,12 @@ class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
                                  planned.goal_heading)
         fs.edit_problem = ""
         doc = plan_report(result, syn, ob.name, goal, context.scene.frame_current, synthesis=False)
+        if planned.performance is not None:
+            from . import overlay
+
+            doc["waypoints"] = planning.waypoint_rows(planned, context.scene.frame_current,
+                                                      planning.scene_fps(context.scene))
+            overlay.label_waypoints(context.scene, doc["waypoints"])
         fs.plan_json = json.dumps(doc)
         st = doc["stages"]
         fs.last_report = (f"{len(result.footprints)} footprints, {len(syn.t)} frames; search "
@@ -244,6 +250,10 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
                           f"{q['goal']['distance_m'] * 100:.1f} cm; synthesis {st['synthesis_ms']:.0f} ms, "
                           f"IK {st['ik_ms']:.0f} ms, bake {st['bake_ms']:.0f} ms")
         self.report({"INFO"}, fs.last_report)
+        if doc.get("waypoints"):
+            from . import overlay
+
+            overlay.label_waypoints(context.scene, doc["waypoints"])
         if fs.edit_footprints:
             _handles_of_last_plan(context)
         stashed = doc.get("stashed_action")

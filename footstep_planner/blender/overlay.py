@@ -13,6 +13,7 @@ from ..core import overlay as geo
 #: scene name -> the arrays of its last plan or bake (not saved with the file)
 LAST: dict[str, dict] = {}
 _HANDLE = None
+_TEXT = None
 
 
 def remember(scene, path, positions, headings, forward, foot, body=None, sampled=None) -> None:
@@ -77,6 +78,43 @@ def mark(scene, **points) -> None:
     _redraw()
 
 
+def label_waypoints(scene, rows: list[dict]) -> None:
+    """Name each waypoint (and the goal) in the overlay with its frame (played, else
+    planned) and the frame asked for: ``rows`` as the report's ``waypoints``."""
+    labels = []
+    for r in rows:
+        ob = scene.objects.get(r["name"])
+        if ob is None:
+            continue
+        got = r.get("achieved") if r.get("achieved") is not None else r.get("planned")
+        text = f"{r['name']}: frame {got:.0f}" + ("" if r.get("arrive") is None else f" (asked {r['arrive']:.0f})")
+        if r.get("pause"):
+            text += f", stands {r['pause']:g} s"
+        labels.append((np.array(ob.matrix_world.translation, float), text))
+    LAST.setdefault(scene.name, {})["labels"] = labels
+    _redraw()
+
+
+def _draw_labels():
+    """The waypoints' names and frames, over the viewport (``label_waypoints``)."""
+    import blf
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+
+    scene = bpy.context.scene
+    fs = getattr(scene, "footstep", None)
+    data = LAST.get(scene.name) or {}
+    if fs is None or not fs.show_overlay or not data.get("labels"):
+        return
+    region, rv3d = bpy.context.region, bpy.context.region_data
+    blf.size(0, 13)
+    blf.color(0, *geo.WAYPOINT)
+    for pos, text in data["labels"]:
+        xy = location_3d_to_region_2d(region, rv3d, pos + [0.0, 0.0, 0.4])
+        if xy is not None:
+            blf.position(0, xy[0], xy[1], 0)
+            blf.draw(0, text)
+
+
 def _marks(scene, data) -> list:
     """(segments, colour) of the rings: locked and moved handles, the last re-plan's
     footprints, waypoints and refused footprints."""
@@ -103,13 +141,15 @@ def _facing_arrows(scene, fs) -> np.ndarray:
 
 
 def register():
-    global _HANDLE
+    global _HANDLE, _TEXT
     if not bpy.app.background:  # no viewport to draw in without a window
         _HANDLE = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
+        _TEXT = bpy.types.SpaceView3D.draw_handler_add(_draw_labels, (), "WINDOW", "POST_PIXEL")
 
 
 def unregister():
-    global _HANDLE
-    if _HANDLE is not None:
-        bpy.types.SpaceView3D.draw_handler_remove(_HANDLE, "WINDOW")
-        _HANDLE = None
+    global _HANDLE, _TEXT
+    for h in (_HANDLE, _TEXT):
+        if h is not None:
+            bpy.types.SpaceView3D.draw_handler_remove(h, "WINDOW")
+    _HANDLE = _TEXT = None
