@@ -3,7 +3,8 @@
 1. a bake through three waypoints (A with a pause, B and the goal on given frames),
    saved, reopened and played through the depsgraph: the timing table (asked, planned,
    played frames per waypoint, the pace and the wait chosen) and the bake's quality;
-2. a frame too soon, refused with the earliest frame, which is then met;
+2. a frame too soon, refused with the earliest frame (running), which is then met; a
+   frame too soon for walking, met running;
 3. one footprint of a baked path moved (two neighbours locked) and re-baked: review
    sheets before and after, and how many frames were re-keyed.
 
@@ -126,6 +127,14 @@ def main():
         rc3 = cli_main(["bake", *common, "--arrive", f"B={m.group(1)}", "--report", os.path.join(out, "earliest.json")])
         r = json.load(open(os.path.join(out, "earliest.json")))["waypoints"][1]
         print(f"   B on frame {m.group(1)}: exit {rc3}, reached on frame {r['achieved']:.1f} at pace {r['pace']:.2f}")
+    for frame in (437, 380):  # the fastest walk's frame, and one only a run makes
+        rc4 = cli_main(["bake", *common, "--arrive", f"B={frame}", "--report", os.path.join(out, "b.json")])
+        d = json.load(open(os.path.join(out, "b.json")))
+        r = d["waypoints"][1]
+        runs = sum(f["gait"] == "run" for f in d["footprints"][:r["footprint"]])
+        print(f"   B on frame {frame}: exit {rc4}, reached on frame {r['achieved']:.1f}, pace {r['pace']:.2f}, "
+              f"{runs} running steps on the way; skate max {d['quality']['foot_skate']['max_mm']:.2f} mm, "
+              f"planner-made pops {d['quality']['pops']['introduced']['count']}")
 
     # 3. an edited footprint, re-baked: review sheets before and after
     from footstep_planner.blender import directing, handles, planning

@@ -306,6 +306,35 @@ def test_a_frame_too_soon_is_refused_with_the_earliest_which_is_then_met(fp, sho
     assert abs(row["achieved"] - earliest) <= 1.0 and row["pace"] > 1.2
 
 
+def test_a_frame_too_soon_for_walking_is_met_running(fp, shot, capsys):
+    """B on a frame the walk can't make at its fastest pace: the way to it is planned
+    again, running where that is quicker (the library's run), and the frame is met."""
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    folder, path = shot
+    assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
+                "--arrive", "B=380", "--report", str(folder / "run.json")]) == 0
+    doc = json.loads((folder / "run.json").read_text())
+    row = doc["waypoints"][1]
+    assert abs(row["achieved"] - 380) <= 1.0
+    gaits = [f["gait"] for f in doc["footprints"][:row["footprint"]]]
+    assert gaits.count("run") >= 5
+    assert max(doc["synthesis"]["curves"]["s"]) > 0.99  # (the blend groups run there too)
+    q = doc["quality"]
+    assert q["foot_skate"]["max_mm"] < 5 and q["goal"]["distance_m"] < 0.05
+
+
+def test_early_with_nowhere_to_wait_stops_at_the_waypoint_before(fp, shot, capsys):
+    """A on frame 300, B much later than the slowest walk from A gets there: the path
+    stops at A (it had no pause) and waits there."""
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    folder, path = shot
+    assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
+                "--arrive", "A=300,B=900", "--report", str(folder / "stop.json")]) == 0
+    a, b, _ = json.loads((folder / "stop.json").read_text())["waypoints"]
+    assert abs(a["achieved"] - 300) <= 1.0 and abs(b["achieved"] - 900) <= 1.0
+    assert a["stops"] and a["pause"] == 0 and b["waited"] > 3.0
+
+
 def test_early_arrival_waits_standing_at_the_start(fp, shot, capsys):
     """A goal frame later than the slowest pace reaches it: the character waits at the
     start, standing, and leaves in time."""

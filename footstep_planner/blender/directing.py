@@ -47,12 +47,14 @@ class ViaRoute:
     arrivals: list = field(default_factory=list)  # the position (3,) of the footprint reaching each
     route: object = None  # the core Route, once planned
     stops: set = field(default_factory=set)  # names the path stops at with no pause of its own (to wait)
+    hurry: set = field(default_factory=set)  # names the way to which runs where that is quicker
 
     def __call__(self, setup, start, heading):
         from .planning import rotation_heading
 
         self.wps = [Waypoint(name, np.asarray(pos, float), None if h is None else rotation_heading(h, setup.forward),
-                             pause=float(self.pauses.get(name, 0.0)), stop=name in self.stops)
+                             pause=float(self.pauses.get(name, 0.0)), stop=name in self.stops,
+                             hurry=name in self.hurry)
                     for name, pos, h in self.waypoints]
         self.route = plan_via(setup.planner, start, self.wps)
         self.arrivals = [np.asarray(self.route.result.footprints[i].position, float) for i in self.route.arrivals]
@@ -70,6 +72,23 @@ class ViaRoute:
             out.append(Mark(wp.name, i, wp.position, wp.heading, stop=wp.stops or last, pause=wp.pause,
                             arrive=None if frame is None else (float(frame) - frame_start) / fps))
         return out
+
+    def retime(self, ex, can_run: bool) -> bool:
+        """Change the route so that the arrival ``ex`` (a ``TimingError``) may be met, if
+        there is a way: too soon, run (``can_run``: the library has a run) on the way to
+        it since the waypoint before with a frame of its own; early with nowhere to wait,
+        stop at that waypoint. Whether it changed (then plan the route again)."""
+        names = [w[0] for w in self.waypoints]
+        since = names.index(ex.anchor) + 1 if ex.anchor in names else 0
+        if ex.kind == "soon" and can_run:
+            way = set(names[since:names.index(ex.mark) + 1])
+            if not way <= self.hurry:
+                self.hurry |= way
+                return True
+        if ex.kind == "early" and ex.anchor in names[:-1] and ex.anchor not in self.stops:
+            self.stops.add(ex.anchor)
+            return True
+        return False
 
     @property
     def directed(self) -> bool:

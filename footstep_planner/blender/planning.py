@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from ..core import report
 from ..core.analysis import ClipAnalysis
-from ..core.directed import Performance, arrival_frames, arrival_times, perform
+from ..core.directed import Performance, TimingError, arrival_frames, arrival_times, perform
 from ..core.ik import IKResult, solve_ik
 from ..core.library import Library
 from ..core.rig import Rig, forward_kinematics
@@ -241,7 +241,16 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
         first = float(scene.frame_current if frame_start is None else frame_start)
         marks = route.marks(fps, first)
         if route.directed:
-            performance = _perform(scene, result, setup, settings, marks, goal, heading, first)
+            can_run = bool(setup.library.turn_groups.get("run"))
+            while True:  # (a frame too soon: run on the way to it; early with nowhere to wait: stop before)
+                try:
+                    performance = _perform(scene, result, setup, settings, marks, goal, heading, first)
+                    break
+                except TimingError as ex:
+                    if not route.retime(ex, can_run):
+                        raise
+                    result = route(setup, setup.start, heading)
+                    marks = route.marks(fps, first)
             syn = performance.synthesis
         else:
             syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)

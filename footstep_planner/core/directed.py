@@ -32,7 +32,15 @@ from .smoothing import Smoothed
 
 
 class TimingError(FootstepError):
-    """An arrival frame that can't be met: names the waypoint and the earliest frame."""
+    """An arrival frame that can't be met: names the waypoint and the earliest frame.
+    ``kind`` is "soon" (too soon for the fastest pace: ``earliest`` the frame it can) or
+    "early" (early at the slowest pace with no stop since ``anchor`` to wait at);
+    ``mark`` and ``anchor`` are the waypoints' names."""
+
+    def __init__(self, message: str, kind: str = "", mark: str = "", anchor: str | None = None,
+                 earliest: int | None = None):
+        super().__init__(message)
+        self.kind, self.mark, self.anchor, self.earliest = kind, mark, anchor, earliest
 
 
 #: m: a stopping body has arrived when it is this near where it comes to stand.
@@ -217,15 +225,16 @@ def _meet(plan: _Plan, synth: SynthFn, body, marks: list[Mark], m: Mark, anchor:
             tried = []
             continue
         if pace >= hi - 1e-9 and err > 0:
+            earliest = int(np.ceil(frame_start + t * fps - 1e-6))
             raise TimingError(f"waypoint {m.name!r} can't be reached by frame {_frame(m.arrive, fps, frame_start)}:"
-                              f" the earliest is frame {int(np.ceil(frame_start + t * fps - 1e-6))} (the walk "
-                              f"at its fastest pace, {hi:g} times its clips')")
+                              f" the earliest is frame {earliest} (at the fastest pace, {hi:g} times the clips')",
+                              "soon", m.name, None if anchor is None else anchor.name, earliest)
         if pace <= lo + 1e-9 and err < 0:
             if k is None:
                 raise TimingError(f"waypoint {m.name!r} is reached at frame {_frame(t, fps, frame_start)} at the "
                                   f"slowest pace ({lo:g}), before frame {_frame(m.arrive, fps, frame_start)}, and "
                                   f"the path does not stop between {anchor.name!r} and it to wait: give "
-                                  f"{anchor.name!r} a pause")
+                                  f"{anchor.name!r} a pause", "early", m.name, anchor.name)
             plan.wait[k] += -err
             tried = []
             continue

@@ -263,9 +263,11 @@ def plan_steps(path, library: Library, cyclic: list[str]) -> list[PlanStep]:
     return out
 
 
-def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack]) -> list[tuple[float, float]]:
+def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack], gaits=None) -> list[tuple[float, float]]:
     """(u, s) where the walk/run parameter is known: walking at the start and the end,
-    and each special clip's entry and exit gait at its take-off and landing."""
+    each special clip's entry and exit gait at its take-off and landing, and running in
+    the middle of each step the plan runs (``gaits`` (len(steps),), the gait of the step
+    to each footprint: a run the planner chose, not only a jump's run-up)."""
     val = {"walk": 0.0, "run": 1.0, "stand": 0.0}
     pins = [(0.0, 0.0)]
     for j, s in enumerate(steps):
@@ -273,8 +275,10 @@ def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack]) -> list[tupl
             tr = tracks[s.special]
             pins.append((float(j), val.get(tr.entry_gait, 0.0)))
             pins.append((float(j + 1), val.get(tr.exit_gait, 0.0)))
+        elif gaits is not None and gaits[j] == "run" and 0 < j < len(steps) - 1:
+            pins.append((j + 0.5, 1.0))
     pins.append((float(len(steps)), 0.0))
-    return pins
+    return sorted(pins, key=lambda p: p[0])
 
 
 def planted_ranges(S: Schedule, pb: Playback) -> list[tuple[float, float, float]]:
@@ -448,7 +452,7 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
                           bends, stand)
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
             curves = _tau_curves(library, cyc, sch1, first, settings)
-            pins = speed_pins(steps, tracks)
+            pins = speed_pins(steps, tracks, [f.gait for f in path[1:]])
             loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
             sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco, stand, rate)
         final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends, stand)

@@ -24,6 +24,7 @@ class Waypoint:
     pause: float = 0.0
     arrive: float | None = None
     stop: bool = False  # stand there (also with a pause), even for no time
+    hurry: bool = False  # the way there the fastest, running where that is quicker
 
     @property
     def stops(self) -> bool:
@@ -90,6 +91,8 @@ def _leg(planner: Planner, origin, wp: Waypoint, heading) -> PlanResult:
     it facing the next one (the planner's tolerance, then ``PASSING_TOLERANCE``), or with
     any heading when the library can't turn that way in time."""
     goal = np.asarray(wp.position, float)
+    if wp.hurry and planner.settings.run_penalty > 0:
+        planner = replace(planner, settings=planner.settings.replace(run_penalty=0.0))
     if heading is None or wp.heading is not None:
         return planner.plan(origin, goal, heading)
     cfg = planner.settings
