@@ -9,6 +9,8 @@ from importlib import import_module
 import numpy as np
 import pytest
 
+from conftest import needs_cmu, scene_with_cmu
+
 CHAR = "Footstep Mannequin"
 
 
@@ -387,3 +389,30 @@ def test_the_panel_takes_a_pause_and_an_arrival_frame(fp, shot):
     labels = [text for _, text in overlay.LAST[scene.name]["labels"]]
     assert labels[0].startswith("A: frame ") and "stands 1 s" in labels[0]
     assert labels[-1].startswith("Goal: frame ") and labels[-1].endswith("(asked 900)")
+
+
+@needs_cmu
+def test_real_capture_pauses_and_meets_its_frames(fp, empty_scene):
+    """The CMU subject-16 library (no idle clip: its standing is made from its walk) on
+    the Turns scene: a pause at a waypoint and the goal on a frame, met within a frame
+    as played, with the feet planted and the goal reached."""
+    import bpy
+
+    scene, ob = scene_with_cmu(fp, "turns")
+    planning = import_module(fp.__name__ + ".blender.planning")
+    directing = import_module(fp.__name__ + ".blender.directing")
+    goal, heading = planning.goal_of(scene, "Goal")
+    direct = planning.plan(scene, ob, goal, heading, scene.objects["Start"])[0].footprints
+    e = bpy.data.objects.new("A", None)
+    e.location = direct[len(direct) // 2].position
+    scene.collection.objects.link(e)
+    bpy.context.view_layer.update()
+    free = planning.run(scene, ob, goal, heading, scene.objects["Start"], name="free", frame_start=1,
+                        route=directing.via_route(scene, ["A"], "Goal", goal, heading, {"A": 1.0}))
+    target = int(free["waypoints"][-1]["achieved"]) + 40  # (slower than its own pace: it slows down)
+    doc = planning.run(scene, ob, goal, heading, scene.objects["Start"], name="timed", frame_start=1,
+                       route=directing.via_route(scene, ["A"], "Goal", goal, heading, {"A": 1.0}, {"Goal": target}))
+    a, g = doc["waypoints"]
+    assert a["stops"] and a["pause"] == 1.0 and abs(g["achieved"] - target) <= 1.0 and g["pace"] < 1.0
+    q = doc["quality"]
+    assert q["foot_skate"]["max_mm"] < 5 and q["footprint_error"]["max_mm"] < 10 and q["goal"]["distance_m"] < 0.05

@@ -33,7 +33,7 @@ def _on_ground(ground, xy, z=0.0):
     return ground.ray_down(pts, 1.0)
 
 
-@pytest.mark.parametrize("name", ["jumps", "turns", "obstacles"])
+@pytest.mark.parametrize("name", ["jumps", "turns", "obstacles", "stairs"])
 def test_start_and_goal_stand_on_the_ground(fp, name):
     scene, ground, obstacles, core = _scene(fp, name)
     for marker in ("Start", "Goal"):
@@ -54,6 +54,22 @@ def test_jumps_has_two_one_metre_gaps_on_the_way(fp):
         assert len(holes) and hit[0] and hit[-1]
         width = (holes[-1] - holes[0] + 1) * 0.01
         assert width == pytest.approx(1.0, abs=0.02)
+
+
+def test_stairs_are_real_stairs_and_the_only_way_up(fp):
+    """Stairs: five 17 cm risers with 28 cm treads up to a landing and five down, the
+    ground under a foot on each tread its tread's height (not the underside of the box
+    below it), and walls all round: the stairs are the way from one floor to the other."""
+    scene, ground, obstacles, core = _scene(fp, "stairs")
+    sc = import_module(fp.__name__ + ".blender.sample_scenes")
+    x = 3.0 + (np.arange(4) + 0.5) * sc.TREAD  # the middle of each tread of the flight up
+    hit = ground.ray_down(np.c_[x, np.zeros(4), np.full(4, 0.3)], 2.0)  # (inside the higher treads' boxes)
+    top = (np.arange(4) + 1) * sc.RISER
+    below = top > 0.3
+    assert np.all(~hit.hit[below] | (hit.z[below] > 0.3 - 1e-9))  # never the underside of a box
+    hit = ground.ray_down(np.c_[x, np.zeros(4), top + 0.05], 0.1)
+    np.testing.assert_allclose(hit.z, top, atol=1e-6)
+    assert obstacles.mesh.n and sc.RISER * sc.FLIGHT == pytest.approx(0.85)
 
 
 def test_turns_path_is_one_connected_walk(fp):
@@ -102,3 +118,30 @@ def test_the_script_saves_the_scenes(tmp_path):
     assert "True ARMATURE" in r.stdout, r.stderr
     bad = subprocess.run([sys.executable, script, "moon"], capture_output=True, text=True, timeout=60, env=env)
     assert bad.returncode == 2 and "unknown scene 'moon'" in bad.stderr
+
+
+def test_the_stairs_are_climbed_on_their_treads_or_refused_from_one(fp):
+    """The sample character on the Stairs: every footprint of a plan stands on a top
+    (a tread, the landing, a floor), never on the underside of the steps; a plan the
+    library can't make (a walk of one stride can't fit 28 cm treads) is refused from a
+    place on the stairs, saying what blocks it."""
+    import bpy
+
+    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("stairs")
+    ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    planning = import_module(fp.__name__ + ".blender.planning")
+    navgraph = import_module(fp.__name__ + ".core.navgraph")
+    bpy.context.view_layer.update()
+    goal, heading = planning.goal_of(scene, "Goal")
+    try:
+        result, setup = planning.plan(scene, ob, goal, heading, scene.objects["Start"])
+    except navgraph.PlanError as ex:
+        import re
+
+        m = re.search(r"nearest reachable point is \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)", str(ex))
+        assert m and "what blocks it" in str(ex), str(ex)
+        assert float(m.group(3)) >= 0.0  # (on the flight or the floor, not under it)
+        return
+    pos = np.array([f.position for f in result.footprints])
+    hit = setup.planner.ground.ray_down(pos + [0.0, 0.0, 1.0], 1.5)  # the top surface over each footprint
+    np.testing.assert_allclose(pos[:, 2], hit.z, atol=0.02)

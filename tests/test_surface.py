@@ -93,3 +93,25 @@ def test_batched_queries_match_one_by_one():
     for i in range(50):
         one = footprint_support(g, obst, pos[i:i + 1], head[i:i + 1], FWD, FOOT)
         assert one.ok[0] == batch.ok[i] and one.reason[0] == batch.reason[i]
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(-5, 5), st.floats(-5, 5), st.floats(-1, 1), st.floats(0.05, 2.0), st.floats(0.05, 2.0))
+def test_a_closed_solid_loses_its_underside_an_open_plane_keeps_both_faces(x, y, z, size, height):
+    """A box's downward faces are dropped (a look down from inside it finds no ground,
+    not its bottom); a plane keeps its triangles whichever way they face."""
+    b = box((x, y, z), (x + size, y + size, z + height))
+    walk = b.without_undersides()
+    c = walk.corners()
+    n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    assert walk.n == b.n - 2 and ((n[:, 2] > -1e-9).all() or (n[:, 2] < 1e-9).all())  # (conftest's box faces in)
+    out = TriMesh(b.verts, b.tris[:, ::-1], b.owner, b.names)  # the same box, normals out
+    assert np.array_equal(np.sort(out.without_undersides().tris, axis=None), np.sort(walk.tris[:, ::-1], axis=None))
+    inside = np.array([[x + size / 2, y + size / 2, z + height / 2]])
+    assert not MeshGround(walk).ray_down(inside, 10.0).hit[0]
+    assert MeshGround(b).ray_down(inside, 10.0).z[0] == pytest.approx(z)  # (what it did before)
+    above = inside + [0.0, 0.0, height]
+    assert MeshGround(walk).ray_down(above, 10.0).z[0] == pytest.approx(z + height)
+    flipped = plane(x, x + size, y, y + size, z)
+    flipped = TriMesh(flipped.verts, flipped.tris[:, ::-1], flipped.owner, flipped.names)
+    assert flipped.without_undersides().n == flipped.n

@@ -5,6 +5,8 @@
 - ``turns`` (thesis figure 4.2): a path of bends ending on a curved platform.
 - ``obstacles``: an open floor with walls and pillars, a doorway, a narrow corridor with a
   90-degree corner, a 15 cm step up and a 15-degree ramp.
+- ``stairs``: real stairs (17 cm risers, 28 cm treads, 1.4 m wide): a flight of five up
+  to a landing, a turn left, a flight of five down to a floor, walled all round.
 
 Each scene has a collection "Traversable" and (where it has any) "Obstacles", tagged so
 their objects inherit the tag, and two empties: "Start" and "Goal" (their Z rotation is
@@ -18,7 +20,9 @@ import math
 import bpy
 import numpy as np
 
-SCENES = ("jumps", "turns", "obstacles")
+SCENES = ("jumps", "turns", "obstacles", "stairs")
+#: m: the Stairs scene's riser height, tread depth and number of risers per flight.
+RISER, TREAD, FLIGHT = 0.17, 0.28, 5
 #: Gap widths of the Jumps scene, m.
 JUMP_GAP = 1.0
 
@@ -150,7 +154,31 @@ def build_obstacles(scene):
     _marker(scene, "Goal", (8.5, 4.5, 0.15), EAST)
 
 
-BUILDERS = {"jumps": build_jumps, "turns": build_turns, "obstacles": build_obstacles}
+def build_stairs(scene):
+    t = _collection(scene, "Traversable", "TRAVERSABLE")
+    o = _collection(scene, "Obstacles", "OBSTACLE")
+    top = RISER * FLIGHT
+    x0 = 3.0  # the first riser
+    _box(t, "FloorLow", -1, x0, -0.7, 0.7, -0.3, 0.0)
+    for i in range(FLIGHT - 1):  # treads 1..4 of the flight up (the fifth step is the landing)
+        _box(t, f"StepUp{i + 1}", x0 + i * TREAD, x0 + (i + 1) * TREAD, -0.7, 0.7, -0.3, (i + 1) * RISER)
+    xl = x0 + (FLIGHT - 1) * TREAD  # the landing, 1.4 m square, then the way turns left (north)
+    _box(t, "Landing", xl, xl + 1.4, -0.7, 0.7, -0.3, top)
+    y0 = 0.7  # the flight down, north
+    for i in range(FLIGHT - 1):
+        _box(t, f"StepDown{i + 1}", xl, xl + 1.4, y0 + i * TREAD, y0 + (i + 1) * TREAD, -0.3, top - (i + 1) * RISER)
+    yf = y0 + (FLIGHT - 1) * TREAD
+    _box(t, "FloorHigh", xl - 0.5, xl + 1.9, yf, yf + 4.0, -0.3, 0.0)
+    # walls all round the stairwell: the way from the low floor to the high one is the stairs
+    _box(o, "WallSouth", -1, xl + 1.7, -1.0, -0.7, 0.0, 2.5)
+    _box(o, "WallEast", xl + 1.4, xl + 1.7, -0.7, yf, 0.0, 2.5)
+    _box(o, "WallNorth", -1, xl, 0.7, 1.0, 0.0, 2.5)
+    _box(o, "WallWest", xl - 0.3, xl, 1.0, yf, 0.0, 2.5)
+    _marker(scene, "Start", (0.0, 0.0, 0.0), EAST)
+    _marker(scene, "Goal", (xl + 0.7, yf + 2.5, 0.0), NORTH)
+
+
+BUILDERS = {"jumps": build_jumps, "turns": build_turns, "obstacles": build_obstacles, "stairs": build_stairs}
 
 
 def build(name: str, scene=None):

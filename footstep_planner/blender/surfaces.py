@@ -155,4 +155,4 @@ def scene_surfaces(scene, depsgraph, traversable=(), obstacles=()):
     if not trav:
         raise SurfaceError(f"scene {scene.name!r} has no traversable mesh: tag the floors "
                            "in Object Properties > Footstep, or pass --traversable NAME")
-    return BvhGround(mesh_of(trav, depsgraph)), BvhGround(mesh_of(obst, depsgraph))
+    return BvhGround(mesh_of(trav, depsgraph).without_undersides()), BvhGround(mesh_of(obst, depsgraph))

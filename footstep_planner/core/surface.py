@@ -59,6 +59,33 @@ class TriMesh:
         """(T, 3, 3) the triangles' corner positions."""
         return self.verts[self.tris]
 
+    def without_undersides(self, tilt: float = 0.1) -> "TriMesh":
+        """The mesh without the downward-facing triangles (normal z under ``-tilt``) of its
+        closed solids (objects whose every edge joins exactly two triangles; outward by
+        their signed volume, so a solid with flipped normals counts the same): a box's
+        underside can't be stood on, and a look down from inside the box (a footprint
+        below its top) would take it for ground. An open mesh (a plane, a terrain) keeps
+        every triangle, whichever way its normals face."""
+        if not self.n:
+            return self
+        c = self.corners()
+        cross = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+        nz = cross[:, 2] / np.maximum(np.linalg.norm(cross, axis=1), 1e-300)
+        # a solid whose normals all face inwards (its signed volume negative) is turned out
+        volume = np.bincount(self.owner, weights=np.einsum("ij,ij->i", c[:, 0], cross), minlength=self.owner.max() + 1)
+        nz = nz * np.where(volume[self.owner] < 0, -1.0, 1.0)
+        e = np.sort(self.tris[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        owner = np.repeat(self.owner, 3)
+        keys = np.c_[owner, e]
+        _, inv, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+        open_edge = counts[inv.ravel()] != 2
+        closed = np.ones(len(self.names) or int(self.owner.max()) + 1, bool)
+        closed[np.unique(owner[open_edge])] = False
+        keep = ~(closed[self.owner] & (nz < -tilt))
+        if keep.all():
+            return self
+        return TriMesh(self.verts, self.tris[keep], self.owner[keep], self.names)
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         if not len(self.verts):
             return np.zeros(3), np.zeros(3)

@@ -118,9 +118,10 @@ def format_waypoints(rows: list[dict]) -> str:
     lines = ["waypoints (frames; 'played' as Blender plays the saved scene):",
              f"{'waypoint':<16s} {'asked':>7s} {'planned':>8s} {'played':>8s} {'pause s':>8s} {'pace':>6s} "
              f"{'waited s':>8s}"]
-    for r in rows:
+    for k, r in enumerate(rows):
+        pause = r["pause"] if r.get("stops") and k + 1 < len(rows) else None  # (the goal: its hold is the settings')
         lines.append(f"{r['name'][:16]:<16s} {f(r['arrive'], '.0f'):>7s} {f(r['planned'], '.1f'):>8s} "
-                     f"{f(r.get('achieved'), '.1f'):>8s} {f(r['pause'] if r.get('stops') else None, '.2f'):>8s} {r['pace']:>6.2f} "
+                     f"{f(r.get('achieved'), '.1f'):>8s} {f(pause, '.2f'):>8s} {r['pace']:>6.2f} "
                      f"{f(r['waited'] or None, '.2f'):>8s}")
     return "\n".join(lines)
 
