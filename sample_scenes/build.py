@@ -1,11 +1,12 @@
 """Build sample scenes and save them, so anyone can regenerate them.
 
-    .venv/bin/python sample_scenes/build.py [jumps turns obstacles] [--mannequin] [--out DIR]
+    .venv/bin/python sample_scenes/build.py [jumps turns obstacles stairs] [--mannequin] [--out DIR]
 
-With no names, builds all three into sample_scenes/out/NAME.blend. The scenes are made
+With no names, builds them all into sample_scenes/out/NAME.blend. The scenes are made
 by footstep_planner/blender/sample_scenes.py (Jumps: platforms with bends and two 1 m
 gaps; Turns: bends onto a curved platform; Obstacles: walls, pillars, a doorway, a narrow
-corridor, a 15 cm step and a 15-degree ramp). With --mannequin, each scene also gets the
+corridor, a 15 cm step and a 15-degree ramp; Stairs: 17 cm risers, 28 cm treads, a flight
+up, a landing, a turn and a flight down). With --mannequin, each scene also gets the
 Footstep Mannequin (footstep_planner/blender/mannequin.py) standing at its Start, with
 its generated clips analysed (the scene at 30 fps), as the planner's character.
 """
@@ -16,12 +17,12 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
-SCENES = ("jumps", "turns", "obstacles")
+from footstep_planner.blender.sample_scenes import SCENES  # noqa: E402
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("names", nargs="*", metavar="NAME", help="jumps, turns, obstacles (default: all)")
+    ap.add_argument("names", nargs="*", metavar="NAME", help=f"{', '.join(SCENES)} (default: all)")
     ap.add_argument("--out", default=os.path.join(HERE, "out"), metavar="DIR")
     ap.add_argument("--mannequin", action="store_true", help="put the sample character, with its clips, at Start")
     args = ap.parse_args()
