@@ -352,9 +352,10 @@ def test_early_arrival_waits_standing_at_the_start(fp, shot, capsys):
 
 
 @pytest.mark.parametrize("args, says", [
-    (["--pause", "Nowhere=1"], "--pause names 'Nowhere', which is not a waypoint"),
+    (["--pause", "Nowhere=1"], "a pause (--pause) names 'Nowhere', which is not a waypoint"),
     (["--arrive", "B=soon"], "--arrive: 'B=soon' is not NAME=NUMBER"),
-    (["--pause", "A=-2"], "--pause A=-2: must be 0 to 3600 seconds"),
+    (["--pause", "A=-2"], "--pause A=-2: must be 0 to 600 seconds"),
+    (["--arrive", "Goal=200000"], "would wait 6"),
 ])
 def test_bad_timing_options_are_one_message(fp, shot, capsys, args, says):
     cli = import_module(fp.__name__ + ".blender.cli").cli_main

@@ -12,7 +12,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.directed import MAX_STAND
 from ..core.errors import FootstepError
+from ..core.jobs import MAX_FRAME
 from ..core.plan_edit import Edited, edited_path
 from ..core.plan_file import PlanFile
 from ..core.waypoints import Waypoint, plan_via
@@ -131,12 +133,13 @@ def via_route(scene, names, goal_name: str, goal, heading, pauses=None, arrive=N
     for what, table, allowed in (("--pause", pauses, known), ("--arrive", arrive, known + [goal_name])):
         for n, v in table.items():
             if n not in allowed:
-                raise DirectingError(f"{what} names {n!r}, which is not " + (
-                    f"a waypoint (--via {','.join(known)})" if known else "a waypoint (give --via)")
-                    + (f" nor the goal ({goal_name!r})" if what == "--arrive" else ""))
-            if not np.isfinite(v) or v < 0 or (what == "--pause" and v > 3600):
+                raise DirectingError(f"{'a pause' if what == '--pause' else 'an arrival frame'} ({what}) names {n!r}, "
+                                     "which is not " + (f"a waypoint (--via {','.join(known)})" if known
+                                                        else "a waypoint (give --via)")
+                                     + (f" nor the goal ({goal_name!r})" if what == "--arrive" else ""))
+            if not np.isfinite(v) or v < 0 or (what == "--pause" and v > MAX_STAND) or v > MAX_FRAME:
                 raise DirectingError(f"{what} {n}={v:g}: must be " + (
-                    "0 to 3600 seconds" if what == "--pause" else "a frame number, 0 or more"))
+                    f"0 to {MAX_STAND:g} seconds" if what == "--pause" else f"a frame number from 0 to {MAX_FRAME}"))
     if not wps and not arrive:
         return None
     return ViaRoute(wps + [(goal_name, goal, heading)], pauses, arrive)

@@ -120,7 +120,7 @@ class FOOTSTEP_PG_surface(bpy.types.PropertyGroup):
                                       "tagged None inherit their collection's tag)")
     # as a waypoint (in the panel's Waypoints collection) or the goal
     pause: FloatProperty(name="Pause", description="Stop here and stand this long (s) before walking on",
-                         min=0.0, max=3600.0, unit="TIME_ABSOLUTE")
+                         min=0.0, max=600.0, unit="TIME_ABSOLUTE")
     use_arrive: BoolProperty(name="Arrive on frame", description="Arrive here on a given frame: the walk's pace "
                              "is chosen, and the character waits standing at the stop before when early")
     arrive: IntProperty(name="Frame", description="The scene frame to arrive here on", min=0)

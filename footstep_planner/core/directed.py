@@ -49,6 +49,9 @@ ARRIVE_BAND = 0.05
 ARRIVE_TOLERANCE = 0.5
 #: syntheses tried per arrival frame before giving up (the pace search).
 MAX_TRIES = 8
+#: s: the longest a character pauses or waits at one place (a bake's frames are held in
+#: memory: ten minutes at 30 fps is 18,000 frames)
+MAX_STAND = 600.0
 
 
 @dataclass
@@ -236,6 +239,10 @@ def _meet(plan: _Plan, synth: SynthFn, body, marks: list[Mark], m: Mark, anchor:
                                   f"the path does not stop between {anchor.name!r} and it to wait: give "
                                   f"{anchor.name!r} a pause", "early", m.name, anchor.name)
             plan.wait[k] += -err
+            if plan.wait[k] > MAX_STAND:
+                raise TimingError(f"waypoint {m.name!r} on frame {_frame(m.arrive, fps, frame_start)}: the character "
+                                  f"would wait {plan.wait[k]:.0f} s for it, more than {MAX_STAND:.0f} s: give an "
+                                  "earlier frame", "far", m.name)
             tried = []
             continue
         pace = _next_pace(tried, m.arrive, t_anchor, lo, hi)

@@ -63,7 +63,7 @@ def _field_problem(field: str, value) -> str | None:
                                              for v in value)
         return None if ok else f"got {json.dumps(value)[:40]}"
     if field in ("arrive", "pause"):
-        top = MAX_FRAME if field == "arrive" else 3600
+        top = MAX_FRAME if field == "arrive" else 600
         ok = isinstance(value, dict) and all(
             isinstance(k, str) and k.strip() and is_text(k) and _number(v) and 0 <= v <= top for k, v in value.items())
         return None if ok else f"got {json.dumps(value)[:40]} (names with numbers from 0 to {top})"
