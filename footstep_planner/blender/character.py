@@ -1,6 +1,11 @@
 """A character: its rig, its clips (the armature's actions), their analysis and the
 clip library. Reads Blender data, calls the core, and writes only the planner's own
-properties."""
+properties.
+
+A jump clip's mirror image (``core.mirror``: "<clip>~mirror", taking off from the other
+foot) is made in memory beside the clips' analyses when they are analysed for planning
+(``analyze_character(..., mirrors=True)``), so the planner jumps from either foot; it is
+never an action, never stored in the clip list, and re-made at every analysis."""
 
 from __future__ import annotations
 
@@ -10,6 +15,7 @@ import numpy as np
 
 from ..core.analysis import AnalysisError, ClipAnalysis, analyze_clip
 from ..core.library import Library, LibraryError, SpecialClip, TurnGroup, GroupClip, propose_library
+from ..core.mirror import MirrorError, is_mirror, mirrored_jumps, mirrored_name
 from ..core.clip import SIDES, ClipMotion, clip_motion
 from ..core.rig import Rig, RigError, forward_kinematics
 from ..core.settings import Settings
@@ -20,14 +26,30 @@ from .scene import (SOURCE_FPS_PROP, action_frame_range, armature_actions, clip_
 @dataclass
 class CharacterClips:
     rig: Rig
+    # the clips' analyses, then the mirror images of jumps (``mirrors``), which the
+    # planner plays like the others
     analyses: list[ClipAnalysis] = field(default_factory=list)
     errors: dict[str, str] = field(default_factory=dict)  # clip name -> message
+    mirrors: dict[str, str] = field(default_factory=dict)  # mirror image's name -> its clip's
+
+    @property
+    def own(self) -> list[ClipAnalysis]:
+        """The analyses of the character's own clips (its actions), without mirrors."""
+        return [a for a in self.analyses if a.name not in self.mirrors]
 
 
 def analyze_character(ob, settings: Settings | None = None, fps: float | None = None,
-                      actions=None) -> CharacterClips:
+                      actions=None, mirrors: bool = False) -> CharacterClips:
     """Analyse every clip of ``ob`` (or the given actions). A clip that cannot be analysed
-    is reported in ``errors`` and skipped; a rig without legs raises RigError."""
+    is reported in ``errors`` and skipped; a rig without legs raises RigError.
+
+    With ``mirrors`` (for planning: ``library_for`` then puts them in the library), the
+    analyses end with the mirror images of the jumps the library uses (every jump clip's
+    when the library is the proposal) that take off from a foot no other jump of the same
+    gaits leaves the other way from: "<clip>~mirror", taking off from the other foot
+    (``core.mirror.mirrored_jumps``; data in memory, nothing made in the scene). A rig
+    whose sides cannot be paired gets no mirrors (its jumps stay one-footed); its message
+    is kept in ``errors`` under the mirror's name."""
     rig = rig_from_armature(ob)
     rig.require_legs()
     result = CharacterClips(rig)
@@ -37,7 +59,32 @@ def analyze_character(ob, settings: Settings | None = None, fps: float | None = 
             result.analyses.append(analyze_clip(motion, settings))
         except (AnalysisError, RigError) as ex:
             result.errors[act.name] = str(ex)
+    if mirrors:
+        _add_mirrors(ob, result)
     return result
+
+
+def _add_mirrors(ob, result: CharacterClips) -> None:
+    """Append to ``result`` the mirror images of the jumps the character's library plays
+    (an edited library's jump clips, else every jump clip) where they jump from one foot
+    only (``core.mirror.mirrored_jumps``)."""
+    jumps = [a for a in result.analyses if a.kind == "jump"]
+    if ob.data.footstep.library_edited:
+        used = {sp.clip for sp in read_library(ob).specials if sp.kind == "jump"}
+        jumps = [a for a in jumps if a.name in used]
+    if not jumps:
+        return
+    try:
+        made = mirrored_jumps(jumps, result.rig)
+    except MirrorError as ex:
+        for a in jumps:
+            result.errors[mirrored_name(a.name)] = str(ex)
+        return
+    taken = {a.name for a in result.analyses} | set(result.errors)
+    for m in made:
+        if m.name not in taken:
+            result.analyses.append(m)
+            result.mirrors[m.name] = mirrored_name(m.name)
 
 
 #: Clips of more samples than this are read a chunk of this many samples at a time: their
@@ -106,7 +153,9 @@ def _sole_points(ob, action, rig: Rig, frames, foot_pose: np.ndarray, fps: float
 
 
 def analyze_and_propose(ob, settings: Settings | None = None) -> CharacterClips:
-    """Analyse ``ob``'s clips and store the proposed library, unless a user edited it."""
+    """Analyse ``ob``'s clips and store the proposed library, unless a user edited it.
+    The result holds the character's own clips (the mirrors of its jumps are made for a
+    plan: ``analyze_character(..., mirrors=True)``)."""
     result = analyze_character(ob, settings)
     if not ob.data.footstep.library_edited:
         write_library(ob, library_for(ob, result), result.analyses)
@@ -129,7 +178,9 @@ def summary(a: ClipAnalysis) -> str:
 
 
 def write_library(ob, library: Library, analyses: list[ClipAnalysis], edited: bool = False) -> None:
-    """Show ``library`` in the armature's clip list (the panel edits that list)."""
+    """Show ``library`` in the armature's clip list (the panel edits that list). Mirror
+    images of clips ("<clip>~mirror") are not listed: they are made afresh from their
+    clips wherever the library is used (``library_for``)."""
     props = ob.data.footstep
     by_name = {a.name: a for a in analyses}
     props.syncing = True
@@ -141,6 +192,8 @@ def write_library(ob, library: Library, analyses: list[ClipAnalysis], edited: bo
                 item.name, item.usage, item.gait = c.clip, "TURN", gait
                 item.tau, item.speed = c.tau, c.speed
         for sp in library.specials:
+            if is_mirror(sp.clip):
+                continue
             item = props.clips.add()
             item.name, item.usage = sp.clip, _USAGE_OF_KIND[sp.kind]
             item.entry_gait, item.exit_gait = sp.entry_gait, sp.exit_gait
@@ -174,10 +227,17 @@ def read_library(ob) -> Library:
 
 def library_for(ob, clips: CharacterClips) -> Library:
     """The library the planner uses: the user's, once edited; otherwise the proposal from
-    the analysis, so a headless run needs no UI step."""
+    the analysis, so a headless run needs no UI step. Either way it holds the mirror
+    images ``clips`` has of its jumps (``analyze_character``) as jumps of their own."""
     if ob.data.footstep.library_edited:
         lib = read_library(ob)
         lib.check({a.name for a in clips.analyses} | set(clips.errors))
+        by = {a.name: a for a in clips.analyses}
+        jumps = {sp.clip: sp for sp in lib.specials if sp.kind == "jump"}
+        for name, source in clips.mirrors.items():
+            sp = jumps.get(source)
+            if sp is not None and name not in lib.clips() and name not in lib.excluded and name in by:
+                lib.specials.append(SpecialClip(name, "jump", by[name].entry_gait, by[name].exit_gait))
         return lib
     return propose_library(clips.analyses)
 
