@@ -7,10 +7,15 @@ failure message. Prints the table with medians and worsts; writes nothing.
 
     .venv/bin/python benchmarks/bench_planner.py [--only NAME,...] [--no-reference] [--seed 15]
 
-The reference searches take minutes (plain A* expands thousands of footprints per scene);
+The reference searches take tens of CPU minutes in all (plain A* expands up to hundreds
+of thousands of footprints per scene; ``--reference-budget``, default REFERENCE_BUDGET);
 ``--write-reference > ref.jsonl`` once, then ``--reference ref.jsonl``, compares the
 planner against them without searching again (the references do not depend on the
-planner's weighted-search tuning).
+planner's weighted-search tuning). Each reference carries the fingerprint of the step
+set it was searched with; a reference of another library (the clips' analysis changed
+since) is left out, saying so. ``--character FILE.npz`` freezes the library: read from
+the file when it exists, else analysed and written there, so runs compare on the same
+steps while the analysis changes.
 """
 
 import argparse
@@ -29,7 +34,7 @@ from scene_generator import benchmark_scenes, cmu_character, make_planner  # noq
 #: Plain A*'s expansion budget for the reference cost; a scene whose plain A* does not
 #: finish within it takes weighted A* with weight FALLBACK_WEIGHT (its ratio is then
 #: marked "*": the true ratio is at most that weight times the one printed).
-REFERENCE_BUDGET = 25_000
+REFERENCE_BUDGET = 1_500_000
 FALLBACK_WEIGHT = 1.05
 
 
@@ -51,6 +56,51 @@ def loops(fs) -> int:
     k = np.arange(len(p))
     near = (d < 0.15) & (foot[:, None] == foot[None]) & (k[:, None] - k[None] >= 3)
     return int(near.any(axis=1).sum())
+
+
+STEP_FIELDS = ("fwd", "left", "turn", "duration", "foot", "gait", "jump", "label")
+
+
+def save_character(character, path: str) -> None:
+    """Write a character's steps, forward and foot shape to ``path`` (npz)."""
+    st = character.steps
+    np.savez(path, **{f: (np.asarray(getattr(st, f)).astype(str) if f in ("gait", "label")
+                          else np.asarray(getattr(st, f))) for f in STEP_FIELDS},
+             forward=np.asarray(character.forward, float),
+             foot_shape=np.array([character.foot.back, character.foot.front, character.foot.half_width]))
+
+
+def read_character(path: str):
+    """The character ``save_character`` wrote to ``path``."""
+    from scene_generator import Character
+
+    from footstep_planner.core.steps import StepSet
+    from footstep_planner.core.surface import FootShape
+
+    d = np.load(path, allow_pickle=False)
+    steps = StepSet(*(d[f].astype(object) if f in ("gait", "label") else d[f] for f in STEP_FIELDS))
+    return Character(steps, d["forward"], FootShape(*d["foot_shape"].tolist()))
+
+
+def load_character(path: str = ""):
+    """The CMU subject-16 character, from ``path`` (npz) when it exists, else analysed
+    (and written to ``path`` when one is given)."""
+    if path and os.path.exists(path):
+        return read_character(path)
+    ch = cmu_character()
+    if path:
+        save_character(ch, path)
+    return ch
+
+
+def fingerprint(character) -> str:
+    """A short hash of the step set (its geometry, durations, feet, gaits and jumps)."""
+    import hashlib
+
+    st = character.steps
+    num = np.round(np.c_[st.fwd, st.left, st.turn, st.duration, st.foot, st.jump], 4)
+    h = hashlib.sha1(num.tobytes() + "|".join(map(str, st.gait)).encode())
+    return h.hexdigest()[:12]
 
 
 def run_scene(scene, character, reference: bool):
@@ -128,31 +178,42 @@ def main():
     ap.add_argument("--reference", default="", help="JSON lines {name, cost, fallback} of reference costs "
                     "computed before (by --write-reference on stdout), instead of searching again")
     ap.add_argument("--write-reference", action="store_true", help="print only the reference costs, as JSON lines")
+    ap.add_argument("--reference-budget", type=int, default=REFERENCE_BUDGET,
+                    help="plain A*'s expansion budget for a reference")
     ap.add_argument("--progress", action="store_true", help="each scene's figures on stderr as it ends")
+    ap.add_argument("--character", default="", help="an npz of the library's steps: read when it exists, "
+                    "else analysed and written there")
     args = ap.parse_args()
+    globals()["REFERENCE_BUDGET"] = args.reference_budget
     scenes = benchmark_scenes(args.seed)
     if args.only:
         keep = args.only.split(",")
         scenes = [s for s in scenes if any(k in s.name for k in keep)]
-    character = cmu_character()
+    character = load_character(args.character)
+    library = fingerprint(character)
     if args.write_reference:
         for sc in scenes:
             cost, marked = reference_cost(sc, character)
-            print(json.dumps({"name": sc.name, "cost": None if np.isnan(cost) else cost, "fallback": marked}),
-                  flush=True)
+            print(json.dumps({"name": sc.name, "cost": None if np.isnan(cost) else cost, "fallback": marked,
+                              "library": library}), flush=True)
         return
     reference = not args.no_reference
     if args.reference:
         with open(args.reference) as fh:
             rows_ = [json.loads(line) for line in fh if line.strip()]
-        reference = {r["name"]: (r["cost"], r.get("fallback", False)) for r in rows_ if r["cost"]}
+        other = sorted(r["name"] for r in rows_ if r.get("library", library) != library)
+        if other:
+            print(f"left out {len(other)} references searched with another library: {', '.join(other)}",
+                  file=sys.stderr)
+        reference = {r["name"]: (r["cost"], r.get("fallback", False)) for r in rows_
+                     if r["cost"] and r.get("library", library) == library}
     rows = []
     for sc in scenes:
         rows.append(run_scene(sc, character, reference))
         if args.progress:
             print(rows[-1][:8], file=sys.stderr, flush=True)
     print(f"Planner benchmark: {len(scenes)} generated scenes (seed {args.seed}), CMU subject-16 library "
-          f"({character.steps.n} steps)")
+          f"({character.steps.n} steps, fingerprint {library})")
     print_table(rows, scenes)
 
 

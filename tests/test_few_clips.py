@@ -193,10 +193,16 @@ def test_the_motion_of_the_bent_plan_follows_its_footprints_round_the_bend():
         assert np.isfinite(arr).all()
     assert np.linalg.norm(pos[:, :2] - planned[:, :2], axis=1).max() < 0.03
     assert snap(pos, head)[1].all()  # every footprint on the corridor
-    # the body turns the corner: about a quarter turn, at about the bend's curvature
+    # the body turns the corner: about a quarter turn, at about the bend's curvature; cut
+    # off mid-stride at the last footprint (no standing), it lags the feet by up to about
+    # 15 degrees, and stopping to standing (as every bake does) it ends facing them
     turned = np.degrees(np.unwrap(syn.body_heading)[-1] - syn.body_heading[0])
     h = np.unwrap([f.heading for f in r.footprints])
-    assert turned == pytest.approx(np.degrees(h[-4:].mean() - h[0]), abs=15)  # the last steps' heading
+    assert turned == pytest.approx(np.degrees(h[-4:].mean() - h[0]), abs=20)  # the last steps' heading
+    lib, analyses = one_walk()
+    stood = synthesize(r.footprints, lib, analyses, Settings(), fps=30.0, forward=FWD, snap=snap, standing=True)
+    turned = np.degrees(np.unwrap(stood.body_heading)[-1] - stood.body_heading[0])
+    assert turned == pytest.approx(np.degrees(h[-2:].mean() - h[0]), abs=5)
     assert 0.5 < syn.tau_final.max() < 1.0 and syn.tau_final.min() > -0.5
     # with the goal, the body ends on it
     syn, _ = run(r.footprints, pl.ground, goal=GOAL)

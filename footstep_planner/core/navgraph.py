@@ -3,11 +3,12 @@
 The thesis built a dense graph of sampled footprints up front (seconds to tens of
 seconds) and named lazy construction as future work. Here a node is a footprint
 reached by the search itself: expanding it pushes every step of the library from it
-unchecked, and a successor is checked (one batched support query for it and its
-unchecked siblings) only when it leaves the open list, so only footprints the search
-is about to stand on are ever tested. Footprints are merged on a grid (``cell`` metres,
-``heading_bins`` headings), and support answers are cached per fine grid key, so the
-cache serves later plans on the same geometry (see ``FootprintCache``).
+unchecked, and a successor is checked (one batched support query for it and the
+unchecked siblings next in line, ``CHECK_CHUNK`` in all) only when it leaves the open
+list, so only footprints the search is about to stand on are ever tested. Footprints
+are merged on a grid (``cell`` metres, ``heading_bins`` headings), and support answers
+are cached per fine grid key, so the cache serves later plans on the same geometry
+(see ``FootprintCache``).
 
 Cost is time (each step's duration), plus ``turn_penalty`` seconds per radian of
 heading change, ``jump_penalty`` seconds per jump and ``run_penalty`` seconds per
@@ -17,18 +18,23 @@ is missing), never on open floor. The heuristic is the walking distance to the g
 a coarse grid of up to three levels per cell (``DistanceField``: a bridge over a floor
 is two levels; around walls; up and down no more than a step; over step edges only
 where a foot fits; across gaps only where a jump reaches, each jump counting what it
-and its run-up cost beyond their length) over the metres per second of cost of the two
-cheapest alternating steps; it never overestimates. The search weighs it by
-``heuristic_weight`` (weighted A*: the path found costs at most w times the cheapest),
-starting at 0.35 of w's excess over 1 and raising it by a quarter every
-``RAISE_EVERY`` expansions, so short searches find near-cheapest paths and long ones
-turn greedy; a weighted search's map also counts a way along an edge or a wall
-``EDGE_COST`` times (footprints keep off them). When the search floods a place without
-getting nearer (``STALL`` expansions), it suspects the jumps the map promised there and
-takes the map without them, when the goal can still be reached without them. w = 1 is
-plain A*. A refused plan says where the search got to and what blocks the library's
-steps there (``Rejections``: the wall and the clearance, the step's height, the treads'
-depth against the foot, the gap's width against the jump's reach).
+and its run-up cost beyond their length), or the straight distance less the goal radius
+where that is longer, over the metres per second of cost (turn penalty included) of the
+two cheapest alternating steps; it never overestimates. The search weighs it by
+``heuristic_weight`` (weighted A*), starting at ``START_WEIGHT`` of w's excess over 1
+and raising it by a quarter every ``RAISE_EVERY`` expansions, so short searches find
+near-cheapest paths and long ones turn greedy; a weighted search's map also counts a
+way along an edge or a wall ``EDGE_COST`` times (footprints keep off them), and its
+heuristic counts a footprint turned away from the map's way ahead (``AHEAD_TURN_COST``),
+so it turns into a bend before it runs into its outer edge. (These two preferences make
+the w bound on the cost approximate; the planner benchmark measures the cost found
+against plain A*'s.) When the search floods a place without getting nearer (``STALL``
+expansions), it suspects the jumps the map promised there and takes the map without
+them (over the cells built once per search), when the goal can still be reached without
+them, dropping the open footprints that those jumps reached. w = 1 is plain A*. A
+refused plan says where the search got to and what blocks the library's steps there
+(``Rejections``: the wall and the clearance, the step's height, the treads' depth
+against the foot, the gap's width against the jump's reach).
 """
 
 from __future__ import annotations
@@ -195,6 +201,10 @@ class _Batch(NamedTuple):
 STALL = 120
 MAX_REROUTES = 4
 
+#: Successors of one expansion checked together when the first of them leaves the open
+#: list (``Planner._check_batch``): the popped one and its siblings next in line.
+CHECK_CHUNK = 12
+
 
 @dataclass
 class _Search:
@@ -219,6 +229,7 @@ class _Search:
     batches: list = field(default_factory=list)  # unchecked successors, one _Batch per expansion
     weight: float = 1.0  # the heuristic's weight now (``Planner._weigh``)
     seq: int = 0  # pushes so far (ties in the heap go first in, first out)
+    cells: object = None  # the distance field's cells (``FieldCells``), built once per search
 
     def push(self, node: SearchNode, h: float) -> None:
         """A checked footprint (a start footprint) into the open list."""
@@ -310,16 +321,18 @@ class Planner:
         goal = np.asarray(goal, dtype=np.float64)
         self._check_goal(goal, goal_heading)
         t_field = time.perf_counter()
-        dist = self.distance_field(goal)
+        cells = self.field_cells()
+        dist = self.distance_field(goal, cells=cells)
         field_seconds = time.perf_counter() - t_field
         self._refuse_unreachable(dist, start, goal)
         search = _Search(goal, goal_heading, self._heuristic(dist, goal), self._base_costs())
+        search.cells = cells
         search.field_seconds = field_seconds
         search.weight = 1.0 + START_WEIGHT * (self.settings.heuristic_weight - 1.0)
         for s in start:
             for gait in ("walk", "run"):
                 node = SearchNode(s.foot, gait, np.asarray(s.position, float), float(s.heading), 0.0, -1, -1)
-                search.push(node, float(search.heuristic(node.position)[0]))
+                search.push(node, float(search.heuristic(node.position, [node.heading])[0]))
         while search.heap:
             idx = self._pop(search)
             if idx is None:
@@ -336,15 +349,19 @@ class Planner:
             self._expand(search, idx)
         raise self._dead_end(search)
 
-    def distance_field(self, goal: np.ndarray, avoid: tuple | None = None) -> "DistanceField":
+    def distance_field(self, goal: np.ndarray, avoid: tuple | None = None,
+                       cells: "FieldCells | None" = None) -> "DistanceField":
         """The walking-distance map to ``goal`` that the search's heuristic reads (without
-        the jumps within ``avoid`` = (point, radius m), when given). A weighted search's
-        map keeps off edges and walls (``EDGE_COST``); plain A*'s (weight 1) stays a lower
-        bound."""
+        the jumps within ``avoid`` = (point, radius m), when given), over ``cells`` when
+        they were built before (``field_cells``). A weighted search's map keeps off edges
+        and walls (``EDGE_COST``); plain A*'s (weight 1) stays a lower bound."""
+        return DistanceField.solve(cells if cells is not None else self.field_cells(), goal, avoid)
+
+    def field_cells(self) -> "FieldCells":
+        """The distance field's cells and edges over this planner's ground (any goal)."""
         edge_cost = EDGE_COST if self.settings.heuristic_weight > 1.0 else 1.0
-        return DistanceField.build(self.ground, self.obstacles, np.asarray(goal, float), self.field_cell,
-                                   self.clearance, self._jump_reach(), self.max_step_height,
-                                   self._jump_extra(), avoid, edge_cost, self._stands)
+        return FieldCells.build(self.ground, self.obstacles, self.field_cell, self.clearance, self._jump_reach(),
+                                self.max_step_height, self._jump_extra(), edge_cost, self._stands)
 
     def _stands(self, pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
         """(N,) whether a foot may stand on the ground at footprints ``pos`` (N, 3) turned
@@ -357,18 +374,45 @@ class Planner:
         that the library's steps cannot set up (its run-up, its foot, its direction). Take
         the heuristic without the jumps within ``REROUTE_RADIUS`` of that place, when the
         goal can still be reached from there without them, and re-rank the open
-        footprints by it (the closed stay closed: the path stays valid)."""
+        footprints by it, dropping those reached through such a jump (they stand where
+        the search got stuck; the closed stay closed: the path stays valid)."""
         search.reroutes += 1
         t = time.perf_counter()
         where = search.best_h[2]
-        dist = self.distance_field(search.goal, (where, REROUTE_RADIUS))
+        dist = self.distance_field(search.goal, (where, REROUTE_RADIUS), search.cells)
         search.field_seconds += time.perf_counter() - t
         if not np.isfinite(dist.at_many(np.atleast_2d(where))[0]):
             search.best_h = (search.best_h[0], search.expanded, where)
             return
         search.heuristic = self._heuristic(dist, search.goal)
+        self._drop_after_jumps(search, np.asarray(where, float))
         self._rerank(search, fresh=True)
         search.best_h = (np.inf, search.expanded, where)
+
+    def _drop_after_jumps(self, search: _Search, where: np.ndarray) -> None:
+        """Take out of the open list the footprints reached through a jump that lands
+        within ``REROUTE_RADIUS`` of ``where`` (and the jumps there not yet taken)."""
+        if not search.nodes:
+            return
+        jump = self.steps.jump
+        parent = np.array([n.parent for n in search.nodes])
+        step = np.array([n.step for n in search.nodes])
+        pos = np.array([n.position[:2] for n in search.nodes])
+        near = np.linalg.norm(pos - where[:2], axis=1) <= REROUTE_RADIUS
+        flag = (step >= 0) & jump[np.maximum(step, 0)] & near
+        while True:  # and everything reached from them (parents come before children)
+            more = flag | ((parent >= 0) & flag[np.maximum(parent, 0)])
+            if (more == flag).all():
+                break
+            flag = more
+        if not flag.any() and not jump.any():
+            return
+        out = []
+        for b in search.batches:
+            bad = np.full(len(b.g), bool(flag[b.parent]))
+            bad |= jump[b.sel] & (np.linalg.norm(b.nxt - where[:2], axis=1) <= REROUTE_RADIUS)
+            out.append(bad.tolist())
+        search.heap = [e for e in search.heap if not (flag[e[3]] if e[2] < 0 else out[e[2]][e[3]])]
 
     def _check_goal(self, goal: np.ndarray, goal_heading: float | None) -> None:
         """PlanError when no traversable surface lies under (or near above) the goal."""
@@ -404,14 +448,19 @@ class Planner:
         if fresh:
             pos = [search.nodes[j].position for j in range(len(search.nodes))]
             if pos:
-                for j, hj in enumerate(search.heuristic(np.array(pos, float)).tolist()):
+                psi = [search.nodes[j].heading for j in range(len(search.nodes))]
+                for j, hj in enumerate(search.heuristic(np.array(pos, float), psi).tolist()):
                     search.h[j] = hj
-            for batch in search.batches:
-                z = np.full(len(batch.g), search.nodes[batch.parent].position[2])
-                batch.h[:] = search.heuristic(np.c_[batch.nxt, z])
+            if search.batches:  # every open successor's at once
+                nxt = np.concatenate([b.nxt for b in search.batches])
+                z = np.concatenate([np.full(len(b.g), search.nodes[b.parent].position[2]) for b in search.batches])
+                h = search.heuristic(np.c_[nxt, z], np.concatenate([b.psi for b in search.batches]))
+                at = np.cumsum([0] + [len(b.g) for b in search.batches])
+                for k, batch in enumerate(search.batches):
+                    batch.h[:] = h[at[k]:at[k + 1]]
         w = search.weight
-        search.heap = [(search.nodes[j].cost + w * search.h[j] if b < 0 else
-                        float(search.batches[b].g[j] + w * search.batches[b].h[j]), q, b, j)
+        f = [(b.g + w * b.h).tolist() for b in search.batches]
+        search.heap = [(search.nodes[j].cost + w * search.h[j] if b < 0 else f[b][j], q, b, j)
                        for _, q, b, j in search.heap]
         heapq.heapify(search.heap)
 
@@ -428,12 +477,20 @@ class Planner:
         """Remaining time (s) for points (N, >=2): the walking distance over the
         cheapest step's speed; off the grid's reach, three times the straight distance."""
         vmax, slack = self._cost_speed()
+        radius = self.settings.goal_radius
+        per_rad = AHEAD_TURN_COST if self.settings.heuristic_weight > 1.0 else 0.0
+        yaw = float(np.arctan2(self.forward[1], self.forward[0]))
 
-        def heuristic(p):
+        def heuristic(p, psi=None):
             p = np.atleast_2d(p)
-            d = dist.at_many(p)
-            d = np.where(np.isfinite(d), d, 3.0 * np.hypot(goal[0] - p[:, 0], goal[1] - p[:, 1]))
-            return np.maximum(d - slack, 0.0) / vmax
+            d, ahead = dist.at_and_ahead(p)
+            straight = np.hypot(goal[0] - p[:, 0], goal[1] - p[:, 1])
+            d = np.where(np.isfinite(d), np.maximum(d, straight - radius), 3.0 * straight)
+            h = np.maximum(d - slack, 0.0) / vmax
+            if psi is not None and per_rad > 0:
+                off = np.abs(_wrap(np.asarray(psi, float) + yaw - ahead))
+                h = h + per_rad * np.nan_to_num(np.maximum(off - FREE_TURN, 0.0), nan=0.0)
+            return h
         return heuristic
 
     def _base_costs(self) -> np.ndarray:
@@ -461,7 +518,7 @@ class Planner:
         if key in search.closed:
             return None
         if batch.state[j] == 0:
-            self._check_batch(search, batch)
+            self._check_batch(search, batch, j)
         if batch.state[j] != 1:
             return None
         parent, i = search.nodes[batch.parent], int(batch.sel[j])
@@ -473,11 +530,17 @@ class Planner:
         search.h.append(float(batch.h[j]))
         return len(search.nodes) - 1
 
-    def _check_batch(self, search: _Search, batch: _Batch) -> None:
-        """Check, in one batch, the successors of a batch not checked yet whose merge key
-        is still open: whether a foot may stand there, within a step's height, and the
-        way there is clear (``_supported``, ``_way_clear``)."""
+    def _check_batch(self, search: _Search, batch: _Batch, j: int) -> None:
+        """Check, in one batch, successor ``j`` of a batch and the ``CHECK_CHUNK`` - 1 of its
+        siblings not checked yet whose merge key is still open that come first in the open
+        list (the likeliest to leave it next): whether a foot may stand there, within a
+        step's height, and the way there is clear (``_supported``, ``_way_clear``). Which
+        are checked when changes nothing but the work: a successor's answer is its own."""
         todo = np.flatnonzero((batch.state == 0) & np.array([k not in search.closed for k in batch.keys]))
+        if len(todo) > CHECK_CHUNK:
+            f = batch.g[todo] + search.weight * batch.h[todo]
+            f[todo == j] = -np.inf
+            todo = np.sort(todo[np.argpartition(f, CHECK_CHUNK - 1)[:CHECK_CHUNK]])
         node = search.nodes[batch.parent]
         nxt, psi = batch.nxt[todo], batch.psi[todo]
         ok, z = self._supported(node, nxt, psi)
@@ -521,7 +584,7 @@ class Planner:
         if not keep:
             return
         keep = np.array(keep)
-        h = search.heuristic(np.c_[nxt[keep], np.full(len(keep), node.position[2])])
+        h = search.heuristic(np.c_[nxt[keep], np.full(len(keep), node.position[2])], npsi[keep])
         search.push_batch(_Batch(idx, sel[keep], nxt[keep], npsi[keep], cost[keep], [keys[j] for j in keep],
                                  np.zeros(len(keep), np.int8), np.zeros(len(keep)), h))
 
@@ -607,8 +670,8 @@ class Planner:
     def _step_costs(self) -> tuple[np.ndarray, np.ndarray]:
         """(length (S,) m, least cost (S,) s) of each step, its turn penalty aside."""
         st, cfg = self.steps, self.settings
-        cost = st.duration + np.where(st.gait == "run", cfg.run_penalty, 0.0) \
-            + np.where(st.jump, cfg.jump_penalty, 0.0)
+        cost = st.duration + cfg.turn_penalty * np.abs(st.turn) \
+            + np.where(st.gait == "run", cfg.run_penalty, 0.0) + np.where(st.jump, cfg.jump_penalty, 0.0)
         return np.hypot(st.fwd, st.left), cost
 
     def _cost_speed(self) -> tuple[float, float]:
@@ -623,6 +686,21 @@ class Planner:
             return v, 0.0
         v = float(np.max((length[a][:, None] + length[b][None]) / (cost[a][:, None] + cost[b][None])))
         return v, float(max(0.0, np.max(length - cost * v)))
+
+    def _turn_cost(self) -> float:
+        """s/rad: the least a radian of turning costs beyond the ground it covers, over
+        the pairs of steps (one of each foot) that turn at least 0.5 rad one way."""
+        length, cost = self._step_costs()
+        st = self.steps
+        v, _ = self._cost_speed()
+        walk = ~st.jump
+        a, b = np.flatnonzero(walk & (st.foot == 0)), np.flatnonzero(walk & (st.foot == 1))
+        if not (len(a) and len(b)):
+            return 0.0
+        turn = st.turn[a][:, None] + st.turn[b][None]
+        over = (cost[a][:, None] + cost[b][None]) - (length[a][:, None] + length[b][None]) / v
+        ok = np.abs(turn) >= 0.5
+        return float(max(np.min(over[ok] / np.abs(turn[ok])), 0.0)) if ok.any() else 0.0
 
     def _jump_extra(self) -> float:
         """Metres the distance field adds to a jump: what the jump step, and the running
@@ -817,6 +895,7 @@ class DistanceField:
     dist: np.ndarray  # (L, nx, ny), inf where the goal cannot be reached on the grid
     z: np.ndarray = field(default=None, repr=False)  # (L, nx, ny) each level's height, nan where none
     graph: object = field(default=None, repr=False)  # the cells' sparse graph
+    ahead: np.ndarray = field(default=None, repr=False)  # (L * nx * ny,) rad: the way to the goal, nan at it
 
     def _nodes(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(node ids (N,), -1 off the grid, and the levels' distances (N, L)) of points
@@ -843,6 +922,18 @@ class DistanceField:
         ok = ids >= 0
         out[ok] = self.dist.ravel()[ids[ok]]
         return out
+
+    def at_and_ahead(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(distance (N,), the direction (N,) rad, world yaw, of the way to the goal a few
+        cells on from each point, nan where unknown) of points (N, >=2)."""
+        p = np.atleast_2d(np.asarray(p, float))
+        ids, _ = self._nodes(p)
+        d, a = np.full(len(p), np.inf), np.full(len(p), np.nan)
+        ok = ids >= 0
+        d[ok] = self.dist.ravel()[ids[ok]]
+        if self.ahead is not None:
+            a[ok] = self.ahead[ids[ok]]
+        return d, a
 
     def nearest_reachable(self, start, goal) -> np.ndarray:
         """The centre (x, y, level height) of the cell reachable from ``start`` nearest
@@ -873,37 +964,88 @@ class DistanceField:
         goal's cell. With ``support`` (footprints (N, 3), headings (N,) -> whether a foot
         may stand there (N,)), a cell where the ground's slope changes (a step's edge) is
         walkable only where a foot fits in it (``_Grid.foot_room``)."""
+        cells = FieldCells.build(ground, obstacles, cell, clearance, jump_reach, step_height, jump_extra,
+                                 edge_cost, support)
+        return DistanceField.solve(cells, goal, avoid)
+
+    @staticmethod
+    def solve(cells: "FieldCells", goal, avoid: tuple | None = None) -> "DistanceField":
+        """The field to ``goal`` over cells built before (``FieldCells``), without the
+        bridges with an end within ``avoid`` = (point, radius): only the graph and
+        Dijkstra, so a search that drops jumps where it is stuck builds its cells once."""
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import dijkstra
 
-        grid = _Grid.over(ground, cell, step_height)
-        has_ground, blocked = grid.ground_and_blocked(obstacles, clearance)
-        walk = has_ground & ~blocked
-        if support is not None:
-            walk = grid.foot_room(support, walk)
-        edges = grid.neighbour_edges(walk, step_height, grid.edge_cells(walk), edge_cost)
-        if jump_reach > 0:
-            edges += [grid.away(a, b, c + jump_extra, avoid) for a, b, c in
-                      grid.bridges(walk, ~has_ground.any(axis=0), blocked, jump_reach, step_height)]
+        goal = np.asarray(goal, float)
+        grid = cells.grid
+        edges = [cells.walk_edges] + ([grid.away(*cells.bridge_edges, avoid)] if len(cells.bridge_edges[0]) else [])
         rows, cols, vals = (np.concatenate(e) for e in zip(*edges))
+        cell = grid.cell
         n = grid.ids.size
         graph = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
         probe = DistanceField(grid.lo, cell, (grid.nx, grid.ny), np.zeros(grid.ids.shape), grid.z)
         gi = np.clip(np.floor((goal[:2] - grid.lo) / cell).astype(int), 0, [grid.nx - 1, grid.ny - 1])
         gid, _ = probe._nodes(np.array([[grid.lo[0] + (gi[0] + 0.5) * cell, grid.lo[1] + (gi[1] + 0.5) * cell,
                                          goal[2]]]))
-        d = dijkstra(graph, directed=False, indices=int(gid[0]))
+        d, pred = dijkstra(graph, directed=False, indices=int(gid[0]), return_predecessors=True)
+        # the way ahead: the cell AHEAD_CELLS on towards the goal along the shortest way
+        on = np.where(pred >= 0, pred, np.arange(n))
+        for _ in range(AHEAD_CELLS - 1):
+            on = np.where(pred[on] >= 0, pred[on], on)
+        nn = grid.nx * grid.ny
+        to = grid.xy[on % nn] - grid.xy[np.arange(n) % nn]
+        ahead = np.where((on != np.arange(n)) & np.isfinite(d), np.arctan2(to[:, 1], to[:, 0]), np.nan)
         # 5 % short, and a cell's own size short, so the heuristic stays a lower bound
         d = np.maximum(0.95 * d - 1.5 * cell, 0.0)
-        return DistanceField(grid.lo, cell, (grid.nx, grid.ny), d.reshape(grid.ids.shape), grid.z, graph)
+        return DistanceField(grid.lo, cell, (grid.nx, grid.ny), d.reshape(grid.ids.shape), grid.z, graph, ahead)
+
+
+@dataclass
+class FieldCells:
+    """The distance field's cells and their edges, whatever the goal: the grid, the walking
+    edges (rows, cols, lengths) and the bridges across gaps (with their ``jump_extra``)."""
+
+    grid: "_Grid"
+    walk_edges: tuple
+    bridge_edges: tuple
+
+    @staticmethod
+    def build(ground, obstacles, cell, clearance, jump_reach, step_height, jump_extra: float = 0.0,
+              edge_cost: float = 1.0, support: Callable | None = None) -> "FieldCells":
+        """The cells of ``DistanceField.build`` (same arguments, less the goal and ``avoid``)."""
+        grid = _Grid.over(ground, cell, step_height)
+        has_ground, blocked = grid.ground_and_blocked(obstacles, clearance)
+        walk = has_ground & ~blocked
+        if support is not None:
+            walk = grid.foot_room(support, walk)
+        edges = grid.neighbour_edges(walk, step_height, grid.edge_cells(walk), edge_cost)
+        walk_edges = tuple(np.concatenate(e) for e in zip(*edges))
+        bridges = grid.bridges(walk, ~has_ground.any(axis=0), blocked, jump_reach, step_height) \
+            if jump_reach > 0 else []
+        if bridges:
+            a, b, c = (np.concatenate(e) for e in zip(*bridges))
+            bridge_edges = (a, b, c + jump_extra)
+        else:
+            bridge_edges = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+        return FieldCells(grid, walk_edges, bridge_edges)
 
 
 #: How much longer the heuristic counts a way along a cell beside an unwalkable one.
 EDGE_COST = 1.5
 
+#: The weighted search's heuristic adds AHEAD_TURN_COST seconds per radian that a
+#: footprint is turned away from the way to the goal (the direction to the cell
+#: AHEAD_CELLS on along the map's shortest way) beyond FREE_TURN rad: the search turns
+#: towards a bend before it reaches it instead of running into its outer edge. (The
+#: library's own turns cost little more than straight steps, ``_turn_cost``; this is a
+#: preference of the weighted search, never used by plain A*.)
+AHEAD_CELLS = 8
+FREE_TURN = 0.25
+AHEAD_TURN_COST = 0.1
+
 #: The search starts with this fraction of the heuristic weight's excess over 1 and
 #: adds a quarter of it every RAISE_EVERY footprints expanded (``Planner._weigh``).
-START_WEIGHT = 0.35
+START_WEIGHT = 0.2
 RAISE_EVERY = 100
 
 #: m: a stalled search's heuristic drops the jumps this close to where it is stuck.
