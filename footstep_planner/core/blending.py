@@ -74,10 +74,50 @@ class ClipTrack:
     quat: np.ndarray | None = field(repr=False, default=None)  # (m, B, 4)
     hips: np.ndarray | None = field(repr=False, default=None)  # (m, 4, 4)
     stances: list = field(default_factory=list)  # (foot, stance time) in time order
+    # cyclic: the loop's seam (``loop_seam``): the clip times (s, e), one cycle apart, the
+    # phase jumps from e back to s; the rotation (B, 3) (rotation vectors) taking each
+    # bone's pose at e onto its pose at s; and the hips' (6,): rotation vector, then shift
+    seam: tuple | None = None
+    seam_rot: np.ndarray | None = field(repr=False, default=None)
+    seam_hips: np.ndarray | None = field(repr=False, default=None)
 
     @property
     def n(self) -> int:
         return len(self.vel)
+
+    def seam_share(self, t: np.ndarray) -> np.ndarray:
+        """(F,) the share of the loop's seam mismatch the pose at clip times ``t`` (F,) is
+        turned by: -1/2 at the cycle's start s (and before), rising linearly to +1/2 at its
+        end e (and after); 0 without a seam."""
+        t = np.asarray(t, float)
+        if self.seam is None:
+            return np.zeros(t.shape)
+        s, e = self.seam
+        return np.clip((t - s) / max(e - s, MIN_STEP), 0.0, 1.0) - 0.5
+
+    def sample_pose(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The pose at clip times ``t`` (F,): (bone quaternions (F, B, 4) scipy order, the
+        hips' position (F, 3) and quaternion (F, 4) in the root frame), interpolated
+        linearly between the clip's samples (``quat``, ``hips``) and, for a cyclic clip,
+        with the loop's seam closed: every bone turned by its share (``seam_share``) of the
+        rotation from its pose at the cycle's end to that at its start, the hips shifted
+        likewise, so the pose the phase's wrap from e to s joins is continuous (a cycle of
+        motion capture never ends exactly in the pose it began with; the mismatch is spread
+        over the whole cycle, the slowest change that closes it)."""
+        t = np.asarray(t, float)
+        q, hp, hq = _raw_pose(self.quat, self.hips, self.pose_rate, t)
+        if self.seam is None or self.seam_rot is None or not len(t):
+            return q, hp, hq
+        from scipy.spatial.transform import Rotation
+
+        w = self.seam_share(t)
+        F, B = q.shape[:2]
+        turn = Rotation.from_rotvec((w[:, None, None] * self.seam_rot[None]).reshape(-1, 3))
+        q = (turn * Rotation.from_quat(q.reshape(-1, 4))).as_quat().reshape(F, B, 4)
+        if self.seam_hips is not None:
+            hq = (Rotation.from_rotvec(w[:, None] * self.seam_hips[None, :3]) * Rotation.from_quat(hq)).as_quat()
+            hp = hp + w[:, None] * self.seam_hips[None, 3:]
+        return q, hp, hq
 
     def sample_hips(self, t: float) -> np.ndarray:
         """(4, 4) the hips' matrix in the root frame at clip time ``t`` (the nearest sample)."""
@@ -150,13 +190,68 @@ def make_track(a: ClipAnalysis, rate: float = 120.0) -> ClipTrack:
     con = np.stack([np.interp(dense.times, src, a.contact[k].astype(float)) for k in range(2)])
     cpt = heel + bal[..., None] * (toe - heel)
     stances = sorted(((st.foot, float(st.stance)) for st in a.stances), key=lambda x: x[1])
-    phase = _phase_times(a) if a.kind == "cycle" else None
+    quat = _quats(m.local_rot)
+    phase = _phase_times(a, quat) if a.kind == "cycle" else None
+    seam, seam_rot, seam_hips = None, None, None
+    if phase is not None:
+        seam = loop_seam(phase)
+        seam_rot, seam_hips = _seam_closing(quat, m.hips_in_root, float(m.fps), seam)
     return ClipTrack(name=a.name, kind=a.kind, gait=a.gait, entry_gait=a.entry_gait,
                      exit_gait=a.exit_gait, rate=float(dense.fps), duration=dense.duration,
                      vel=vel, yaw_rate=yaw_rate, heel=heel, toe=toe, contact_point=cpt,
                      contact=con, hips_in_root=dense.hips_in_root, phase_times=phase,
                      rest_forward=np.asarray(m.rest_forward, float), stances=stances,
-                     pose_rate=float(m.fps), quat=_quats(m.local_rot), hips=m.hips_in_root)
+                     pose_rate=float(m.fps), quat=quat, hips=m.hips_in_root,
+                     seam=seam, seam_rot=seam_rot, seam_hips=seam_hips)
+
+
+def _unit3(m: np.ndarray) -> np.ndarray:
+    """Matrices (..., 3, 3) with each column scaled to unit length (a clip's hips matrix
+    may carry a scale)."""
+    return m / np.linalg.norm(m, axis=-2, keepdims=True)
+
+
+def _raw_pose(quat: np.ndarray, hips: np.ndarray, rate: float, t: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(quats (F, B, 4), hips position (F, 3), hips quat (F, 4)) of a clip's pose
+    samples ``quat`` (m, B, 4), ``hips`` (m, 4, 4) at ``rate`` Hz, at clip times t (F,):
+    linear interpolation between the samples, quaternions normalised."""
+    from scipy.spatial.transform import Rotation
+
+    m = len(quat)
+    x = np.clip(np.asarray(t, float) * rate, 0.0, m - 1.0)
+    i0 = np.minimum(x.astype(np.int64), max(m - 2, 0))
+    i1 = np.minimum(i0 + 1, m - 1)
+    fr = (x - i0)[:, None]
+    q = quat[i0] * (1 - fr[..., None]) + quaternions.align(quat[i1], quat[i0]) * fr[..., None]
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    hp = hips[i0, :3, 3] * (1 - fr) + hips[i1, :3, 3] * fr
+    hq0 = Rotation.from_matrix(_unit3(hips[i0, :3, :3])).as_quat()
+    hq1 = quaternions.align(Rotation.from_matrix(_unit3(hips[i1, :3, :3])).as_quat(), hq0)
+    hq = hq0 * (1 - fr) + hq1 * fr
+    return q, hp, hq / np.linalg.norm(hq, axis=-1, keepdims=True)
+
+
+def loop_seam(phase_times: np.ndarray) -> tuple[float, float]:
+    """(s, e): the clip times a cyclic clip keyed on ``phase_times`` (``ClipTrack``) plays
+    from and to, one cycle apart; its phase wraps from e back to s (keys (a, b, c): a and
+    c; keys (a, b, b2, c): b2 and b, the phase's jump at 1/2)."""
+    k = np.asarray(phase_times, float)
+    return (float(k[0]), float(k[2])) if len(k) == 3 else (float(k[2]), float(k[1]))
+
+
+def _seam_closing(quat: np.ndarray, hips: np.ndarray, rate: float, seam: tuple[float, float]
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(rotation vectors (B, 3) taking each bone's pose at the seam's end onto its pose
+    at its start, the hips' (6,): the same of their rotation, then their shift from end to
+    start) of pose samples ``quat`` (m, B, 4), ``hips`` (m, 4, 4) at ``rate`` Hz."""
+    from scipy.spatial.transform import Rotation
+
+    q, hp, hq = _raw_pose(quat, hips, rate, np.asarray(seam, float))
+    B = q.shape[1]
+    rot = (Rotation.from_quat(q[0]) * Rotation.from_quat(q[1]).inv()).as_rotvec().reshape(B, 3)
+    hrot = (Rotation.from_quat(hq[0]) * Rotation.from_quat(hq[1]).inv()).as_rotvec()
+    return rot, np.r_[hrot, hp[0] - hp[1]]
 
 
 def _quats(rot: np.ndarray) -> np.ndarray:
@@ -168,13 +263,15 @@ def _quats(rot: np.ndarray) -> np.ndarray:
     return quaternions.continuous(Rotation.from_matrix(rot.reshape(-1, 3, 3)).as_quat().reshape(n, b, 4))
 
 
-def _phase_times(a: ClipAnalysis) -> np.ndarray:
+def _phase_times(a: ClipAnalysis, quat: np.ndarray | None = None) -> np.ndarray:
     """The clip times that key a cyclic clip's phase (``ClipTrack.phase_times``): a left
     stance, the next right one and the next left one, the first such triple in the
     clip's best cycle (else anywhere). Only whole stances count (a stance cut by the
     clip's start or end has a stance time that is merely where the clip begins or ends):
     a clip that holds no whole left-right-left triple is keyed on a right-left-right one.
-    Cut stances are the last resort."""
+    Cut stances are the last resort. With the clip's pose ``quat`` (N, B, 4) the key one
+    cycle on from the first is moved, within its stance, to where the pose best repeats
+    the first key's (``_loop_end``): that is where the loop closes."""
     lo = a.best_cycle[0] - 1e-6 if a.best_cycle else 0.0
     whole = sorted(((st.foot, float(st.stance)) for st in a.stances if not (st.open_start or st.open_end)),
                    key=lambda x: x[1])
@@ -185,11 +282,58 @@ def _phase_times(a: ClipAnalysis) -> np.ndarray:
             if triples:
                 good = [t for t in triples if t[0] >= lo]
                 t0, t1, t2 = (good or triples)[0]
+                if quat is not None:
+                    t2 = _loop_end(a, quat, first, t0, t1, t2)
                 if first == 0:
                     return np.array((t0, t1, t2), dtype=np.float64)
                 # right r0, left l1, right r2: phase 0 at l1, 1/2 at r2 (one cycle on from r0)
                 return np.array((t1, t2, t0, t1), dtype=np.float64)
     raise BlendError(f"clip {a.name!r} has no left-right-left footstep sequence to loop")
+
+
+#: rad: a bone's pose mismatch counts up to this in ``_loop_end`` (noisy fingers and the
+#: ends of a capture do not outweigh the legs).
+LOOP_MATCH_CAP = np.radians(30.0)
+
+
+#: m: the loop's end is sought where the stance's foot lies flat: its higher end (heel or
+#: toe) within this of its lowest in the stance (its 10th percentile: noise has outliers).
+LOOP_FLAT = 0.005
+
+
+def _loop_end(a: ClipAnalysis, quat: np.ndarray, foot: int, t0: float, t1: float, t2: float) -> float:
+    """The clip time, within the stance of ``foot`` at ``t2`` (its land to its lift, after
+    the other foot's stance at ``t1``, where the foot lies flat: ``LOOP_FLAT``), where the pose (``quat`` (N, B, 4) at the clip's
+    rate; the hips by their matrix in the root frame) best repeats the pose at ``t0``: the
+    mean over the bones of their rotation from one to the other (each capped at
+    ``LOOP_MATCH_CAP``) is least there; ``t2`` itself on a tie or without such a stance.
+
+    A foot lying flat holds its heel and toe at (nearly) the same height for a good part of
+    its stance, so the stance time the analysis gives (the lowest sample) falls anywhere in
+    that plateau, wherever the noise (or a file's float rounding, or a resampling's ripple)
+    puts it: two stances of one foot a cycle apart are then a few frames more or less than
+    a cycle apart, and the loop keyed on them jumps by a few frames of motion at its seam
+    (20 to 30 degrees at the swinging knee). Where the pose repeats is where one cycle
+    ends."""
+    st = next((x for x in a.stances if x.foot == foot and abs(float(x.stance) - t2) < 1e-9), None)
+    m = a.motion
+    if st is None or m is None or st.open_start or st.open_end:
+        return t2
+    step = 0.25 / m.fps
+    lo, hi = max(float(st.land), t1 + step), min(float(st.lift), float(m.duration))
+    if hi <= lo:
+        return t2
+    cand = np.unique(np.r_[np.arange(lo, hi + 1e-9, step), t2])
+    # only where the foot lies flat (its higher end within LOOP_FLAT of its lowest there):
+    # the key is where the foot stands on its footprint
+    upper = np.maximum(np.interp(cand, m.times, m.heel[foot, :, 2]), np.interp(cand, m.times, m.toe[foot, :, 2]))
+    cand = cand[(upper <= np.percentile(upper, 10) + LOOP_FLAT) | (cand == t2)]
+    q, _, hq = _raw_pose(quat, m.hips_in_root, float(m.fps), np.r_[t0, cand])
+    ang = 2.0 * np.arccos(np.clip(np.abs(np.einsum("bk,fbk->fb", q[0], q[1:])), 0.0, 1.0))
+    ang[:, m.hips_index] = 2.0 * np.arccos(np.clip(np.abs(hq[1:] @ hq[0]), 0.0, 1.0))
+    err = np.minimum(ang, LOOP_MATCH_CAP).mean(axis=1)
+    best = np.flatnonzero(err <= err.min() + 1e-12)
+    return float(cand[best[np.argmin(np.abs(cand[best] - t2))]])
 
 
 def _triples(stances, first: int) -> list:
@@ -442,15 +586,22 @@ def standing_track(walk: ClipTrack, name: str) -> ClipTrack:
     one = walk.sample(np.array([t0, t0]))
     for key in ("heel", "toe"):  # both feet on the ground: the swinging one as low as the standing one
         one[key][1, :, 2] = one[key][0, :, 2]
-    k = int(np.clip(round(t0 * walk.pose_rate), 0, len(walk.quat) - 1)) if walk.quat is not None else 0
+    quat = hips = None
+    if walk.quat is not None:  # the walk's pose there as the walk plays it (its seam closed)
+        from scipy.spatial.transform import Rotation
+
+        q, hp, hq = walk.sample_pose(np.array([t0]))
+        quat = np.repeat(q, 2, axis=0)
+        hips = np.tile(np.eye(4), (2, 1, 1))
+        hips[:, :3, :3] = Rotation.from_quat(hq[0]).as_matrix()
+        hips[:, :3, 3] = hp[0]
     rate = walk.rate
     return ClipTrack(name=name, kind="idle", gait="stand", entry_gait="stand", exit_gait="stand", rate=rate,
                      duration=1.0 / rate, vel=np.zeros((2, 2)), yaw_rate=np.zeros(2), heel=one["heel"],
                      toe=one["toe"], contact_point=0.5 * (one["heel"] + one["toe"]), contact=np.ones((2, 2)),
                      hips_in_root=np.repeat(walk.sample_hips(t0)[None], 2, axis=0), phase_times=None,
                      rest_forward=walk.rest_forward, pose_rate=rate,
-                     quat=None if walk.quat is None else np.repeat(walk.quat[k:k + 1], 2, axis=0),
-                     hips=None if walk.hips is None else np.repeat(walk.hips[k:k + 1], 2, axis=0), stances=[])
+                     quat=quat, hips=hips, stances=[])
 
 
 def _step_weights(steps: list[PlanStep], nc: int) -> np.ndarray:
@@ -557,6 +708,8 @@ def _play_specials(steps: list[PlanStep], tracks: dict[str, ClipTrack], windows:
         duration = tracks[step.special].duration
         ct, rate, ramp = _special_timing(t, u, j, windows[j], footprint_times[j], footprint_times[j + 1],
                                          dur[j], transition)
+        _register_special(ct, rate, t, u, j, windows[j], special_neighbours(tracks[step.special], windows[j]),
+                          footprint_times, dur)
         mine = ramp > lam[:, k]
         lam[mine, k] = ramp[mine]
         clip_time[mine, c] = np.clip(ct[mine], 0.0, duration)
@@ -565,20 +718,75 @@ def _play_specials(steps: list[PlanStep], tracks: dict[str, ClipTrack], windows:
     return lam
 
 
+#: A special clip ramps in and out over this many times the transition time, a smoothstep:
+#: its pose can differ much from the cycles' (a leap's arms from a jog's), and a short
+#: linear ramp turns those bones faster than either clip does (about one step of running
+#: at the usual 0.3 s; the clip is played in step with the cycles there).
+SPECIAL_RAMP = 2.0
+
+
 def _special_timing(t: np.ndarray, u: np.ndarray, j: int, window: tuple[float, float], t0: float, t1: float,
                     dur_j: float, transition: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A special clip across step ``j`` (from time ``t0`` to ``t1`` s, ``dur_j`` s long)
     at the frames (``t`` s, ``u`` footsteps): (clip time (F,) s, its rate (F,), its ramp
     (F,) 0..1). Inside the step its ``window`` (take-off, landing) clip times are
-    stretched over the step; outside it the clip plays at its own speed, and its ramp
-    comes in linearly over ``transition`` s before t0 and goes out over as long after t1."""
+    stretched over the step; outside it the clip plays at its own speed (``_register_special``
+    keys it to the steps beside), and its ramp comes in over ``SPECIAL_RAMP`` times
+    ``transition`` s before t0 and goes out over as long after t1, a smoothstep."""
     a, b = window
     ct = np.where(t < t0, a + (t - t0), np.where(t > t1, b + (t - t1), a + (u - j) * (b - a)))
     rate = np.where((t < t0) | (t > t1), 1.0, (b - a) / dur_j)
-    ramp_s = max(transition, MIN_RAMP)
-    ramp = np.clip(np.minimum((t - (t0 - ramp_s)) / ramp_s, ((t1 + ramp_s) - t) / ramp_s), 0.0, 1.0)
+    ramp_s = max(SPECIAL_RAMP * transition, MIN_RAMP)
+    ramp = _smoothstep(np.clip(np.minimum((t - (t0 - ramp_s)) / ramp_s, ((t1 + ramp_s) - t) / ramp_s), 0.0, 1.0))
     ramp[(t >= t0) & (t <= t1)] = 1.0
     return ct, rate, ramp
+
+
+def special_neighbours(track: ClipTrack, window: tuple[float, float]) -> tuple[float | None, float | None]:
+    """(the clip's stance before the take-off, its stance after the landing) of a special
+    clip's step ``window`` (take-off, landing clip times, ``special_window``): each the
+    neighbouring stance of the other foot than the one it comes next to, None where the
+    clip has none (it begins with the take-off, ends with the landing, or steps twice on
+    one foot there)."""
+    st = track.stances
+    times = [x[1] for x in st]
+    i = int(np.argmin(np.abs(np.subtract(times, window[0]))))
+    k = int(np.argmin(np.abs(np.subtract(times, window[1]))))
+    before = st[i - 1][1] if i > 0 and st[i - 1][0] != st[i][0] and st[i - 1][1] < window[0] else None
+    after = st[k + 1][1] if k + 1 < len(st) and st[k + 1][0] != st[k][0] and st[k + 1][1] > window[1] else None
+    return before, after
+
+
+def _register_special(ct: np.ndarray, rate: np.ndarray, t: np.ndarray, u: np.ndarray, j: int,
+                      window: tuple[float, float], neighbours: tuple[float | None, float | None],
+                      footprint_times: np.ndarray, dur: np.ndarray) -> None:
+    """A special clip's time (``ct``, its rate ``rate`` (F,), changed in place) over the
+    steps beside its own step ``j`` (walk times ``t``, normalized times ``u`` (F,)): the
+    step before the take-off plays the clip from its stance before the take-off to the
+    take-off, the step after the landing from the landing to its next stance
+    (``special_neighbours``), each stretched over the plan's step as the cyclic clips are
+    (phase keyed at footsteps): its feet come down with theirs while it ramps in and out.
+    Played at its own speed there, a run-up of another cadence than the blended cycles'
+    swings its arms and legs out of step with them, and the ramp turns them fast between
+    the two. Beyond those steps (and where it has no such stance) it plays at its own
+    speed, continuing from them."""
+    a, b = window
+    before, after = neighbours
+    n = len(footprint_times)
+    if before is not None and j >= 1:
+        t_prev, t0 = footprint_times[j - 1], footprint_times[j]
+        step = (t >= t_prev) & (t < t0)
+        ct[step] = before + (u[step] - (j - 1)) * (a - before)
+        rate[step] = (a - before) / dur[j - 1]
+        early = t < t_prev
+        ct[early] = before + (t[early] - t_prev)
+    if after is not None and j + 2 < n:
+        t1, t_next = footprint_times[j + 1], footprint_times[j + 2]
+        step = (t > t1) & (t <= t_next)
+        ct[step] = b + (u[step] - (j + 1)) * (after - b)
+        rate[step] = (after - b) / dur[j + 1]
+        late = t > t_next
+        ct[late] = after + (t[late] - t_next)
 
 
 def _all_weights(W: np.ndarray, lam: np.ndarray, nc: int) -> np.ndarray:

@@ -21,25 +21,9 @@ from .rig import Rig
 
 def _sample_pose(tr: ClipTrack, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(quats (F, B, 4), hips position (F, 3), hips quat (F, 4)) at clip times t (F,):
-    linear interpolation between the clip's samples, quaternions normalised."""
-    m = len(tr.quat)
-    x = np.clip(np.asarray(t, float) * tr.pose_rate, 0.0, m - 1.0)
-    i0 = np.minimum(x.astype(np.int64), max(m - 2, 0))
-    i1 = np.minimum(i0 + 1, m - 1)
-    fr = (x - i0)[:, None]
-    q = tr.quat[i0] * (1 - fr[..., None]) + tr.quat[i1] * fr[..., None]
-    q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    hp = tr.hips[i0, :3, 3] * (1 - fr) + tr.hips[i1, :3, 3] * fr
-    hq0 = Rotation.from_matrix(_unit(tr.hips[i0, :3, :3])).as_quat()
-    hq1 = quaternions.align(Rotation.from_matrix(_unit(tr.hips[i1, :3, :3])).as_quat(), hq0)
-    hq = hq0 * (1 - fr) + hq1 * fr
-    return q, hp, hq / np.linalg.norm(hq, axis=-1, keepdims=True)
-
-
-def _unit(m: np.ndarray) -> np.ndarray:
-    """Matrices (..., 3, 3) with each column scaled to unit length (a clip's hips matrix
-    may carry a scale)."""
-    return m / np.linalg.norm(m, axis=-2, keepdims=True)
+    linear interpolation between the clip's samples, quaternions normalised, a cyclic
+    clip's loop seam closed (``ClipTrack.sample_pose``)."""
+    return tr.sample_pose(np.asarray(t, float))
 
 
 def blend_pose(schedule: Schedule, tracks: dict[str, ClipTrack]) -> tuple[np.ndarray, np.ndarray]:
