@@ -119,7 +119,7 @@ def cmu_character(package: str = "footstep_planner") -> Character:
     bpy.context.scene.render.fps = 30
     ob, _ = clips_mod.import_clips(cmu_files(), name="CMU")
     settings = Settings()
-    clips = character.analyze_character(ob, settings)
+    clips = character.analyze_character(ob, settings, mirrors=True)
     steps = library_steps(character.library_for(ob, clips), clips.analyses, bend_curvature=settings.bend_curvature)
     return Character(steps, np.asarray(planning.world_forward(ob, clips.analyses)),
                      planning.foot_shape(clips.analyses))

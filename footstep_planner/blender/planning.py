@@ -95,7 +95,7 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
     settings = settings or Settings()
     depsgraph = bpy.context.evaluated_depsgraph_get()
     ground, obst = scene_surfaces(scene, depsgraph, traversable, obstacles)
-    clips = analyze_character(ob, settings)
+    clips = analyze_character(ob, settings, mirrors=True)
     if not clips.analyses:
         why = "; ".join(clips.errors.values()) or "it has no actions"
         raise PlanError(f"character {ob.name!r} has no usable clips ({why})")
