@@ -110,18 +110,26 @@ def main():
         import mixamo_like
 
         MIXAMO_FILES[:] = mixamo_like.write_character(args.out)
+    from footstep_planner.core.errors import FootstepError
+
     head = (f"{'character':10s} {'scene':10s} {'frames':>6s} {'run s':>6s} | {'skate max mm':>12s} "
-            f"{'fp err max mm':>13s} {'goal cm':>7s} | {'played: skate':>13s} {'fp err':>7s} {'goal cm':>7s} "
-            f"{'active action':>13s}")
+            f"{'fp err max mm':>13s} {'goal cm':>7s} {'pops':>4s} {'over deg':>8s} | {'played: skate':>13s} "
+            f"{'fp err':>7s} {'goal cm':>7s} {'active action':>13s}")
     print("report (planner's evaluation of the scene after the bake) | played (fresh process, saved file, depsgraph)")
     print(head)
     print("-" * len(head))
     for kind in args.characters.split(","):
         for name in args.scenes.split(","):
-            r = bake_one(kind, name, args.out)
+            try:
+                r = bake_one(kind, name, args.out)
+            except FootstepError as ex:  # (a scene the library can't do: said, and the others go on)
+                print(f"{kind:10s} {name:10s} refused: {ex}")
+                continue
             q, p = r["doc"]["quality"], r["played"]
+            pops = q["pops"]["introduced"]
             print(f"{kind:10s} {name:10s} {p['frames']:6d} {r['seconds']:6.2f} | {q['foot_skate']['max_mm']:12.3f} "
-                  f"{q['footprint_error']['max_mm']:13.3f} {q['goal']['distance_m'] * 100:7.1f} | "
+                  f"{q['footprint_error']['max_mm']:13.3f} {q['goal']['distance_m'] * 100:7.1f} "
+                  f"{pops['count']:4d} {pops['max_excess_deg']:8.2f} | "
                   f"{p['skate_max_mm']:13.3f} {p['footprint_error_max_mm']:7.3f} {p['goal_cm']:7.1f} "
                   f"{str(p['active_action']):>13s}")
     print(f"(saved scenes and reports in {args.out}; machine: {os.cpu_count()} cores, load "

@@ -91,6 +91,20 @@ def test_gaps_are_jumped_only_where_a_jump_reaches(gap, jumps):
     assert len(crossing) == 1 and crossing[0][1].jump and crossing[0][0].gait == "run"
 
 
+def test_a_jump_never_flies_through_a_thick_wall():
+    """A 1.2 m thick wall over a 1 m gap, a jump that reaches 3 m: without the wall the
+    gap is jumped; with it, every way across goes through the wall (the jump's three
+    midway points can all miss the wall's faces by more than the clearance), and there
+    is none."""
+    g = MeshGround(TriMesh.concat([plane(-2, 5, -1, 1, name="A"), plane(6, 12, -1, 1, name="B")]))
+    goal = np.array([10.0, 0.0, 0.0])
+    r = Planner(g, None, steps(jump_len=3.0), FWD, settings=FASTEST).plan(start(0, 0), goal)
+    assert any(f.jump for f in r.footprints)
+    wall = MeshGround(box((4.9, -1.5, 0.0), (6.1, 1.5, 2.5), name="wall"))
+    with pytest.raises(PlanError, match="cannot be reached"):
+        Planner(g, wall, steps(jump_len=3.0), FWD, settings=FASTEST).plan(start(0, 0), goal)
+
+
 def test_without_a_jump_clip_a_gap_is_never_crossed():
     g = MeshGround(TriMesh.concat([plane(-2, 5, -1, 1, name="A"), plane(5.3, 12, -1, 1, name="B")]))
     with pytest.raises(PlanError, match="cannot be reached"):

@@ -258,6 +258,10 @@ class _Search:
         return self.expanded - self.best_h[1] > STALL and self.reroutes < MAX_REROUTES
 
 
+#: m: a step longer than this (a jump) is checked for obstacles all along its way
+LONG_WAY = 0.9
+
+
 @dataclass
 class Planner:
     """The footstep search over a scene's surfaces with a library's steps. The user's
@@ -309,7 +313,23 @@ class Planner:
             _, d = self.obstacles.nearest(hips, max_dist=0.5 * self.clearance)
             near = (d < 0.5 * self.clearance).reshape(len(a), 3).any(axis=1)
             clear = ~inside & ~near
+            long = np.flatnonzero(clear & (np.linalg.norm((b - a)[:, :2], axis=1) > LONG_WAY))
+            if len(long):  # (a jump's three points may all fall inside a thick wall: look all along)
+                clear[long] = self._clear_along(a[long], b[long])
         return ground, clear
+
+    def _clear_along(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(N,) whether the way from each ``a`` to ``b`` (N, 3) keeps the body's clearance
+        of every obstacle at points no further apart than half of it: from inside a wall
+        thicker than the clearance the nearest face is out of reach, but the points where
+        the way enters and leaves it are not."""
+        n = int(np.ceil(np.linalg.norm((b - a)[:, :2], axis=1).max() / (0.5 * self.clearance))) + 1
+        t = np.linspace(0.0, 1.0, n + 1)[1:-1]
+        pts = a[:, None] + (b - a)[:, None] * t[None, :, None]
+        hips = pts.copy()
+        hips[..., 2] = np.minimum(a[:, None, 2], b[:, None, 2]) + 1.0
+        _, d = self.obstacles.nearest(hips.reshape(-1, 3), max_dist=0.5 * self.clearance)
+        return ~(d < 0.5 * self.clearance).reshape(len(a), -1).any(axis=1)
 
     # ------------------------------------------------------------------ the search
     def plan(self, start: list[PathFootprint], goal: np.ndarray, goal_heading: float | None = None) -> PlanResult:
