@@ -45,8 +45,11 @@ class TimingError(FootstepError):
 
 #: m: a stopping body has arrived when it is this near where it comes to stand.
 ARRIVE_BAND = 0.05
-#: frames: an arrival this near its frame is met.
+#: frames: an arrival this near its frame is met (the pace search aims within it)...
 ARRIVE_TOLERANCE = 0.5
+#: ... and this near, where the pace can go no further that way (the issue's "within one
+#: frame": rather than run, or wait, for under a frame)
+MET = 1.0
 #: syntheses tried per arrival frame before giving up (the pace search).
 MAX_TRIES = 8
 #: s: the longest a character pauses or waits at one place (a bake's frames are held in
@@ -218,7 +221,8 @@ def _meet(plan: _Plan, synth: SynthFn, body, marks: list[Mark], m: Mark, anchor:
         t = float(arrival_times(s, p, marks, body(s))[0][marks.index(m)])
         tried.append((pace, t))
         err = t - m.arrive
-        if abs(err) * fps <= ARRIVE_TOLERANCE:
+        at_bound = (pace >= hi - 1e-9 and err > 0) or (pace <= lo + 1e-9 and err < 0)
+        if abs(err) * fps <= (MET if at_bound else ARRIVE_TOLERANCE):  # (at its fastest or slowest, a frame will do)
             break
         got = (s, p)
         if abs(err) < best[0]:
