@@ -72,7 +72,7 @@ def played_arrivals(path: str, doc: dict) -> list[float]:
     windows = []
     for k, r in enumerate(rows):
         a = int(r["planned"] - f0 - 45)
-        b = len(body) - 1 if k + 1 == len(rows) else int(r["planned"] - f0 + (r["pause"] + 0.6) * 30 if r["stops"]
+        b = len(body) - 1 if k + 1 == len(rows) else int(r["planned"] - f0 + 0.8 * r["pause"] * 30 if r["stops"]
                                                          else r["planned"] - f0 + 45)
         windows.append((max(a, 0), min(b, len(body) - 1)))
     return list(f0 + arrival_frames(body, marks, windows))
