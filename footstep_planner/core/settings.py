@@ -123,7 +123,7 @@ class Settings:
         with a period of this many seconds are halved, quicker ones removed (the sway of each step,
         and a plan that alternates left and right clips), slower ones kept (the turns of the path).
         0 = no filter.""")
-    speed_sigma: float = setting(2.0, "footsteps", 0.0, 100.0, """Footsteps taken to change between
+    speed_sigma: float = setting(3.0, "footsteps", 0.0, 100.0, """Footsteps taken to change between
         walk (s = 0) and run (s = 1); thesis sigma.""", lo_open=True)
 
     # --- IK (3.8) -------------------------------------------------------------------
