@@ -87,6 +87,22 @@ def test_moving_one_footprint_rebakes_only_its_span(fp, turns):
     assert bpy.data.actions[doc2["action"]]["footstep_planted_frames"]
 
 
+def test_an_edit_too_big_to_splice_without_a_slide_is_baked_whole(fp, turns):
+    """Moved 25 cm, the kept footprints' neighbours walk so differently that mixing the
+    two bakes' keys slides the planted foot: the re-bake keys the whole path, says so,
+    and no foot slides."""
+    scene, ob, doc = turns
+    handles = import_module(fp.__name__ + ".blender.handles")
+    directing = import_module(fp.__name__ + ".blender.directing")
+    hs = handles.handles(ob)
+    k = len(hs) // 2
+    handles.set_locked([hs[k - 3], hs[k + 3]], True)
+    hs[k].location.y += 0.25
+    doc2, route, splice = directing.rebake_handles(scene, ob)
+    assert splice.span is None and "the whole path was re-baked" in doc2["rebaked_whole"]
+    assert "rebaked_frames" not in doc2 and doc2["quality"]["foot_skate"]["max_mm"] < 1.0
+
+
 def test_the_panels_edit_lock_replan_and_undo(fp, empty_scene):
     """As in the viewport: Bake makes the handles; select two and Lock them, move one
     between them, Re-plan: only its span is re-keyed; Undo gives the bake back; an edit

@@ -165,6 +165,8 @@ def _route_report(doc: dict, route, splice, job: dict) -> None:
         doc["replanned"] = [list(s) for s in route.edited.spans]
         if splice is not None and splice.span is not None:
             doc["rebaked_frames"] = list(splice.span.changed())
+        elif splice is not None and splice.slid_mm:
+            doc["rebaked_whole"] = directing.whole_message(splice.slid_mm)
 
 
 def _failure(ex: BaseException) -> str:

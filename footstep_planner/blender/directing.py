@@ -166,6 +166,7 @@ class Splice:
     old_last: int
     route: EditedRoute
     span: object = None
+    slid_mm: float = 0.0  # the splice's worst slide, when it was given up for a whole bake
 
     @classmethod
     def of(cls, ob, route: EditedRoute) -> "Splice | None":
@@ -240,7 +241,15 @@ def rebake_handles(scene, ob, settings=None, name: str | None = None, body_on: s
     _show_replanned(scene, route.edited)
     if splice is not None and splice.span is not None:
         doc["rebaked_frames"] = list(splice.span.changed())
+    elif splice is not None and splice.slid_mm:
+        doc["rebaked_whole"] = whole_message(splice.slid_mm)
     return doc, route, splice
+
+
+def whole_message(slid_mm: float) -> str:
+    """Why a re-bake keyed the whole path and not only the re-planned span."""
+    return (f"the edit turned the walk too far round the kept footprints to re-key only its span (a planted "
+            f"foot slid {slid_mm:.1f} mm there): the whole path was re-baked")
 
 
 def _show_replanned(scene, edited: Edited) -> None:

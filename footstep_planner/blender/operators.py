@@ -381,7 +381,8 @@ class FOOTSTEP_OT_replan(_OnCharacter, bpy.types.Operator):
         fs.edit_problem = ""
         span = doc.get("rebaked_frames")
         fs.last_report = (f"re-planned {len(route.edited.spans)} span(s); "
-                          + (f"re-keyed frames {span[0]}-{span[1]} only; " if span else "baked the whole path; ")
+                          + (f"re-keyed frames {span[0]}-{span[1]} only; " if span
+                             else f"{doc['rebaked_whole']}; " if doc.get("rebaked_whole") else "baked the whole path; ")
                           + f"skate {doc['quality']['foot_skate']['max_mm']:.1f} mm max")
         self.report({"INFO"}, fs.last_report)
         return {"FINISHED"}

@@ -317,6 +317,10 @@ def _walk_motion(setup: PlanSetup):
     return next((a for a in setup.analyses if a.kind == "cycle"), setup.analyses[0]).motion
 
 
+#: mm: a re-bake whose splice lets a planted foot slide more than this is baked whole
+SPLICE_SKATE_MM = 1.0
+
+
 @dataclass
 class Solved:
     """The IK's result, with the seconds of the pose blend and of the IK."""
@@ -466,6 +470,19 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     played = {}
     qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted, frames,
                    played)
+    if splice is not None and splice.span is not None and qual["foot_skate"]["max_mm"] > SPLICE_SKATE_MM:
+        # the edit turned the walk too far round the kept footprints for their keys to mix
+        # without a foot sliding: the whole path is baked instead
+        splice.slid_mm, splice.span = float(qual["foot_skate"]["max_mm"]), None
+        with timer("bake"):
+            act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
+                                     result.footprints, syn.planted(), markers, body_on, frame_range,
+                                     rigify_ik_feet=settings.rigify_ik_feet)
+        planted, frames = syn.planted(), solved.ik.frames
+        rebake.record(act, planted, syn.footprints, frame_start, fps)
+        played = {}
+        qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted,
+                       frames, played)
     stages = stage_row(len(result.footprints), result.seconds, syn, pose_blend=solved.pose_seconds,
                        ik=solved.ik_seconds, bake=timer.seconds["bake"])
     doc = report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,
