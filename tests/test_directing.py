@@ -51,17 +51,24 @@ def _played(fp, scene, ob, first, last):
     return np.array(out)
 
 
+def _move_middle_footprint(fp, ob, dy: float):
+    """Lock the footprints three either side of the middle one and move it ``dy`` m in y:
+    (its index, where it now stands)."""
+    handles = import_module(fp.__name__ + ".blender.handles")
+    hs = handles.handles(ob)
+    k = len(hs) // 2
+    handles.set_locked([hs[k - 3], hs[k + 3]], True)
+    hs[k].location.y += dy
+    return k, np.array(hs[k].location)
+
+
 def test_moving_one_footprint_rebakes_only_its_span(fp, turns):
     import bpy
 
     scene, ob, doc = turns
     handles = import_module(fp.__name__ + ".blender.handles")
     directing = import_module(fp.__name__ + ".blender.directing")
-    hs = handles.handles(ob)
-    k = len(hs) // 2
-    handles.set_locked([hs[k - 3], hs[k + 3]], True)
-    hs[k].location.y += 0.12
-    target = np.array(hs[k].location)
+    k, target = _move_middle_footprint(fp, ob, 0.12)
     first, last = doc["frame_start"], doc["frame_end"]
     before = _played(fp, scene, ob, first, last)
 
@@ -92,12 +99,8 @@ def test_an_edit_too_big_to_splice_without_a_slide_is_baked_whole(fp, turns):
     two bakes' keys slides the planted foot: the re-bake keys the whole path, says so,
     and no foot slides."""
     scene, ob, doc = turns
-    handles = import_module(fp.__name__ + ".blender.handles")
     directing = import_module(fp.__name__ + ".blender.directing")
-    hs = handles.handles(ob)
-    k = len(hs) // 2
-    handles.set_locked([hs[k - 3], hs[k + 3]], True)
-    hs[k].location.y += 0.25
+    _move_middle_footprint(fp, ob, 0.25)
     doc2, route, splice = directing.rebake_handles(scene, ob)
     assert splice.span is None and "the whole path was re-baked" in doc2["rebaked_whole"]
     assert "rebaked_frames" not in doc2 and doc2["quality"]["foot_skate"]["max_mm"] < 1.0
