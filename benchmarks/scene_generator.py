@@ -155,6 +155,15 @@ def make_planner(scene: Scene, character: Character, settings=None):
     return pl, start, goal
 
 
+def plan_scene(scene: Scene, character: Character, **settings):
+    """(Planner, PlanResult) of a scene planned with a character and ``settings``
+    (Settings fields); PlanError where it has no path."""
+    from footstep_planner.core.settings import Settings
+
+    pl, start, goal = make_planner(scene, character, Settings(**settings))
+    return pl, pl.plan(start, goal)
+
+
 # --------------------------------------------------------------------- scene kinds
 
 def _facing(d) -> float:

@@ -151,6 +151,15 @@ def fp():
     addon_utils.disable(MOD, default_set=True, handle_error=_reraise)
 
 
+@pytest.fixture(scope="session")
+def bench_character(fp):
+    """The planner benchmark's character: CMU subject 16's library, analysed
+    (``benchmarks/scene_generator.cmu_character``)."""
+    from benchmarks.scene_generator import cmu_character
+
+    return cmu_character(fp.__name__)
+
+
 @pytest.fixture
 def empty_scene(fp):
     """A fresh empty scene at 24 fps, the add-on still enabled."""

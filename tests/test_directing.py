@@ -14,13 +14,13 @@ from conftest import needs_cmu, scene_with_cmu
 CHAR = "Footstep Mannequin"
 
 
-def _turns_scene(fp):
-    """The Turns sample scene at 30 fps with the sample character at Start: (scene, the
-    character, the planning module, the goal, its heading)."""
+def _turns_scene(fp, name: str = "turns"):
+    """The Turns (or another) sample scene at 30 fps with the sample character at Start:
+    (scene, the character, the planning module, the goal, its heading)."""
     mannequin = import_module(fp.__name__ + ".blender.mannequin")
     sample = import_module(fp.__name__ + ".blender.sample_scenes")
     planning = import_module(fp.__name__ + ".blender.planning")
-    scene = sample.build("turns")
+    scene = sample.build(name)
     scene.render.fps, scene.render.fps_base = 30, 1.0
     ob, _ = mannequin.add_to_scene(scene, "Start")
     return (scene, ob, planning, *planning.goal_of(scene, "Goal"))
@@ -113,12 +113,8 @@ def test_the_panels_edit_lock_replan_and_undo(fp, empty_scene):
     reason in the panel and nothing baked."""
     import bpy
 
-    mannequin = import_module(fp.__name__ + ".blender.mannequin")
-    sample = import_module(fp.__name__ + ".blender.sample_scenes")
     handles = import_module(fp.__name__ + ".blender.handles")
-    scene = sample.build("obstacles")
-    scene.render.fps, scene.render.fps_base = 30, 1.0
-    ob, _ = mannequin.add_to_scene(scene, "Start")
+    scene, ob, *_ = _turns_scene(fp, "obstacles")
     fs = scene.footstep
     fs.character, fs.goal, fs.start = ob, scene.objects["Goal"], scene.objects["Start"]
     assert bpy.ops.footstep.bake() == {"FINISHED"}

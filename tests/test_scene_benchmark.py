@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from benchmarks.bench_planner import loops
-from benchmarks.scene_generator import benchmark_scenes, cmu_character, corridor, make_planner, stairs
+from benchmarks.scene_generator import benchmark_scenes, corridor, make_planner, plan_scene, stairs
 from conftest import needs_cmu
 from footstep_planner.core.navgraph import PlanError
 from footstep_planner.core.settings import Settings, SettingsError
@@ -16,16 +16,6 @@ from footstep_planner.core.settings import Settings, SettingsError
 pytestmark = needs_cmu
 
 SCENES = {s.name: s for s in benchmark_scenes()}
-
-
-@pytest.fixture(scope="module")
-def character(fp):
-    return cmu_character(fp.__name__)
-
-
-def plan(scene, character, **settings):
-    pl, start, goal = make_planner(scene, character, Settings(**settings))
-    return pl, pl.plan(start, goal)
 
 
 def check_path(pl, result, scene):
@@ -36,9 +26,9 @@ def check_path(pl, result, scene):
 
 
 @pytest.mark.parametrize("name", ["zigzag1", "bridge_down", "clutter10"])
-def test_reachable_scenes_find_a_path_without_loops(character, name):
+def test_reachable_scenes_find_a_path_without_loops(bench_character, name):
     scene = SCENES[name]
-    pl, result = plan(scene, character)
+    pl, result = plan_scene(scene, bench_character)
     check_path(pl, result, scene)
     if name == "zigzag1":  # the gap is jumped, from a run
         jumps = [(a, b) for a, b in zip(result.footprints[:-1], result.footprints[1:]) if b.jump]
@@ -48,9 +38,9 @@ def test_reachable_scenes_find_a_path_without_loops(character, name):
         assert max(f.position[1] for f in result.footprints) > 12.5
 
 
-def test_an_island_is_refused_quickly_saying_why(character):
+def test_an_island_is_refused_quickly_saying_why(bench_character):
     scene = SCENES["island_far"]
-    pl, start, goal = make_planner(scene, character)
+    pl, start, goal = make_planner(scene, bench_character)
     with pytest.raises(PlanError, match="no walkable way, nor a gap a jump clip can clear.*nearest reachable "
                                         r"point is \(1[34]\.") as err:
         pl.plan(start, goal)
@@ -59,25 +49,25 @@ def test_an_island_is_refused_quickly_saying_why(character):
 
 
 @pytest.mark.parametrize("width", [1.2, 2.0, 3.0])
-def test_a_corridor_start_facing_along_it_walks_along_it(character, width):
+def test_a_corridor_start_facing_along_it_walks_along_it(bench_character, width):
     scene = corridor(np.random.default_rng(7), "c", width, "along")
-    pl, result = plan(scene, character)
+    pl, result = plan_scene(scene, bench_character)
     check_path(pl, result, scene)
     assert all(abs(f.position[1]) < width / 2 for f in result.footprints)
 
 
 @pytest.mark.parametrize("width", [2.0, 3.0])
-def test_a_corridor_start_facing_across_turns_where_the_turns_fit(character, width):
+def test_a_corridor_start_facing_across_turns_where_the_turns_fit(bench_character, width):
     scene = corridor(np.random.default_rng(7), "c", width, "across")
-    pl, result = plan(scene, character)
+    pl, result = plan_scene(scene, bench_character)
     check_path(pl, result, scene)
 
 
-def test_a_corridor_too_narrow_to_turn_in_names_the_wall(character):
+def test_a_corridor_too_narrow_to_turn_in_names_the_wall(bench_character):
     """1.2 m across: the wall is 0.6 m ahead, and the shortest step with the body's
     clearance does not fit before it."""
     scene = corridor(np.random.default_rng(7), "c", 1.2, "across")
-    pl, start, goal = make_planner(scene, character)
+    pl, start, goal = make_planner(scene, bench_character)
     with pytest.raises(PlanError) as err:
         pl.plan(start, goal)
     msg = str(err.value)
@@ -86,11 +76,11 @@ def test_a_corridor_too_narrow_to_turn_in_names_the_wall(character):
     assert "clearance (0.25 m)" in msg and "the shortest goes 0.38 m" in msg
 
 
-def test_steps_with_treads_shorter_than_the_foot_say_so(character):
+def test_steps_with_treads_shorter_than_the_foot_say_so(bench_character):
     """Three 12 cm steps with 8 cm treads: refused at once, at the foot of the steps (not
     "the start"), saying that no footprint fits on a tread."""
     scene = stairs(np.random.default_rng(3), "s", 0.12, 0.08, 3)
-    pl, start, goal = make_planner(scene, character)
+    pl, start, goal = make_planner(scene, bench_character)
     with pytest.raises(PlanError) as err:
         pl.plan(start, goal)
     assert err.value.expanded == 0  # refused before any search

@@ -162,11 +162,7 @@ def _route_report(doc: dict, route, splice, job: dict) -> None:
                         "position": doc["synthesis"]["footprints"][i]["planned"]})
         doc["waypoints"] = rows
     elif isinstance(route, directing.EditedRoute) and route.edited is not None:
-        doc["replanned"] = [list(s) for s in route.edited.spans]
-        if splice is not None and splice.span is not None:
-            doc["rebaked_frames"] = list(splice.span.changed())
-        elif splice is not None and splice.slid_mm:
-            doc["rebaked_whole"] = directing.whole_message(splice.slid_mm)
+        directing.edit_report(doc, route, splice)
 
 
 def _failure(ex: BaseException) -> str:

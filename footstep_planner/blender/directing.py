@@ -41,13 +41,12 @@ class EditedRoute:
 class ViaRoute:
     """``run_steps``'s route through waypoints (their headings a Z rotation, or None), each
     with the seconds to stand there (``pauses``, by name) and the scene frame to arrive on
-    (``arrive``, by name; the goal's name too); ``arrivals`` the footprint reaching each."""
+    (``arrive``, by name; the goal's name too)."""
 
     waypoints: list  # (name, position (3,), heading or None)
     pauses: dict = field(default_factory=dict)  # name -> s
     arrive: dict = field(default_factory=dict)  # name -> scene frame
-    arrivals: list = field(default_factory=list)  # the position (3,) of the footprint reaching each
-    route: object = None  # the core Route, once planned
+    route: object = None  # the core Route (its ``arrivals``: the footprint reaching each), once planned
     stops: set = field(default_factory=set)  # names the path stops at with no pause of its own (to wait)
     hurry: set = field(default_factory=set)  # names the way to which runs where that is quicker
 
@@ -59,7 +58,6 @@ class ViaRoute:
                              hurry=name in self.hurry)
                     for name, pos, h in self.waypoints]
         self.route = plan_via(setup.planner, start, self.wps)
-        self.arrivals = [np.asarray(self.route.result.footprints[i].position, float) for i in self.route.arrivals]
         return self.route.result
 
     def marks(self, fps: float, frame_start: float) -> list:
@@ -237,19 +235,20 @@ def rebake_handles(scene, ob, settings=None, name: str | None = None, body_on: s
     fps = route.edited.result.footprints
     locked = _carried_locks(plan, route.edited, len(fps))
     handles.make_handles(scene, ob, fps, plan.forward, plan.goal, plan.goal_heading, locked)
-    doc["replanned"] = [list(s) for s in route.edited.spans]
     _show_replanned(scene, route.edited)
-    if splice is not None and splice.span is not None:
-        doc["rebaked_frames"] = list(splice.span.changed())
-    elif splice is not None and splice.slid_mm:
-        doc["rebaked_whole"] = whole_message(splice.slid_mm)
+    edit_report(doc, route, splice)
     return doc, route, splice
 
 
-def whole_message(slid_mm: float) -> str:
-    """Why a re-bake keyed the whole path and not only the re-planned span."""
-    return (f"the edit turned the walk too far round the kept footprints to re-key only its span (a planted "
-            f"foot slid {slid_mm:.1f} mm there): the whole path was re-baked")
+def edit_report(doc: dict, route: EditedRoute, splice: "Splice | None") -> None:
+    """What an edited plan's bake adds to its report: the re-planned spans and either the
+    frames re-keyed or why the whole path was."""
+    doc["replanned"] = [list(s) for s in route.edited.spans]
+    if splice is not None and splice.span is not None:
+        doc["rebaked_frames"] = list(splice.span.changed())
+    elif splice is not None and splice.slid_mm:
+        doc["rebaked_whole"] = (f"the edit turned the walk too far round the kept footprints to re-key only its span "
+                                f"(a planted foot slid {splice.slid_mm:.1f} mm there): the whole path was re-baked")
 
 
 def _show_replanned(scene, edited: Edited) -> None:

@@ -222,6 +222,7 @@ class Planned:
     synthesis: Synthesis
     goal_heading: float | None  # the planner's heading to arrive with (rad), if any
     performance: Performance | None = None  # through waypoints: when each is reached
+    solved: Solved | None = None  # the IK of ``synthesis``, when timing it needed one already
 
 
 def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
@@ -235,7 +236,7 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     settings = settings or Settings()
     result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles, route)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
-    performance = None
+    performance, ik = None, _LastSolve(setup, heading, settings)
     if callable(getattr(route, "marks", None)):
         fps = scene_fps(scene)
         first = float(scene.frame_current if frame_start is None else frame_start)
@@ -244,7 +245,7 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
             can_run = bool(setup.library.turn_groups.get("run"))
             while True:  # (a frame too soon: run on the way to it; early with nowhere to wait: stop before)
                 try:
-                    performance = _perform(scene, result, setup, settings, marks, goal, heading, first)
+                    performance = _perform(scene, result, setup, settings, marks, goal, heading, first, ik.body)
                     break
                 except TimingError as ex:
                     if not route.retime(ex, can_run):
@@ -254,20 +255,36 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
             syn = performance.synthesis
         else:
             syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)
-            times, windows = arrival_times(syn, [syn], marks,
-                                           solve(Planned(result, setup, syn, heading), settings).ik.body_pos)
+            times, windows = arrival_times(syn, [syn], marks, ik.body(syn))
             performance = Performance(syn, marks, times, np.ones(len(marks)), np.zeros(len(marks)), windows)
     else:
         syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)
     result = replace(result, footprints=list(syn.plan))  # with both standing feet at either end
     overlay.remember(scene, result.footprints, *syn.footprints, setup.forward, setup.planner.foot, syn.body_position,
                      result.explored_positions if result.explored else None)
-    return Planned(result, setup, syn, heading, performance)
+    return Planned(result, setup, syn, heading, performance, ik.of(syn))
+
+
+class _LastSolve:
+    """The IK of syntheses whose arrival frames are read on the baked body (``body``),
+    the last one kept for the bake (``of``)."""
+
+    def __init__(self, setup: PlanSetup, heading, settings: Settings):
+        self.setup, self.heading, self.settings, self.last = setup, heading, settings, None
+
+    def body(self, syn: Synthesis) -> np.ndarray:
+        solved = solve(Planned(None, self.setup, syn, self.heading), self.settings)
+        self.last = (syn, solved)
+        return solved.ik.body_pos
+
+    def of(self, syn: Synthesis) -> "Solved | None":
+        return self.last[1] if self.last is not None and self.last[0] is syn else None
 
 
 def _perform(scene, result: PlanResult, setup: PlanSetup, settings: Settings, marks, goal, heading,
-             frame_start: float) -> Performance:
-    """The path through its marks leg by leg, stopping where they stop, their frames met."""
+             frame_start: float, body) -> Performance:
+    """The path through its marks leg by leg, stopping where they stop, their frames met
+    (read on ``body(synthesis)``: the body the bake will have, after the IK)."""
     pl = setup.planner
     snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
@@ -279,9 +296,6 @@ def _perform(scene, result: PlanResult, setup: PlanSetup, settings: Settings, ma
         return _synthesize(path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward, snap=snap,
                            goal=leg_goal, standing=True, start_other=other, goal_heading=leg_heading, pace=pace,
                            lead=lead, hold=hold)
-
-    def body(syn):  # (the arrivals are read on the body the bake will have: after the IK)
-        return solve(Planned(result, setup, syn, heading), settings).ik.body_pos
 
     return perform(result.footprints, marks, leg, goal, heading, pace_range=(settings.pace_min, settings.pace_max),
                    frame_start=frame_start, body=body)
@@ -455,17 +469,24 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     yield 0.5, "inverse kinematics"
     if splice is not None:
         splice.before_ik(planned)
-    solved = solve(planned, settings)
+    solved = planned.solved if planned.solved is not None and splice is None else solve(planned, settings)
     yield 0.7, "bake"
     timer = StageTimer()
-    with timer("bake"):
-        act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
-                                 result.footprints, syn.planted(), markers, body_on, frame_range,
-                                 rigify_ik_feet=settings.rigify_ik_feet)
-    planted, frames = syn.planted(), solved.ik.frames
-    if splice is not None:
-        planted, frames = splice.after_bake(act, track, planted, frames, frame_start, fps)
-    rebake.record(act, planted, syn.footprints, frame_start, fps)
+
+    def bake_it(spliced):
+        """Bake (splicing into the old bake's keys, with ``spliced``) and record its timing:
+        (action, track, planted s per footprint, frames)."""
+        with timer("bake"):
+            act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
+                                     result.footprints, syn.planted(), markers, body_on, frame_range,
+                                     rigify_ik_feet=settings.rigify_ik_feet)
+        planted, frames = syn.planted(), solved.ik.frames
+        if spliced:
+            planted, frames = splice.after_bake(act, track, planted, frames, frame_start, fps)
+        rebake.record(act, planted, syn.footprints, frame_start, fps)
+        return act, track, planted, frames
+
+    act, track, planted, frames = bake_it(splice is not None)
     yield 0.85, "quality"
     played = {}
     qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted, frames,
@@ -474,12 +495,7 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
         # the edit turned the walk too far round the kept footprints for their keys to mix
         # without a foot sliding: the whole path is baked instead
         splice.slid_mm, splice.span = float(qual["foot_skate"]["max_mm"]), None
-        with timer("bake"):
-            act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
-                                     result.footprints, syn.planted(), markers, body_on, frame_range,
-                                     rigify_ik_feet=settings.rigify_ik_feet)
-        planted, frames = syn.planted(), solved.ik.frames
-        rebake.record(act, planted, syn.footprints, frame_start, fps)
+        act, track, planted, frames = bake_it(False)
         played = {}
         qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted,
                        frames, played)

@@ -432,13 +432,14 @@ MIN_RAMP = 1e-6
 
 def build_schedule(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyclic: list[str],
                    fps: float, transition: float, loco_weights=None,
-                   step_durations: np.ndarray | None = None, standing: "Standing | None" = None) -> Schedule:
+                   step_durations: np.ndarray | None = None, standing: "Standing | None" = None,
+                   pace: np.ndarray | None = None) -> Schedule:
     """The frames of a footstep path of len(steps) + 1 footprints.
 
     ``cyclic`` names the cyclic clips (the columns of each step's ``weights``). Each
     locomotion step lasts the weighted mean of its clips' step durations (or
-    ``step_durations``); a special step lasts as long as its clip takes from take-off
-    to landing. Locomotion weights are the steps' weights with linear ramps of
+    ``step_durations``), over its ``pace`` (len(steps),) when given; a special step
+    lasts as long as its clip takes from take-off to landing. Locomotion weights are the steps' weights with linear ramps of
     ``transition`` seconds centred on footprint times, or ``loco_weights(u)`` (a callable
     returning (F, C) rows) when given. A special clip ramps in over ``transition``
     before its take-off and out after its landing, played at its own speed there.
@@ -455,6 +456,8 @@ def build_schedule(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyclic: 
     clips = list(cyclic) + specials + ([standing.clip] if standing else [])
     w_step = _step_weights(steps, len(cyc))
     dur, windows = _step_durations(steps, tracks, cyc, feet[:-1], w_step, step_durations)
+    if pace is not None:  # (walking steps only: a special clip's step keeps its clip's time)
+        dur = np.where([step.special is None for step in steps], dur / np.asarray(pace, float), dur)
     footprint_times = np.concatenate([[0.0], np.cumsum(dur)])
     if standing is None:
         t, u, du_dt = _frame_times(footprint_times, dur, fps)

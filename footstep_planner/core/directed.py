@@ -81,7 +81,7 @@ SynthFn = Callable[..., Synthesis]
 class Performance:
     """The joined synthesis, and per mark: when it is reached (s), the pace of the steps
     before it, the seconds waited at the stop before it, and the frames (from the first)
-    of the window its arrival is looked for in; with the stops' frame ranges."""
+    of the window its arrival is looked for in."""
 
     synthesis: Synthesis
     marks: list[Mark]
@@ -89,11 +89,6 @@ class Performance:
     pace: np.ndarray  # (M,) the pace of the steps leading to each mark
     waited: np.ndarray  # (M,) s stood at the stop before it beyond its pause
     windows: list[tuple[int, int]]  # frames, per mark
-    rows: list[dict] = field(default_factory=list)
-
-    def frames(self, frame_start: float) -> np.ndarray:
-        fps = self.synthesis.final.schedule.fps
-        return frame_start + self.times * fps
 
 
 # ----------------------------------------------------------------------------- the legs
@@ -382,7 +377,7 @@ def join(parts: list[Synthesis]) -> Synthesis:
 def _columns(a: list[str], b: list[str]) -> list[str]:
     """The union of two schedules' columns, the standing clip (the last of each) last."""
     stand = a[-1]
-    body = [c for c in a[:-1]] + [c for c in b[:-1] if c not in a[:-1] and c != stand]
+    body = list(a[:-1]) + [c for c in b[:-1] if c not in a[:-1] and c != stand]
     return body + [stand]
 
 

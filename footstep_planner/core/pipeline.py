@@ -447,7 +447,7 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
             smoothed = _smooth(path, settings, snap, goal, fixed=2 if stand else 1)
         # 3.5 / 3.6 with the plan's clips
         sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand,
-                              step_durations=None if rate is None else _own_durations(steps, tracks, cyc) / rate)
+                              pace=rate)
         first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1",
                           bends, stand)
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
@@ -524,15 +524,6 @@ def _step_pace(pace, n: int) -> np.ndarray | None:
     if rate.shape != (n,) or not np.isfinite(rate).all() or (rate <= 0).any():
         raise BlendError(f"the pace must be one positive number per step ({n}), not {np.shape(pace)}")
     return None if np.allclose(rate, 1.0) else rate
-
-
-def _own_durations(steps: list[PlanStep], tracks, cyc: list[str]) -> np.ndarray:
-    """(len(steps),) s each walking step lasts at its clips' own speed (a special step's
-    entry is not used: its clip sets its time)."""
-    feet = np.array([st.foot for st in steps])
-    w = np.array([st.weights if st.weights is not None else np.full(len(cyc), 1.0 / max(len(cyc), 1))
-                  for st in steps], float)
-    return (w * step_durations_of([tracks[c] for c in cyc])[feet]).sum(axis=1)
 
 
 def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings, lead: float | None = None,
@@ -650,10 +641,8 @@ def _blend_group_schedule(steps: list[PlanStep], tracks, cyc: list[str], fps: fl
     wmid = loco(np.arange(len(steps)) + 0.5)
     feet = np.array([st.foot for st in steps])
     dur = (wmid * step_durations_of([tracks[c] for c in cyc])[feet]).sum(axis=1)
-    if rate is not None:
-        dur = dur / rate
     return build_schedule(steps, tracks, cyc, fps, settings.transition_time, loco_weights=loco,
-                          step_durations=dur, standing=standing)
+                          step_durations=dur, standing=standing, pace=rate)
 
 
 def _final_pass(sch2: Schedule, tracks, first: Pass, forward, settings: Settings, snap, timer: StageTimer,

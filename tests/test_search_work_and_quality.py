@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from benchmarks.bench_planner import fingerprint, read_character, save_character
-from benchmarks.scene_generator import Character, benchmark_scenes, cmu_character, make_planner
+from benchmarks.scene_generator import Character, benchmark_scenes, make_planner, plan_scene
 from conftest import needs_cmu
 from footstep_planner.core import navgraph
 from footstep_planner.core.settings import Settings
@@ -21,28 +21,18 @@ from footstep_planner.core.surface import FootShape
 SCENES = {s.name: s for s in benchmark_scenes()}
 
 
-@pytest.fixture(scope="module")
-def character(fp):
-    return cmu_character(fp.__name__)
-
-
-def plan(scene, character, **settings):
-    pl, start, goal = make_planner(scene, character, Settings(**settings))
-    return pl, pl.plan(start, goal)
-
-
 @needs_cmu
-def test_checking_successors_in_chunks_changes_nothing_but_the_work(character, monkeypatch):
-    _, chunked = plan(SCENES["clutter10"], character)
+def test_checking_successors_in_chunks_changes_nothing_but_the_work(bench_character, monkeypatch):
+    _, chunked = plan_scene(SCENES["clutter10"], bench_character)
     monkeypatch.setattr(navgraph, "CHECK_CHUNK", 10_000)  # every sibling at once
-    _, whole = plan(SCENES["clutter10"], character)
+    _, whole = plan_scene(SCENES["clutter10"], bench_character)
     assert chunked.cost == whole.cost and chunked.expanded == whole.expanded
     assert [f.label for f in chunked.footprints] == [f.label for f in whole.footprints]
     assert np.allclose([f.position for f in chunked.footprints], [f.position for f in whole.footprints])
 
 
 @needs_cmu
-def test_a_stalled_search_builds_its_cells_once_and_leaves_the_jump_that_stranded_it(character, monkeypatch):
+def test_a_stalled_search_builds_its_cells_once_and_leaves_the_jump_that_stranded_it(bench_character, monkeypatch):
     """bridge_up2: the map promises a jump from the floor onto the ramp's foot, where no
     footprint can turn up the ramp; the search drops that jump and what it reached, and
     walks round by the ramp's landing, building the map's cells once for all its maps."""
@@ -52,7 +42,7 @@ def test_a_stalled_search_builds_its_cells_once_and_leaves_the_jump_that_strande
                         staticmethod(lambda *a, **k: builds.append(1) or build(*a, **k)))
     monkeypatch.setattr(navgraph.DistanceField, "solve",
                         staticmethod(lambda *a, **k: solves.append(1) or solve(*a, **k)))
-    pl, result = plan(SCENES["bridge_up2"], character)
+    pl, result = plan_scene(SCENES["bridge_up2"], bench_character)
     assert len(builds) == 1 and len(solves) >= 2  # rerouted, over the same cells
     assert result.expanded < 1000  # it no longer floods the ramp's foot (was 1,266)
     assert not any(f.jump for f in result.footprints)
@@ -61,8 +51,8 @@ def test_a_stalled_search_builds_its_cells_once_and_leaves_the_jump_that_strande
 
 @needs_cmu
 @pytest.mark.parametrize("name", ["clutter10", "corridor2_across"])
-def test_plain_a_star_heuristic_stays_below_the_cost_to_come(character, name):
-    pl, result = plan(SCENES[name], character, heuristic_weight=1.0, max_expansions=100_000)
+def test_plain_a_star_heuristic_stays_below_the_cost_to_come(bench_character, name):
+    pl, result = plan_scene(SCENES[name], bench_character, heuristic_weight=1.0, max_expansions=100_000)
     goal = np.asarray(SCENES[name].goal, float)
     h = pl._heuristic(pl.distance_field(goal), goal)
     nodes = result.explored
@@ -79,23 +69,23 @@ def test_plain_a_star_heuristic_stays_below_the_cost_to_come(character, name):
 
 @needs_cmu
 @pytest.mark.parametrize("name", ["clutter10", "corridor2_across", "stairs_wide"])
-def test_the_weighted_search_costs_little_more_than_plain_a_star(character, name):
-    _, weighted = plan(SCENES[name], character)
-    _, plain = plan(SCENES[name], character, heuristic_weight=1.0, max_expansions=100_000)
+def test_the_weighted_search_costs_little_more_than_plain_a_star(bench_character, name):
+    _, weighted = plan_scene(SCENES[name], bench_character)
+    _, plain = plan_scene(SCENES[name], bench_character, heuristic_weight=1.0, max_expansions=100_000)
     assert weighted.cost <= 1.2 * plain.cost  # issue 15: worst under 1.2
     assert weighted.expanded < plain.expanded
 
 
 @needs_cmu
-def test_the_weighted_heuristic_prefers_a_footprint_turned_along_the_way(character):
+def test_the_weighted_heuristic_prefers_a_footprint_turned_along_the_way(bench_character):
     """A footprint in a corridor turned along it is nearer the goal, for the weighted
     search, than one turned across it at the same place; plain A* does not tell them apart."""
     scene = SCENES["corridor2_along"]
-    yaw = float(np.arctan2(character.forward[1], character.forward[0]))
+    yaw = float(np.arctan2(bench_character.forward[1], bench_character.forward[0]))
     p = np.array([[5.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
     psi = np.array([0.0, np.pi / 2]) - yaw  # facing +x (towards the goal) and +y (the wall)
     for w, differ in ((2.0, True), (1.0, False)):
-        pl, _, goal = make_planner(scene, character, Settings(heuristic_weight=w))
+        pl, _, goal = make_planner(scene, bench_character, Settings(heuristic_weight=w))
         h = pl._heuristic(pl.distance_field(goal), goal)(p, psi)
         assert (h[1] > h[0] + 0.1) if differ else h[1] == pytest.approx(h[0])
 
