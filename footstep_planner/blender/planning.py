@@ -14,7 +14,7 @@ import bpy
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..core import report
+from ..core import report, turn_in_place
 from ..core.analysis import ClipAnalysis
 from ..core.directed import Performance, TimingError, arrival_frames, arrival_times, perform
 from ..core.ik import IKResult, solve_ik
@@ -193,7 +193,7 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     setup.start = start
     if route is not None:
         return route(setup, start, heading), setup
-    return setup.planner.plan(start, goal, heading), setup
+    return turn_in_place.plan(setup.planner, start, goal, heading), setup
 
 
 def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=None,
@@ -208,9 +208,18 @@ def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=
                         step_height=pl.max_step_height)
     path = result.footprints
     other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
-    return _synthesize(path, setup.library, setup.analyses, settings or Settings(),
-                       fps=scene_fps(scene), forward=setup.forward, snap=snap, goal=goal, standing=True,
-                       start_other=other, goal_heading=goal_heading)
+    settings = settings or Settings()
+    fps = scene_fps(scene)
+
+    def leg(leg_path, leg_other, leg_goal, leg_heading, lead, hold, pace):
+        return _synthesize(leg_path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward,
+                           snap=snap, goal=leg_goal, standing=True, start_other=leg_other,
+                           goal_heading=leg_heading, pace=pace, lead=lead, hold=hold)
+
+    if any(f.label == turn_in_place.PIVOT for f in path):
+        return turn_in_place.synthesize(path, leg, other, goal, goal_heading, None, setup.forward, pl.foot,
+                                        settings.turn_step_angle)
+    return leg(path, other, goal, goal_heading, None, None, None)
 
 
 @dataclass
@@ -505,6 +514,8 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
                              frame_start=frame_start, frames=frames, fps=fps, action=act.name,
                              track=track.name, stages=stages, quality=qual, planted=planted)
     doc["stashed_action"] = act.get(baking.STASH_PROP)
+    doc["turns_in_place"] = [dict(t, frames=[frame_start + t["frames"][0], frame_start + t["frames"][1]])
+                             for t in getattr(syn, "turns", [])]
     if planned.performance is not None:
         doc["waypoints"] = waypoint_rows(planned, frame_start, fps, played.get("body"))
     walk, rig = _walk_motion(planned.setup), planned.setup.rig

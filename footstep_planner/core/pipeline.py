@@ -34,6 +34,7 @@ from .steps import bend_chain
 from .surface import FootShape, Ground, footprint_support
 from .timing import StageTimer
 from .trajectory import transfer_body
+from .turn_in_place import PIVOT
 
 SnapFn = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
@@ -91,6 +92,7 @@ class Synthesis:
     seconds: dict = field(default_factory=dict)  # stage -> s
     tracks: dict = field(default_factory=dict, repr=False)  # clip name -> ClipTrack
     standing: Standing | None = None  # starting and stopping standing (the last column's clip)
+    turns: list = field(default_factory=list)  # where it turns in place (``turn_in_place.synthesize``)
 
     def stand_weight(self) -> np.ndarray:
         """(F,) the standing clip's weight at each frame (0 everywhere without standing)."""
@@ -318,19 +320,20 @@ def _standing_planted(planted: list, S: Schedule, stand: Standing) -> list:
 
 
 def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Settings, snap,
-              timer: StageTimer, key: str, bends=None, stand: Standing | None = None) -> Pass:
+              timer: StageTimer, key: str, bends=None, stand: Standing | None = None, pinned: bool = False) -> Pass:
     """One round: play the schedule, refine the played footprints (each step bent by
     ``bends`` (N-1,) 1/m, as the planner bent it) towards the desired ones (stage
     ``refinement<key>``), carry the played body onto them (``body_trajectory<key>``).
     With ``stand`` the standing feet at either end stay where they are desired and the
-    body stands over them (``stand_body``) as the standing clip takes over."""
+    body stands over them (``stand_body``) as the standing clip takes over. ``pinned``:
+    every footprint stays where it is desired (a turn in place's pivot steps)."""
     fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
     with timer(f"refinement{key}"):
         played = playback(schedule, tracks, start=(desired_pos[0], desired_head[0]), forward=forward)
         orig = bend_chain(played.footprints, played.footprint_heading, bends, fwd)
         fixed = None
-        if stand is not None:
-            fixed = np.zeros(len(desired_pos), bool)
+        if stand is not None or pinned:
+            fixed = np.full(len(desired_pos), pinned)
             fixed[[0, 1, -2, -1]] = True
         refined = refine(*orig, desired_pos, desired_head, settings.refinement_iterations, snap, fixed=fixed,
                          height=getattr(snap, "height", None))
@@ -338,9 +341,22 @@ def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Se
         body_pos, body_head = transfer_body(played.footprints, played.footprint_heading, refined.position,
                                             refined.heading, schedule.walk_times, played.root,
                                             played.heading, schedule.walk_t)
+        if pinned:  # (turning on the spot: the body turns steadily, not step by step)
+            body_head = _steady(body_head, schedule.fps)
         if stand is not None:
             body_pos, body_head = stand_body(schedule, tracks[stand.clip], refined, body_pos, body_head, fwd)
     return Pass(schedule, played, refined, body_pos, body_head)
+
+
+#: s: the Gaussian width over which a turn in place's body heading is smoothed
+TURN_SMOOTHING = 0.3
+
+
+def _steady(heading: np.ndarray, fps: float) -> np.ndarray:
+    """A body heading (F,) low-passed over TURN_SMOOTHING s, its ends kept."""
+    from scipy.ndimage import gaussian_filter1d
+
+    return gaussian_filter1d(np.asarray(heading, float), TURN_SMOOTHING * fps, mode="nearest")
 
 
 def stand_body(S: Schedule, track: ClipTrack, refined: Refined, body_pos: np.ndarray, body_head: np.ndarray,
@@ -433,6 +449,15 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
             tracks = _tracks_of(library, analyses)
         cyc = cyclic_clips(library)
         stand = None
+        pivot = standing and len(path) > 1 and all(f.label == PIVOT for f in path[1:])
+        shown = None
+        if pivot and cyc:  # a turn in place: the straight walk's steps on the pivot footprints, all kept
+            straight = _straight(library, cyc)
+            other = start_other if start_other is not None and start_other.foot != path[0].foot else \
+                replace(path[0], foot=1 - path[0].foot)
+            shown = [replace(other, label=STAND_LABEL, time=0.0)] + list(path)
+            path = [shown[0]] + [replace(f, label=straight, gait="walk", jump=False) for f in path]
+            goal = goal_heading = None
         if standing and cyc:
             fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
             stand = _standing(library, tracks, cyc, settings, lead, hold)
@@ -444,24 +469,25 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
         rate = _step_pace(pace, len(steps))
         bends = np.array([library.bend_of(f.label) for f in path[1:]])  # steps bent beyond the clips
         with timer("smoothing"):  # 3.3
-            smoothed = _smooth(path, settings, snap, goal, fixed=2 if stand else 1)
+            smoothed = _smooth(path, settings, snap, goal, fixed=len(path) if shown else 2 if stand else 1)
         # 3.5 / 3.6 with the plan's clips
         sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand,
                               pace=rate)
         first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1",
-                          bends, stand)
+                          bends, stand, pinned=shown is not None)
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
             curves = _tau_curves(library, cyc, sch1, first, settings)
             pins = speed_pins(steps, tracks, [f.gait for f in path[1:]])
             loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
             sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco, stand, rate)
-        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends, stand)
+        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends, stand,
+                            pinned=shown is not None)
         tau_final = np.interp(sch2.u, sch1.u, curves.tau)
         s_final = loco.speed(sch2.u, sch2.n)
     seconds = timer.seconds
     seconds["refinement"] = seconds["refinement_1"] + seconds["refinement_2"]
     seconds["body_trajectory"] = seconds["body_trajectory_1"] + seconds["body_trajectory_2"]
-    return Synthesis(plan=list(path), settings=settings, clips=sch2.clips, smoothed=smoothed,
+    return Synthesis(plan=list(shown or path), settings=settings, clips=sch2.clips, smoothed=smoothed,
                      first=first, tau_plan=curves.plan, tau_raw=curves.raw, tau=curves.tau, final=final,
                      tau_final=tau_final, s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks,
                      standing=stand)
@@ -496,9 +522,7 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
     if len(path) > 2 and path[0].label == STAND_LABEL:  # already standing at both ends
         return list(path)
     first, loco = path[0], [f.label for f in path[1:] if f.label not in {s.clip for s in library.specials}]
-    straight = min(cyc, key=lambda c: (library.turn_groups.get("walk") is not None
-                                       and c not in [g.clip for g in library.turn_groups["walk"].clips],
-                                       abs(_clip_tau(library, c))))
+    straight = _straight(library, cyc)
     label = loco[0] if loco else straight
     if other is None or other.foot == first.foot:
         other = replace(first, foot=1 - first.foot, position=beside_position(first, 1 - first.foot, forward, 2 * STAND_WIDTH))
@@ -514,6 +538,13 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
     end = replace(last, foot=1 - last.foot, position=beside_position(last, 1 - last.foot, forward, 2 * STAND_WIDTH, stand),
                   label=straight, gait="walk", jump=False)
     return path + [end]
+
+
+def _straight(library: Library, cyc: list[str]) -> str:
+    """The straightest clip of the walk's turning group (of any cyclic clip without one)."""
+    walk = library.turn_groups.get("walk")
+    return min(cyc, key=lambda c: (walk is not None and c not in [g.clip for g in walk.clips],
+                                   abs(_clip_tau(library, c))))
 
 
 def _step_pace(pace, n: int) -> np.ndarray | None:
@@ -646,14 +677,14 @@ def _blend_group_schedule(steps: list[PlanStep], tracks, cyc: list[str], fps: fl
 
 
 def _final_pass(sch2: Schedule, tracks, first: Pass, forward, settings: Settings, snap, timer: StageTimer,
-                goal, bends=None, stand: Standing | None = None) -> Pass:
+                goal, bends=None, stand: Standing | None = None, pinned: bool = False) -> Pass:
     """The blend groups' pass. With a goal, the path's end is moved by where the first
     pass's body ended, and once more if the blend groups still miss it by more than
     GOAL_TOLERANCE."""
     desired, heading = first.refined.position, first.refined.heading
     if goal is not None:
         desired = ease_end(desired, heading, np.asarray(goal, float)[:2] - first.body_pos[-1, :2], snap)
-    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand)
+    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand, pinned)
     if goal is not None:
         miss = np.asarray(goal, float)[:2] - final.body_pos[-1, :2]
         if np.linalg.norm(miss) > GOAL_TOLERANCE:
