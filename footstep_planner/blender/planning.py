@@ -202,24 +202,35 @@ def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=
     and time per scene frame, footprints kept on the tagged surfaces. The character starts
     from standing on its start footprints and stops to standing at the goal, turned to
     ``goal_heading`` (the planner's heading, rad) when given; the synthesis's path
-    (``Synthesis.plan``) holds both standing feet at either end."""
+    (``Synthesis.plan``) holds both standing feet at either end. A path that turns in
+    place (``core.turn_in_place``) plays each turn as a leg of its own."""
+    path = result.footprints
+    other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
+    return legs_of(scene, setup, settings or Settings())(path, other, goal, goal_heading, None, None, None)
+
+
+def legs_of(scene, setup: PlanSetup, settings: Settings):
+    """``core.directed.SynthFn`` on this scene: a leg from standing to standing (a path
+    that turns in place: its turns and walk, ``core.turn_in_place.synthesize``)."""
     pl = setup.planner
     snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
-    path = result.footprints
-    other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
-    settings = settings or Settings()
     fps = scene_fps(scene)
 
-    def leg(leg_path, leg_other, leg_goal, leg_heading, lead, hold, pace):
-        return _synthesize(leg_path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward,
-                           snap=snap, goal=leg_goal, standing=True, start_other=leg_other,
-                           goal_heading=leg_heading, pace=pace, lead=lead, hold=hold)
+    def leg(path, other, goal, heading, lead, hold, pace):
+        if other is None:
+            other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
+        return _synthesize(path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward, snap=snap,
+                           goal=goal, standing=True, start_other=other, goal_heading=heading, pace=pace, lead=lead,
+                           hold=hold)
 
-    if any(f.label == turn_in_place.PIVOT for f in path):
-        return turn_in_place.synthesize(path, leg, other, goal, goal_heading, None, setup.forward, pl.foot,
-                                        settings.turn_step_angle)
-    return leg(path, other, goal, goal_heading, None, None, None)
+    def turning(path, other, goal, heading, lead, hold, pace):
+        if any(f.label == turn_in_place.PIVOT for f in path):
+            return turn_in_place.synthesize(path, leg, other, goal, heading, lead, hold, pace, setup.forward, pl.foot,
+                                            settings.turn_step_angle)
+        return leg(path, other, goal, heading, lead, hold, pace)
+
+    return turning
 
 
 @dataclass
@@ -294,20 +305,8 @@ def _perform(scene, result: PlanResult, setup: PlanSetup, settings: Settings, ma
              frame_start: float, body) -> Performance:
     """The path through its marks leg by leg, stopping where they stop, their frames met
     (read on ``body(synthesis)``: the body the bake will have, after the IK)."""
-    pl = setup.planner
-    snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
-                        step_height=pl.max_step_height)
-    fps = scene_fps(scene)
-
-    def leg(path, other, leg_goal, leg_heading, lead, hold, pace):
-        if other is None:
-            other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
-        return _synthesize(path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward, snap=snap,
-                           goal=leg_goal, standing=True, start_other=other, goal_heading=leg_heading, pace=pace,
-                           lead=lead, hold=hold)
-
-    return perform(result.footprints, marks, leg, goal, heading, pace_range=(settings.pace_min, settings.pace_max),
-                   frame_start=frame_start, body=body)
+    return perform(result.footprints, marks, legs_of(scene, setup, settings), goal, heading,
+                   pace_range=(settings.pace_min, settings.pace_max), frame_start=frame_start, body=body)
 
 
 def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=None) -> list[dict]:

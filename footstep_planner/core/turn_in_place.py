@@ -324,18 +324,18 @@ def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float
 
 # ----------------------------------------------------------------------------- synthesis
 
-def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, goal, goal_heading, hold, forward,
-               foot: FootShape, step_angle: float, walk=None):
+def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, goal, goal_heading, lead, hold, pace,
+               forward, foot: FootShape, step_angle: float):
     """The motion of a path that turns in place (``split``): each turn a leg from standing
-    to standing on its pivot steps, the walk a leg (or a performance: ``walk``) leaving
-    from the feet the start turn stood on, the end turn's pivot steps laid from the feet
-    the walk stood on to the last one's heading; joined (``directed.join``). ``synth``
-    makes a leg as ``directed.SynthFn`` does: (path, other standing foot, goal, goal
-    heading, lead s, hold s, pace) -> Synthesis; ``walk`` (same arguments, without the
-    pace) the walk, default ``synth``. ``other`` is the start's other standing foot;
-    ``hold`` s of standing at the end (None: the settings'). The result's ``turns`` say
-    where it turned, by how much and on which frames; its plan labels the pivot steps
-    ``PIVOT``."""
+    to standing on its pivot steps (at TURN_PACE), the walk a leg leaving from the feet
+    the start turn stood on, the end turn's pivot steps laid from the feet the walk stood
+    on to the last one's heading; joined (``directed.join``). ``synth`` makes a leg as
+    ``directed.SynthFn`` does: (path, other standing foot, goal, goal heading, lead s,
+    hold s, pace) -> Synthesis. ``other`` is the start's other standing foot; ``lead``
+    and ``hold`` s of standing before the first step and after the last (None: the
+    settings'); ``pace`` the walk's, one per step of ``path`` (the pivot steps' ignored)
+    or one for all. The result's ``turns`` say where it turned, by how much and on which
+    frames; its plan labels the pivot steps ``PIVOT``."""
     from .directed import join
     from .pipeline import STAND_LABEL
 
@@ -344,17 +344,19 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         if not any(f.label == PIVOT for f in path[-2:]):
             path = path[:-1]
     head, walk_path, tail = split(path)
-    walk = walk or (lambda p, o, g, h, lead, hold_s: synth(p, o, g, h, lead, hold_s, None))
-    parts, turns, lead = [], [], None
+    if pace is not None and np.ndim(pace):
+        k = max(len(head) - 1, 0)
+        pace = np.asarray(pace, float)[k:k + len(walk_path) - 1]
+    parts, turns = [], []
     if head:
-        turn0 = synth(head, other, None, None, None, 0.0, TURN_PACE)
+        turn0 = _turned(synth(head, other, None, None, lead, 0.0, TURN_PACE), "start")
         pos, hd = turn0.footprints
         walk_path[0] = replace(walk_path[0], position=pos[-1].copy(), heading=float(hd[-1]))
         other = replace(turn0.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]), label="walk")
         parts.append(turn0)
         turns.append(("start", turn0))
         lead = 0.0
-    moving = walk(walk_path, other, goal, None if tail else goal_heading, lead, 0.0 if tail else hold)
+    moving = synth(walk_path, other, goal, None if tail else goal_heading, lead, 0.0 if tail else hold, pace)
     parts.append(moving)
     if tail:
         pos, hd = moving.footprints
@@ -362,29 +364,22 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         first = replace(moving.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]))
         steps = pivot_footprints(stands, first, tail[-1].heading, forward, step_angle, foot)
         if steps:
-            turn1 = synth([stands] + steps, first, None, None, 0.0, hold, TURN_PACE)
+            turn1 = _turned(synth([stands] + steps, first, None, None, 0.0, hold, TURN_PACE), "end")
             parts.append(turn1)
             turns.append(("end", turn1))
     out = join(parts)
-    out.turns = _turn_rows(out, parts, turns)
     out.plan = _labelled(out.plan, parts, turns)
     return out
 
 
-def _turn_rows(out, parts, turns) -> list[dict]:
-    """Per turn: where, the degrees turned (the body's), its pivot steps, its first and last
-    frame (from the first, 0) and its seconds."""
-    rows, frame = [], 0
-    for p in parts:
-        n = p.final.schedule.n
-        kind = next((w for w, t in turns if t is p), None)
-        if kind is not None:
-            h = p.body_heading
-            rows.append({"where": kind, "degrees": round(float(np.degrees(h[-1] - h[0])), 1),
-                         "steps": len(p.plan) - 2, "frames": [frame, frame + n - 1],
-                         "seconds": round(float(p.t[-1] - p.t[0]), 3)})
-        frame += n - 1
-    return rows
+def _turned(leg, where: str):
+    """A turn's leg with its ``turns`` row: where, the degrees its body turned, its pivot
+    steps, its first and last frame (0 its first; ``directed.join`` shifts them) and its
+    seconds."""
+    h = leg.body_heading
+    leg.turns = [{"where": where, "degrees": round(float(np.degrees(h[-1] - h[0])), 1), "steps": len(leg.plan) - 2,
+                  "frames": [0, int(leg.final.schedule.n - 1)], "seconds": round(float(leg.t[-1] - leg.t[0]), 3)}]
+    return leg
 
 
 def _labelled(plan: list, parts, turns) -> list:
