@@ -513,8 +513,6 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
                              frame_start=frame_start, frames=frames, fps=fps, action=act.name,
                              track=track.name, stages=stages, quality=qual, planted=planted)
     doc["stashed_action"] = act.get(baking.STASH_PROP)
-    doc["turns_in_place"] = [dict(t, frames=[frame_start + t["frames"][0], frame_start + t["frames"][1]])
-                             for t in getattr(syn, "turns", [])]
     if planned.performance is not None:
         doc["waypoints"] = waypoint_rows(planned, frame_start, fps, played.get("body"))
     walk, rig = _walk_motion(planned.setup), planned.setup.rig

@@ -466,7 +466,12 @@ def _join2(A: Synthesis, B: Synthesis) -> Synthesis:
                   speed_pins=list(A.speed_pins) + [(u + du, s) for u, s in B.speed_pins],
                   seconds=seconds, tracks={**A.tracks, **B.tracks}, standing=A.standing,
                   turns=list(A.turns) + [_shifted(t, A.final.schedule.n - 1) for t in B.turns],
+                  flat=None if A.flat is None and B.flat is None else cat(_flat(A), _flat(B)),
                   joined_planted=planted)
+
+
+def _flat(s: Synthesis) -> np.ndarray:
+    return np.zeros(s.final.schedule.n) if s.flat is None else s.flat
 
 
 def _shifted(turn: dict, frames: int) -> dict:

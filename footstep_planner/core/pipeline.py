@@ -93,11 +93,15 @@ class Synthesis:
     tracks: dict = field(default_factory=dict, repr=False)  # clip name -> ClipTrack
     standing: Standing | None = None  # starting and stopping standing (the last column's clip)
     turns: list = field(default_factory=list)  # where it turns in place (``turn_in_place.synthesize``)
+    flat: np.ndarray | None = field(default=None, repr=False)  # (F,) the feet kept level at least this much
 
     def stand_weight(self) -> np.ndarray:
-        """(F,) the standing clip's weight at each frame (0 everywhere without standing)."""
+        """(F,) how far the feet are laid level at each frame: the standing clip's weight
+        (0 everywhere without standing), or ``flat`` where that is more (a turn in place
+        pivots on level feet)."""
         S = self.final.schedule
-        return S.weights[:, -1].copy() if self.standing is not None else np.zeros(S.n)
+        w = S.weights[:, -1].copy() if self.standing is not None else np.zeros(S.n)
+        return w if self.flat is None else np.maximum(w, self.flat)
 
     # ------------------------------------------------------------------ results
     @property
@@ -348,6 +352,11 @@ def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Se
     return Pass(schedule, played, refined, body_pos, body_head)
 
 
+#: How far a turn in place's feet are laid level (``Synthesis.flat``): the walk's heel
+#: strike and toe-off, played on the spot, would pitch the foot steeply while the leg
+#: twists over it.
+TURN_FLAT = 1.0
+
 #: s: the Gaussian width over which a turn in place's body heading is smoothed
 TURN_SMOOTHING = 0.3
 
@@ -490,7 +499,7 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
     return Synthesis(plan=list(shown or path), settings=settings, clips=sch2.clips, smoothed=smoothed,
                      first=first, tau_plan=curves.plan, tau_raw=curves.raw, tau=curves.tau, final=final,
                      tau_final=tau_final, s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks,
-                     standing=stand)
+                     standing=stand, flat=None if shown is None else np.full(sch2.n, TURN_FLAT))
 
 
 def beside_position(fp, foot: int, forward, width: float, stand: ClipTrack | None = None):

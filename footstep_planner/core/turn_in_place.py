@@ -37,10 +37,6 @@ GAP = 0.01
 #: m: how far the feet of a pivot pair may be set apart, or one ahead of the other, beyond
 #: what keeps them clear, to keep their middle over the spot the turn began on.
 SLACK = 0.1
-#: The pace of pivot steps: the walk's steps played this much slower (the swinging foot
-#: turns with the body as well as stepping round: at the walk's own pace it turns faster
-#: than in any clip).
-TURN_PACE = 0.75
 #: rad: a turn this small is no turn.
 NO_TURN = 1e-6
 
@@ -327,7 +323,7 @@ def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float
 def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, goal, goal_heading, lead, hold, pace,
                forward, foot: FootShape, step_angle: float):
     """The motion of a path that turns in place (``split``): each turn a leg from standing
-    to standing on its pivot steps (at TURN_PACE), the walk a leg leaving from the feet
+    to standing on its pivot steps, the walk a leg leaving from the feet
     the start turn stood on, the end turn's pivot steps laid from the feet the walk stood
     on to the last one's heading; joined (``directed.join``). ``synth`` makes a leg as
     ``directed.SynthFn`` does: (path, other standing foot, goal, goal heading, lead s,
@@ -349,7 +345,7 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         pace = np.asarray(pace, float)[k:k + len(walk_path) - 1]
     parts, turns = [], []
     if head:
-        turn0 = _turned(synth(head, other, None, None, lead, 0.0, TURN_PACE), "start")
+        turn0 = _turned(synth(head, other, None, None, lead, 0.0, None), "start")
         pos, hd = turn0.footprints
         walk_path[0] = replace(walk_path[0], position=pos[-1].copy(), heading=float(hd[-1]))
         other = replace(turn0.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]), label="walk")
@@ -364,7 +360,7 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         first = replace(moving.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]))
         steps = pivot_footprints(stands, first, tail[-1].heading, forward, step_angle, foot)
         if steps:
-            turn1 = _turned(synth([stands] + steps, first, None, None, 0.0, hold, TURN_PACE), "end")
+            turn1 = _turned(synth([stands] + steps, first, None, None, 0.0, hold, None), "end")
             parts.append(turn1)
             turns.append(("end", turn1))
     out = join(parts)
