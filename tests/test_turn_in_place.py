@@ -12,6 +12,8 @@ from footstep_planner.core import turn_in_place as tip
 from footstep_planner.core.navgraph import PathFootprint
 from footstep_planner.core.surface import FootShape
 
+from conftest import needs_cmu
+
 FORWARD = np.array([1.0, 0.0])
 FOOT = FootShape(back=0.165, front=0.195, half_width=0.05)  # the planner's, for a 25 cm foot
 
@@ -73,7 +75,7 @@ def _pairs(start, steps):
 angles = st.floats(-math.pi, math.pi, allow_nan=False)
 
 
-@hsettings(max_examples=150, deadline=None)
+@hsettings(max_examples=300, deadline=None, database=None)
 @given(h0=angles, target=angles, step=st.floats(math.radians(20), math.radians(75)),
        x=st.floats(-50, 50), y=st.floats(-50, 50), first_left=st.booleans())
 def test_pivot_steps_turn_on_the_spot(h0, target, step, x, y, first_left):
@@ -98,20 +100,20 @@ def test_pivot_steps_turn_on_the_spot(h0, target, step, x, y, first_left):
     for s in steps:
         d = s.heading - last[s.foot]
         assert d * np.sign(turn) >= -1e-9
-        assert abs(d) <= step + 1e-9
+        assert abs(d) <= step + 1e-6  # (a turn within a micro-radian of the target ends on it)
         last[s.foot] = s.heading
     # no more steps than turning a foot by the step's angle each time needs (and two to close)
     assert len(steps) <= 2 * math.ceil(abs(turn) / min(step, math.pi)) + 2
     # the feet never overlap, nor open more than the step's angle
     for l, r in _pairs((left, right), steps):
         assert _gap(_rect(l, FOOT), _rect(r, FOOT)) >= tip.GAP - 1e-6
-        assert abs(l.heading - r.heading) <= step + 1e-9
-    # the middle of the feet stays over the spot: within 13 cm, and the turned pair within 5 cm
+        assert abs(l.heading - r.heading) <= step + 1e-6
+    # the middle of the feet stays over the spot: within 13 cm, and the turned pair within 6 cm
     # (with steps of up to 60 degrees: 10 and 3 cm, ``test_pivot_steps_of_60_degrees_stay_nearer``)
     c = np.array([x, y])
     mids = [0.5 * (np.asarray(l.position)[:2] + np.asarray(r.position)[:2]) for l, r in _pairs((left, right), steps)]
     assert max(np.linalg.norm(m - c) for m in mids) < 0.13
-    assert np.linalg.norm(mids[-1] - c) < 0.05
+    assert np.linalg.norm(mids[-1] - c) < 0.06
 
 
 @pytest.mark.parametrize("first_left", [True, False])
@@ -158,3 +160,24 @@ def test_split_takes_a_turning_path_apart():
     turns = tip.turns_of(path)
     assert len(turns) == 1 and turns[0].where == "start" and turns[0].degrees == pytest.approx(180.0)
     assert (turns[0].first, turns[0].last) == (1, len(steps))
+
+
+@needs_cmu
+def test_a_start_facing_a_narrow_corridors_wall_turns_to_walk_along_it(bench_character):
+    """The planner benchmark's corridor1.2_across: 1.2 m wide, the character facing a wall.
+    No walking turn fits (refused); a quarter turn in place first, then a straight walk."""
+    from benchmarks.bench_planner import loops
+    from benchmarks.scene_generator import benchmark_scenes, make_planner
+    from footstep_planner.core.navgraph import PlanError
+
+    scene = next(s for s in benchmark_scenes() if s.name == "corridor1.2_across")
+    pl, start, goal = make_planner(scene, bench_character)
+    with pytest.raises(PlanError, match="clearance"):
+        pl.plan(start, goal)
+    res = tip.plan(pl, start, goal)
+    turns = tip.turns_of(res.footprints)
+    assert [t.where for t in turns] == ["start"] and abs(abs(turns[0].degrees) - 90) < 15
+    head, walk, tail = tip.split(res.footprints)
+    assert tail == [] and loops(walk) == 0
+    assert [f.foot for f in res.footprints[1:]] == [1 - f.foot for f in res.footprints[:-1]]
+    assert np.linalg.norm(res.footprints[-1].position[:2] - goal[:2]) <= pl.settings.goal_radius

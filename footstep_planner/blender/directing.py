@@ -58,7 +58,10 @@ class ViaRoute:
                              pause=float(self.pauses.get(name, 0.0)), stop=name in self.stops,
                              hurry=name in self.hurry)
                     for name, pos, h in self.waypoints]
-        head = turn_in_place.start_turn(setup.planner, start, self.wps[0].position)
+        from ..core.pipeline import standing_body
+
+        head = turn_in_place.start_turn(setup.planner, start, self.wps[0].position,
+                                        standing_body(setup.library, setup.analyses))
         self.route = plan_via(setup.planner, [head[-1]] if head else start, self.wps)
         if head:  # (the way leaves from the turned feet: the turn's pivot steps come first)
             res = self.route.result

@@ -21,7 +21,7 @@ from ..core.ik import IKResult, solve_ik
 from ..core.library import Library
 from ..core.rig import Rig, forward_kinematics
 from ..core.navgraph import FootprintCache, PathFootprint, PlanError, PlanResult, Planner
-from ..core.pipeline import Synthesis, stage_row, surface_snap
+from ..core.pipeline import Synthesis, stage_row, standing_body, surface_snap
 from ..core.pipeline import synthesize as _synthesize
 from ..core.settings import Settings
 from ..core.steps import library_steps
@@ -193,7 +193,7 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     setup.start = start
     if route is not None:
         return route(setup, start, heading), setup
-    return turn_in_place.plan(setup.planner, start, goal, heading), setup
+    return turn_in_place.plan(setup.planner, start, goal, heading, standing_body(setup.library, setup.analyses)), setup
 
 
 def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=None,
@@ -216,6 +216,7 @@ def legs_of(scene, setup: PlanSetup, settings: Settings):
     snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
     fps = scene_fps(scene)
+    body = standing_body(setup.library, setup.analyses)
 
     def leg(path, other, goal, heading, lead, hold, pace):
         if other is None:
@@ -227,7 +228,7 @@ def legs_of(scene, setup: PlanSetup, settings: Settings):
     def turning(path, other, goal, heading, lead, hold, pace):
         if any(f.label == turn_in_place.PIVOT for f in path):
             return turn_in_place.synthesize(path, leg, other, goal, heading, lead, hold, pace, setup.forward, pl.foot,
-                                            settings.turn_step_angle)
+                                            settings.turn_step_angle, body)
         return leg(path, other, goal, heading, lead, hold, pace)
 
     return turning
@@ -385,7 +386,7 @@ def solve(planned: Planned, settings: Settings) -> Solved:
     timer = StageTimer()
     walk = _walk_motion(setup)
     with timer("pose_blend"):
-        quat, hips = blend_pose(syn.final.schedule, syn.tracks)
+        quat, hips = blend_pose(syn.posed_schedule(), syn.tracks)
         basis = flat_feet(setup.rig, pose_bases(setup.rig, quat, hips), syn.stand_weight(), walk.heel_local,
                           walk.toe_local)
     pl = setup.planner
@@ -401,7 +402,7 @@ def solve(planned: Planned, settings: Settings) -> Solved:
     with timer("ik"):
         ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
                       walk.heel_local, walk.toe_local, syn.final.schedule.feet, syn.planted(), pos, head, normal,
-                      setup.forward, settings, ground_z=ground_z)
+                      setup.forward, settings, ground_z=ground_z, still=syn.flat)
     return Solved(ik, spin, timer.seconds["pose_blend"], timer.seconds["ik"])
 
 

@@ -95,6 +95,22 @@ class Synthesis:
     turns: list = field(default_factory=list)  # where it turns in place (``turn_in_place.synthesize``)
     flat: np.ndarray | None = field(default=None, repr=False)  # (F,) the feet kept level at least this much
 
+    def posed_schedule(self) -> Schedule:
+        """The final schedule as the pose is blended from it: through a turn in place
+        (``flat``), the standing clip's weight (the last column) raised to TURN_STAND where
+        it is less and the others scaled down to make room, so the legs step nearer under
+        the body, as in a pivot step (the feet's contacts, and so their planted times,
+        stay the walk's)."""
+        S = self.final.schedule
+        if self.flat is None or self.standing is None:
+            return S
+        w = np.array(S.weights, float, copy=True)
+        lam = np.maximum(w[:, -1], TURN_STAND * self.flat)
+        rest = w[:, :-1].sum(axis=1)
+        w[:, :-1] *= np.where(rest > 1e-12, (1.0 - lam) / np.maximum(rest, 1e-12), 0.0)[:, None]
+        w[:, -1] = lam
+        return replace(S, weights=w)
+
     def stand_weight(self) -> np.ndarray:
         """(F,) how far the feet are laid level at each frame: the standing clip's weight
         (0 everywhere without standing), or ``flat`` where that is more (a turn in place
@@ -349,8 +365,25 @@ def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Se
             body_head = _steady(body_head, schedule.fps)
         if stand is not None:
             body_pos, body_head = stand_body(schedule, tracks[stand.clip], refined, body_pos, body_head, fwd)
+        if pinned:
+            body_pos = _on_the_spot(body_pos, schedule.t)
     return Pass(schedule, played, refined, body_pos, body_head)
 
+
+def _on_the_spot(body_pos: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """A turn in place's body (F, 3) kept over the spot it stands on, first to last (eased
+    from one to the other), at the heights it has: the walk's body, carried onto pivot
+    steps, would sway back and forth with its steps' lead and lag."""
+    out = np.array(body_pos, float, copy=True)
+    u = (t - t[0]) / max(t[-1] - t[0], 1e-9)
+    u = u * u * (3.0 - 2.0 * u)
+    out[:, :2] = (1.0 - u)[:, None] * body_pos[0, :2] + u[:, None] * body_pos[-1, :2]
+    return out
+
+
+#: A turn in place's pose keeps the standing clip's weight at least this (``Synthesis.
+#: posed_schedule``): the walk's stride and its feet's lift shrink.
+TURN_STAND = 0.4
 
 #: How far a turn in place's feet are laid level (``Synthesis.flat``): the walk's heel
 #: strike and toe-off, played on the spot, would pitch the foot steeply while the leg
@@ -582,6 +615,23 @@ def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings
     lead = min(own, STAND_LEAD) if lead is None else max(float(lead), 0.0)
     u = mid_swing(tracks[walk])
     return Standing(clip=idle, lead=lead, hold=hold, u_start=u, u_back=2.0 - u)
+
+
+def standing_body(library: Library, analyses) -> np.ndarray:
+    """(2,) where the body (the root) of the library's standing pose (``_standing``: its
+    idle clip, or one made from its walk) stands from the middle of its feet: (ahead,
+    left) m in the feet's frame. Zeros without a cyclic clip."""
+    cyc = cyclic_clips(library)
+    if not cyc:
+        return np.zeros(2)
+    tracks = _tracks_of(library, analyses)
+    st = _standing(library, tracks, cyc, Settings())
+    tr = tracks[st.clip]
+    smp = tr.sample(np.array([st.clip_time]))
+    local = 0.25 * (smp["heel"][0, 0] + smp["toe"][0, 0] + smp["heel"][1, 0] + smp["toe"][1, 0])  # root frame
+    f = np.asarray(tr.rest_forward, float)[:2]
+    f = f / np.linalg.norm(f)
+    return -np.array([local[:2] @ f, local[:2] @ [-f[1], f[0]]])
 
 
 def mid_swing(track: ClipTrack) -> float:

@@ -49,6 +49,12 @@ def _yaw(forward) -> float:
     return float(np.arctan2(forward[1], forward[0]))
 
 
+def _offset(body, heading: float, forward) -> np.ndarray:
+    """(3,) the world offset of ``body`` (ahead, left) m in the frame of ``heading``."""
+    ahead, left = _axes(heading, forward)
+    return body[0] * ahead + body[1] * left
+
+
 def _axes(heading: float, forward) -> tuple[np.ndarray, np.ndarray]:
     """(ahead, left) world unit vectors (3,) of a heading."""
     a = heading + _yaw(forward)
@@ -83,16 +89,19 @@ def _clear(cand: np.ndarray, other: np.ndarray) -> np.ndarray:
 
 def pivot_footprints(standing: PathFootprint, first: PathFootprint, target: float, forward,
                      step_angle: float, foot: FootShape = FootShape(), width: float | None = None,
-                     centre=None) -> list[PathFootprint]:
+                     body=(0.0, 0.0)) -> list[PathFootprint]:
     """The pivot steps that turn the feet ``standing`` and ``first`` (side by side, the
     latter the foot to step first) on the spot to ``target`` (rad), the shorter way
     round: the feet step in turn, the one on the turning side opening up to
     ``step_angle`` past the other (toes out), the other closing beside it (up to TOE_IN
     past it, toes in), no foot turning more than ``step_angle`` in one step; each foot
     set beside the other as near as it may to where it would stand, turned so, in a pair
-    ``width`` apart (default the feet's own spacing) over ``centre`` (default the middle
-    of the standing feet), keeping the feet's rectangles (``foot``) GAP apart
-    (``_beside``). The last two stand side by side facing ``target``. Returns the steps in order (the last two
+    ``width`` apart (default the feet's own spacing) round the spot the body stands over
+    (``body``: (ahead, left) m from the middle of the standing feet, in their frame;
+    over the ankles, not the footprints' middles, so that the body turns on the spot;
+    ``pipeline.standing_body``), keeping the feet's
+    rectangles (``foot``) GAP apart (``_beside``). The last two stand side by side
+    facing ``target``. Returns the steps in order (the last two
     are the turned feet); none when the feet already face ``target``."""
     if not 0 < step_angle <= np.pi / 2:
         raise ValueError(f"a pivot step turns more than 0 and at most 90 degrees, not {np.degrees(step_angle):g}")
@@ -110,7 +119,7 @@ def pivot_footprints(standing: PathFootprint, first: PathFootprint, target: floa
         return []
     if width is None:
         width = float(np.linalg.norm((pos[0] - pos[1])[:2]))
-    c = np.asarray(centre, float) if centre is not None else 0.5 * (pos[0] + pos[1])
+    c = 0.5 * (pos[0] + pos[1]) + _offset(body, mean, forward)  # (under the body)
     sign = 1.0 if turn >= 0 else -1.0
     inside = 0 if sign > 0 else 1  # the foot on the turning side
     out, f = [], first.foot
@@ -119,10 +128,10 @@ def pivot_footprints(standing: PathFootprint, first: PathFootprint, target: floa
         lead = step_angle if f == inside else TOE_IN
         new = head[o] + sign * lead
         new = head[f] + sign * min(sign * (new - head[f]), step_angle)  # (no foot turns past the limit)
-        if sign * (new - goal) > 0:
+        if sign * (new - goal) > -NO_TURN:
             new = goal
         last = abs(new - goal) < NO_TURN and abs(head[o] - goal) < NO_TURN
-        pos[f] = _beside(pos[o], head[o], new, f, forward, foot, width, c, last)
+        pos[f] = _beside(pos[o], head[o], new, f, forward, foot, width, c, body, last)
         head[f] = goal if last else new
         out.append(PathFootprint(f, pos[f].copy(), float(head[f]), 0.0, PIVOT, "walk"))
         if last:
@@ -136,19 +145,19 @@ PLACE_STEP = 0.005
 
 
 def _beside(other: np.ndarray, other_heading: float, heading: float, f: int, forward, foot: FootShape,
-            width: float, centre: np.ndarray, last: bool = False) -> np.ndarray:
+            width: float, centre: np.ndarray, body=(0.0, 0.0), last: bool = False) -> np.ndarray:
     """Where foot ``f`` turned ``heading`` steps beside the other (at ``other``, turned
     ``other_heading``): as near as it may to where it would stand, turned so, in a pair
-    ``width`` apart over ``centre`` (the ``last``: half way from there to where it puts
-    the pair's middle on the centre), keeping GAP from the other foot's rectangle, set
+    ``width`` apart round ``centre``, the body's spot, ``body`` (ahead, left) m from their
+    middle (the ``last``: half way from there to where it puts the pair's middle there), keeping GAP from the other foot's rectangle, set
     across their mean heading at least half ``width`` and at most ``width`` + SLACK
     apart and at most SLACK ahead or behind."""
     ahead, left = _axes(0.5 * (heading + other_heading), forward)
     side = left if f == 0 else -left
     own = _axes(heading, forward)[1] * (1.0 if f == 0 else -1.0)
-    want = centre + 0.5 * width * own
+    want = centre - _offset(body, heading, forward) + 0.5 * width * own
     if last:  # (the last step halves what the other foot is off: the pair ends nearer over the centre)
-        want = 0.5 * (want + 2.0 * centre - other)
+        want = 0.5 * (want + 2.0 * (centre - _offset(body, 0.5 * (heading + other_heading), forward)) - other)
     d = np.arange(0.5 * width, width + SLACK + 1e-9, PLACE_STEP)
     a = np.arange(-SLACK, SLACK + 1e-9, PLACE_STEP)
     dd, aa = np.meshgrid(d, a, indexing="ij")
@@ -246,10 +255,12 @@ def facing_way(planner: Planner, footprints: list[PathFootprint], goal, field=No
     return float(ahead[0]) - _yaw(planner.forward)
 
 
-def start_turn(planner: Planner, start: list[PathFootprint], goal, field=None) -> list[PathFootprint]:
+def start_turn(planner: Planner, start: list[PathFootprint], goal, body=(0.0, 0.0),
+               field=None) -> list[PathFootprint]:
     """The start turn's footprints (the start foot that stays, then the pivot steps), when
     the way ahead lies more than ``turn_in_place_angle`` from where the standing feet
-    face; else []. The pivot steps must stand (support, obstacles), else no turn."""
+    face; else []. The pivot steps must stand (support, obstacles), else no turn.
+    ``body``: see ``pivot_footprints``."""
     cfg = planner.settings
     if cfg.turn_in_place_angle <= 0 or len(start) != 2 or start[0].foot == start[1].foot:
         return []
@@ -263,20 +274,22 @@ def start_turn(planner: Planner, start: list[PathFootprint], goal, field=None) -
     inside = 0 if off > 0 else 1
     first = next(f for f in start if f.foot == inside)
     stays = next(f for f in start if f.foot != inside)
-    steps = pivot_footprints(stays, first, facing + off, planner.forward, cfg.turn_step_angle, planner.foot)
+    steps = pivot_footprints(stays, first, facing + off, planner.forward, cfg.turn_step_angle, planner.foot,
+                             body=body)
     if not steps or not _stand(planner, steps):
         return []
     return [replace(stays, label="start")] + steps
 
 
-def end_turn(planner: Planner, last: PathFootprint, goal_heading: float) -> list[PathFootprint]:
+def end_turn(planner: Planner, last: PathFootprint, goal_heading: float, body=(0.0, 0.0)) -> list[PathFootprint]:
     """The end turn's footprints: the other foot set down beside ``last`` (the walk's last
-    footprint), then the pivot steps to ``goal_heading``; [] where they can't stand."""
+    footprint), then the pivot steps to ``goal_heading`` (``body``: see
+    ``pivot_footprints``); [] where they can't stand."""
     from .waypoints import beside
 
     other = replace(beside(planner, last), label=PIVOT)
     steps = pivot_footprints(other, last, goal_heading, planner.forward, planner.settings.turn_step_angle,
-                             planner.foot)
+                             planner.foot, body=body)
     if not steps or not _stand(planner, [other] + steps):
         return []
     return [other] + steps
@@ -289,25 +302,27 @@ def _stand(planner: Planner, fps: list[PathFootprint]) -> bool:
     return bool(sup.ok.all())
 
 
-def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float | None = None) -> PlanResult:
+def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float | None = None,
+         body=(0.0, 0.0)) -> PlanResult:
     """``Planner.plan`` that turns in place where that beats a walking loop: at the start
     when the way ahead lies more than ``turn_in_place_angle`` from the way the character
     faces (the walk then leaves from the turned feet), and at the end when, with a goal
     heading, the walk that may arrive facing any way arrives more than that from it (the
     path ends turning on the spot to it; else the path is planned to arrive facing it, as
-    without turning). The result's footprints hold the turns (``split``)."""
+    without turning). The result's footprints hold the turns (``split``); ``body``:
+    see ``pivot_footprints``."""
     cfg = planner.settings
     if cfg.turn_in_place_angle <= 0:
         return planner.plan(start, goal, goal_heading)
     t0 = time.perf_counter()
-    head = start_turn(planner, start, goal)
+    head = start_turn(planner, start, goal, body)
     origin = [head[-1]] if head else start
     res = None
     if goal_heading is not None:
         free = planner.plan(origin, goal, None)
         arrive = free.footprints[-1].heading
         if abs(float(_wrap(goal_heading - arrive))) > cfg.turn_in_place_angle:
-            tail = end_turn(planner, free.footprints[-1], goal_heading)
+            tail = end_turn(planner, free.footprints[-1], goal_heading, body)
             if tail:
                 res = replace(free, footprints=list(free.footprints) + tail)
     if res is None:
@@ -321,7 +336,7 @@ def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float
 # ----------------------------------------------------------------------------- synthesis
 
 def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, goal, goal_heading, lead, hold, pace,
-               forward, foot: FootShape, step_angle: float):
+               forward, foot: FootShape, step_angle: float, body=(0.0, 0.0)):
     """The motion of a path that turns in place (``split``): each turn a leg from standing
     to standing on its pivot steps, the walk a leg leaving from the feet
     the start turn stood on, the end turn's pivot steps laid from the feet the walk stood
@@ -331,7 +346,8 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
     and ``hold`` s of standing before the first step and after the last (None: the
     settings'); ``pace`` the walk's, one per step of ``path`` (the pivot steps' ignored)
     or one for all. The result's ``turns`` say where it turned, by how much and on which
-    frames; its plan labels the pivot steps ``PIVOT``."""
+    frames; its plan labels the pivot steps ``PIVOT``. ``body``: see
+    ``pivot_footprints``."""
     from .directed import join
     from .pipeline import STAND_LABEL
 
@@ -358,7 +374,7 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         pos, hd = moving.footprints
         stands = replace(moving.plan[-1], position=pos[-1].copy(), heading=float(hd[-1]), label="start")
         first = replace(moving.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]))
-        steps = pivot_footprints(stands, first, tail[-1].heading, forward, step_angle, foot)
+        steps = pivot_footprints(stands, first, tail[-1].heading, forward, step_angle, foot, body=body)
         if steps:
             turn1 = _turned(synth([stands] + steps, first, None, None, 0.0, hold, None), "end")
             parts.append(turn1)
