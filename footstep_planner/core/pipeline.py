@@ -605,7 +605,8 @@ def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings
     made from the straightest walk (``standing_track``) added to ``tracks``; the walk is
     held, at either end, where the stepping foot swings past the standing one
     (``mid_swing``)."""
-    walk = min(cyc, key=lambda c: (tracks[c].gait != "walk", abs(_clip_tau(library, c))))
+    gait = tracks.gait_of if isinstance(tracks, _LazyTracks) else (lambda c: tracks[c].gait)
+    walk = min(cyc, key=lambda c: (gait(c) != "walk", abs(_clip_tau(library, c))))
     idle = next((sp.clip for sp in library.specials if sp.kind == "idle" and sp.clip in tracks), None)
     if idle is None:
         idle = f"{walk}~stand"
@@ -624,7 +625,7 @@ def standing_body(library: Library, analyses) -> np.ndarray:
     cyc = cyclic_clips(library)
     if not cyc:
         return np.zeros(2)
-    tracks = _tracks_of(library, analyses)
+    tracks = _LazyTracks(analyses)  # (only the walk's and the idle's are made)
     st = _standing(library, tracks, cyc, Settings())
     tr = tracks[st.clip]
     smp = tr.sample(np.array([st.clip_time]))
@@ -632,6 +633,27 @@ def standing_body(library: Library, analyses) -> np.ndarray:
     f = np.asarray(tr.rest_forward, float)[:2]
     f = f / np.linalg.norm(f)
     return -np.array([local[:2] @ f, local[:2] @ [-f[1], f[0]]])
+
+
+class _LazyTracks(dict):
+    """Clip name -> ClipTrack, each made (``make_track``) when first asked for; a track's
+    ``gait`` read from its analysis without making it."""
+
+    def __init__(self, analyses):
+        super().__init__()
+        self.by = {a.name: a for a in analyses} if not isinstance(analyses, dict) else {}
+        if isinstance(analyses, dict):
+            self.update(analyses)
+
+    def __missing__(self, name: str) -> ClipTrack:
+        self[name] = make_track(self.by[name])
+        return self[name]
+
+    def __contains__(self, name) -> bool:
+        return dict.__contains__(self, name) or name in self.by
+
+    def gait_of(self, name: str) -> str:
+        return self.by[name].gait if name in self.by else self[name].gait
 
 
 def mid_swing(track: ClipTrack) -> float:

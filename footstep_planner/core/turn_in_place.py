@@ -302,35 +302,64 @@ def _stand(planner: Planner, fps: list[PathFootprint]) -> bool:
     return bool(sup.ok.all())
 
 
+#: m of path from the start (and to the goal) in which a walk that turns further than
+#: ``turn_in_place_angle`` from the way the character faces (the goal's heading) is taken
+#: for a loop, and a turn in place is weighed against it.
+LOOP_REACH = 1.5
+
+
 def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float | None = None,
          body=(0.0, 0.0)) -> PlanResult:
     """``Planner.plan`` that turns in place where that beats a walking loop: at the start
     when the way ahead lies more than ``turn_in_place_angle`` from the way the character
     faces (the walk then leaves from the turned feet), and at the end when, with a goal
     heading, the walk that may arrive facing any way arrives more than that from it (the
-    path ends turning on the spot to it; else the path is planned to arrive facing it, as
-    without turning). The result's footprints hold the turns (``split``); ``body``:
-    see ``pivot_footprints``."""
+    path ends turning on the spot to it). Only where the walk planned as without turning
+    turns that far within LOOP_REACH of the start (or of the goal), or is refused, are
+    the turns weighed (the way ahead, a search without the goal's heading): elsewhere it
+    costs one search, as without turning. The result's footprints hold the turns
+    (``split``); ``body``: see ``pivot_footprints``."""
     cfg = planner.settings
     if cfg.turn_in_place_angle <= 0:
         return planner.plan(start, goal, goal_heading)
     t0 = time.perf_counter()
-    head = start_turn(planner, start, goal, body)
+    res, refused = _try(planner, start, goal, goal_heading)
+    head = []
+    if res is None or _loops(res.footprints, _mean_heading(start[0], start[-1]), cfg.turn_in_place_angle):
+        head = start_turn(planner, start, goal, body)
+        if head:
+            res, refused = _try(planner, [head[-1]], goal, goal_heading)
     origin = [head[-1]] if head else start
-    res = None
-    if goal_heading is not None:
-        free = planner.plan(origin, goal, None)
-        arrive = free.footprints[-1].heading
-        if abs(float(_wrap(goal_heading - arrive))) > cfg.turn_in_place_angle:
+    if goal_heading is not None and (res is None or _loops(res.footprints[::-1], goal_heading,
+                                                           cfg.turn_in_place_angle)):
+        free, _ = _try(planner, origin, goal, None)
+        if free is not None and abs(float(_wrap(goal_heading - free.footprints[-1].heading))) > cfg.turn_in_place_angle:
             tail = end_turn(planner, free.footprints[-1], goal_heading, body)
             if tail:
                 res = replace(free, footprints=list(free.footprints) + tail)
     if res is None:
-        res = planner.plan(origin, goal, goal_heading)
+        raise refused
     if head:
         fps = head[:-1] + [replace(res.footprints[0], label=PIVOT)] + list(res.footprints[1:])
         res = replace(res, footprints=fps)
     return replace(res, seconds=time.perf_counter() - t0)
+
+
+def _try(planner: Planner, start, goal, heading) -> tuple[PlanResult | None, PlanError | None]:
+    try:
+        return planner.plan(start, goal, heading), None
+    except PlanError as ex:
+        return None, ex
+
+
+def _loops(fps: list[PathFootprint], facing: float, angle: float) -> bool:
+    """Whether the footprints (from the end they are walked from) turn more than ``angle``
+    from ``facing`` within LOOP_REACH of path."""
+    pos = np.array([f.position for f in fps], float)[:, :2]
+    along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))]
+    near = along <= LOOP_REACH
+    off = np.abs(_wrap(np.array([f.heading for f in fps], float)[near] - facing))
+    return bool((off > angle).any())
 
 
 # ----------------------------------------------------------------------------- synthesis
