@@ -163,3 +163,62 @@ def test_a_turning_plan_saved_and_baked_turns_again(fp, empty_scene, tmp_path):
         doc = json.load(fh)
     assert [t["where"] for t in doc["turns_in_place"]] == ["start"]
     assert doc["quality"]["foot_skate"]["max_mm"] < 1.0
+
+
+def test_a_job_back_to_the_start_turns_at_both_ends_and_the_panel_says_so(fp, empty_scene, tmp_path):
+    """A job list's return from the Goal to the Start (the Turns scene's U-turn): it turns
+    in place to face the way back, and at the Start to face the Start's way; the panel's
+    Plan reports the same turns."""
+    import bpy
+
+    path, char = _turns_saved(fp, tmp_path)
+    jobs = tmp_path / "jobs.json"
+    rep = tmp_path / "back.json"
+    jobs.write_text(json.dumps([{"character": char, "goal": "Start", "start": "Goal", "name": "back",
+                                 "report": str(rep)}]))
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    assert cli(["bake", path, "--job", str(jobs), "--out", str(tmp_path / "jobs.blend")]) == 0
+    doc = json.loads(rep.read_text())
+    assert [t["where"] for t in doc["turns_in_place"]] == ["start", "end"]
+    assert all(abs(t["degrees"]) >= 90 for t in doc["turns_in_place"])
+    q = doc["quality"]
+    assert q["goal"]["distance_m"] < 0.05 and abs(q["goal"]["heading_deg"]) < 5.0
+    assert q["foot_skate"]["max_mm"] < 1.0 and q["pops"]["introduced"]["count"] <= 5
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    fs = scene.footstep
+    fs.character, fs.goal, fs.start = bpy.data.objects[char], scene.objects["Start"], scene.objects["Goal"]
+    assert bpy.ops.footstep.plan() == {"FINISHED"}
+    planned = json.loads(fs.plan_json)
+    assert [t["where"] for t in planned["turns_in_place"]] == ["start", "end"]
+
+
+def test_a_pause_where_the_way_turns_back_turns_in_place_there(fp, empty_scene, tmp_path):
+    """Out along the Turns path to A, pause, and back past the start's way: the path stops
+    at A and turns on the spot there toward the way back; the arrival frame asked for the
+    goal is still met as Blender plays the saved scene."""
+    import bpy
+
+    path, char = _turns_saved(fp, tmp_path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    for name, at in (("A", (5.0, 0.0, 0.0)), ("Back", (1.5, 0.0, 0.0))):
+        e = bpy.data.objects.new(name, None)
+        e.location = at
+        scene.collection.objects.link(e)
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    out, rep = str(tmp_path / "via.blend"), str(tmp_path / "via.json")
+    assert cli(["bake", path, "--character", char, "--start", "Start", "--goal", "Back", "--via", "A",
+                "--pause", "A=0.5", "--arrive", "Back=440", "--out", out, "--report", rep]) == 0
+    with open(rep) as fh:
+        doc = json.load(fh)
+    turns = doc["turns_in_place"]
+    assert [t["where"] for t in turns] == ["waypoint"] and abs(turns[0]["degrees"]) >= 60
+    rows = {r["name"]: r for r in doc["waypoints"]}
+    assert abs(rows["Back"]["achieved"] - 440) <= 1.0
+    assert rows["A"]["achieved"] < turns[0]["frames"][0]
+    body, yaw, stances, skate = _played(fp, out, doc)
+    a, b = (f - doc["frame_start"] for f in turns[0]["frames"])
+    assert np.linalg.norm(body[a:b + 1, :2] - body[a, :2], axis=1).max() < 0.03
+    assert skate["max_mm"] < 1.0

@@ -60,9 +60,9 @@ class ViaRoute:
                     for name, pos, h in self.waypoints]
         from ..core.pipeline import standing_body
 
-        head = turn_in_place.start_turn(setup.planner, start, self.wps[0].position,
-                                        standing_body(setup.library, setup.analyses))
-        self.route = plan_via(setup.planner, [head[-1]] if head else start, self.wps)
+        body = standing_body(setup.library, setup.analyses)
+        head = turn_in_place.start_turn(setup.planner, start, self.wps[0].position, body)
+        self.route = plan_via(setup.planner, [head[-1]] if head else start, self.wps, body)
         if head:  # (the way leaves from the turned feet: the turn's pivot steps come first)
             res = self.route.result
             fps = head[:-1] + [replace(res.footprints[0], label=turn_in_place.PIVOT)] + list(res.footprints[1:])

@@ -475,8 +475,10 @@ def _flat(s: Synthesis) -> np.ndarray:
 
 
 def _shifted(turn: dict, frames: int) -> dict:
-    """A turn in place (``Synthesis.turns``) of a leg that begins ``frames`` later."""
-    return dict(turn, frames=[f + frames for f in turn["frames"]])
+    """A turn in place (``Synthesis.turns``) of a leg that begins ``frames`` later: one at
+    the start of a leg after the first is at a "waypoint" (where the path stopped)."""
+    where = "waypoint" if turn["where"] == "start" and frames > 0 else turn["where"]
+    return dict(turn, where=where, frames=[f + frames for f in turn["frames"]])
 
 
 __all__ = ["ARRIVE_BAND", "Joined", "Mark", "Performance", "TimingError", "arrival_frames", "arrival_times", "join",

@@ -111,9 +111,10 @@ def plan_report(result: PlanResult, syn: Synthesis, character: str, goal, frame_
 
 
 def turn_rows(syn: Synthesis, frame_start: float) -> list[dict]:
-    """Where the motion turns in place (``turn_in_place``): at the "start" or the "end",
-    the degrees the body turns (positive left), its pivot steps, its first and last scene
-    frame (the first frame being ``frame_start``) and its seconds."""
+    """Where the motion turns in place (``turn_in_place``): at the "start", at a "waypoint"
+    it stops at or at the "end"; the degrees the body turns (positive left), its pivot
+    steps, its first and last scene frame (the first frame being ``frame_start``) and its
+    seconds."""
     return [dict(t, frames=[frame_start + f for f in t["frames"]]) for t in getattr(syn, "turns", [])]
 
 

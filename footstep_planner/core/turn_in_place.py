@@ -256,10 +256,11 @@ def facing_way(planner: Planner, footprints: list[PathFootprint], goal, field=No
 
 
 def start_turn(planner: Planner, start: list[PathFootprint], goal, body=(0.0, 0.0),
-               field=None) -> list[PathFootprint]:
+               field=None, first: int | None = None) -> list[PathFootprint]:
     """The start turn's footprints (the start foot that stays, then the pivot steps), when
     the way ahead lies more than ``turn_in_place_angle`` from where the standing feet
-    face; else []. The pivot steps must stand (support, obstacles), else no turn.
+    face; else []. The pivot steps must stand (support, obstacles), else no turn. The
+    foot on the turning side steps first, or ``first`` (0 left, 1 right).
     ``body``: see ``pivot_footprints``."""
     cfg = planner.settings
     if cfg.turn_in_place_angle <= 0 or len(start) != 2 or start[0].foot == start[1].foot:
@@ -271,9 +272,9 @@ def start_turn(planner: Planner, start: list[PathFootprint], goal, body=(0.0, 0.
     off = float(_wrap(way - facing))
     if abs(off) <= cfg.turn_in_place_angle:
         return []
-    inside = 0 if off > 0 else 1
-    first = next(f for f in start if f.foot == inside)
-    stays = next(f for f in start if f.foot != inside)
+    moves = (0 if off > 0 else 1) if first is None else first  # (the foot on the turning side)
+    stays = next(f for f in start if f.foot != moves)
+    first = next(f for f in start if f.foot == moves)
     steps = pivot_footprints(stays, first, facing + off, planner.forward, cfg.turn_step_angle, planner.foot,
                              body=body)
     if not steps or not _stand(planner, steps):
@@ -367,9 +368,10 @@ def _loops(fps: list[PathFootprint], facing: float, angle: float) -> bool:
 def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, goal, goal_heading, lead, hold, pace,
                forward, foot: FootShape, step_angle: float, body=(0.0, 0.0)):
     """The motion of a path that turns in place (``split``): each turn a leg from standing
-    to standing on its pivot steps, the walk a leg leaving from the feet
-    the start turn stood on, the end turn's pivot steps laid from the feet the walk stood
-    on to the last one's heading; joined (``directed.join``). ``synth`` makes a leg as
+    to standing on its pivot steps, the start turn's laid again from the feet it stands on
+    (a stop's are eased onto its waypoint), the walk a leg leaving from the feet the start
+    turn stood on, the end turn's pivot steps laid from the feet the walk stood on to the
+    last one's heading; joined (``directed.join``). ``synth`` makes a leg as
     ``directed.SynthFn`` does: (path, other standing foot, goal, goal heading, lead s,
     hold s, pace) -> Synthesis. ``other`` is the start's other standing foot; ``lead``
     and ``hold`` s of standing before the first step and after the last (None: the
@@ -389,6 +391,10 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         k = max(len(head) - 1, 0)
         pace = np.asarray(pace, float)[k:k + len(walk_path) - 1]
     parts, turns = [], []
+    if head and other is not None:  # (laid again from the feet it stands on: a stop's are eased onto the waypoint)
+        steps = pivot_footprints(head[0], other, head[-1].heading, forward, step_angle, foot, body=body)
+        if len(steps) == len(head) - 1:
+            head = [head[0]] + [replace(f, time=g.time) for f, g in zip(steps, head[1:])]
     if head:
         turn0 = _turned(synth(head, other, None, None, lead, 0.0, None), "start")
         pos, hd = turn0.footprints
