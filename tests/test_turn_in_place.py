@@ -165,15 +165,19 @@ def test_split_takes_a_turning_path_apart():
 @needs_cmu
 def test_a_start_facing_a_narrow_corridors_wall_turns_to_walk_along_it(bench_character):
     """The planner benchmark's corridor1.2_across: 1.2 m wide, the character facing a wall.
-    No walking turn fits (refused); a quarter turn in place first, then a straight walk."""
+    A walking turn barely fits (with the clips' own strides none does: refused); a quarter
+    turn in place first, then a straight walk."""
     from benchmarks.bench_planner import loops
     from benchmarks.scene_generator import benchmark_scenes, make_planner
     from footstep_planner.core.navgraph import PlanError
 
     scene = next(s for s in benchmark_scenes() if s.name == "corridor1.2_across")
     pl, start, goal = make_planner(scene, bench_character)
-    with pytest.raises(PlanError, match="clearance"):
-        pl.plan(start, goal)
+    try:  # (without turning in place: refused, or a walk that turns round within its first 1.5 m)
+        walked = pl.plan(start, goal)
+        assert tip._loops(walked.footprints, start[0].heading, pl.settings.turn_in_place_angle)
+    except PlanError:
+        pass
     res = tip.plan(pl, start, goal)
     turns = tip.turns_of(res.footprints)
     assert [t.where for t in turns] == ["start"] and abs(abs(turns[0].degrees) - 90) < 15
