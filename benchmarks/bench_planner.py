@@ -58,7 +58,7 @@ def loops(fs) -> int:
     return int(near.any(axis=1).sum())
 
 
-STEP_FIELDS = ("fwd", "left", "turn", "duration", "foot", "gait", "jump", "label")
+from footstep_planner.core.steps import FIELDS as STEP_FIELDS  # noqa: E402
 
 
 def save_character(character, path: str) -> None:
@@ -78,7 +78,7 @@ def read_character(path: str):
     from footstep_planner.core.surface import FootShape
 
     d = np.load(path, allow_pickle=False)
-    steps = StepSet(*(d[f].astype(object) if f in ("gait", "label") else d[f] for f in STEP_FIELDS))
+    steps = StepSet(*(d[f].astype(object) if f in ("gait", "label") else d[f] for f in STEP_FIELDS if f in d))  # (older: no stride)
     return Character(steps, d["forward"], FootShape(*d["foot_shape"].tolist()))
 
 

@@ -120,7 +120,8 @@ def cmu_character(package: str = "footstep_planner") -> Character:
     ob, _ = clips_mod.import_clips(cmu_files(), name="CMU")
     settings = Settings()
     clips = character.analyze_character(ob, settings, mirrors=True)
-    steps = library_steps(character.library_for(ob, clips), clips.analyses, bend_curvature=settings.bend_curvature)
+    steps = library_steps(character.library_for(ob, clips), clips.analyses, bend_curvature=settings.bend_curvature,
+                          stride=(settings.stride_min, settings.stride_max))
     return Character(steps, np.asarray(planning.world_forward(ob, clips.analyses)),
                      planning.foot_shape(clips.analyses))
 

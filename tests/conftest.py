@@ -160,6 +160,14 @@ def bench_character(fp):
     return cmu_character(fp.__name__)
 
 
+def own_strides(character):
+    """``character`` (``scene_generator.Character``) with its clips' own strides only
+    (no adapted strides: ``Settings.stride_min`` 1)."""
+    from dataclasses import replace
+
+    return replace(character, steps=character.steps.take(character.steps.stride == 1.0))
+
+
 @pytest.fixture
 def empty_scene(fp):
     """A fresh empty scene at 24 fps, the add-on still enabled."""

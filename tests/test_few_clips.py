@@ -71,7 +71,7 @@ def chain(steps, label, n, foot=0):
 def test_one_straight_walk_gives_steps_turning_both_ways_up_to_the_bend_limit(bend):
     lib, analyses = one_walk()
     st = library_steps(lib, analyses, bend_curvature=bend)
-    straight = st.label == "walk"
+    straight = (st.label == "walk") & (st.stride == 1.0)  # (the clip's own stride)
     assert straight.sum() == 2 and np.abs(st.turn[straight]).max() < 1e-3
     fwd0 = float(st.fwd[straight].mean())  # the straight step's length along its centre line
     taus = np.array([label_tau(s) for s in st.label])
@@ -86,8 +86,8 @@ def test_one_straight_walk_gives_steps_turning_both_ways_up_to_the_bend_limit(be
         np.testing.assert_allclose(label_weights(s, lib, ["walk"]), [1.0])
     # bent: the same arc length, the same duration
     assert np.allclose(st.duration[st.foot == 0], st.duration[straight & (st.foot == 0)][0])
-    # without the limit only the clip's own steps are left
-    none = library_steps(lib, analyses, bend_curvature=0.0)
+    # without the limit (and without adapted strides) only the clip's own steps are left
+    none = library_steps(lib, analyses, bend_curvature=0.0, stride=(1.0, 1.0))
     assert none.n == 2 and np.abs(none.turn).max() < 1e-3
 
 

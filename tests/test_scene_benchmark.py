@@ -63,11 +63,26 @@ def test_a_corridor_start_facing_across_turns_where_the_turns_fit(bench_characte
     check_path(pl, result, scene)
 
 
-def test_a_corridor_too_narrow_to_turn_in_names_the_wall(bench_character):
-    """1.2 m across: the wall is 0.6 m ahead, and the shortest step with the body's
-    clearance does not fit before it."""
+def test_a_corridor_too_narrow_for_the_clips_strides_is_turned_in_with_shorter_ones(bench_character):
+    """1.2 m across: no step of the clips' own stride fits before the wall 0.6 m ahead;
+    shortened strides (``Settings.stride_min``) turn into the corridor."""
     scene = corridor(np.random.default_rng(7), "c", 1.2, "across")
-    pl, start, goal = make_planner(scene, bench_character)
+    pl, result = plan_scene(scene, bench_character)
+    check_path(pl, result, scene)
+    st = bench_character.steps
+    own = (st.stride == 1.0) & ~st.jump & (st.gait == "walk")
+    shortest = float(np.hypot(st.fwd[own], st.left[own]).min())
+    p = np.array([f.position for f in result.footprints])
+    assert (np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1) < 0.9 * shortest).any()  # a shortened step
+
+
+def test_a_corridor_too_narrow_to_turn_in_names_the_wall(bench_character):
+    """1.2 m across with the clips' own strides only: the wall is 0.6 m ahead, and the
+    shortest step with the body's clearance does not fit before it."""
+    from conftest import own_strides
+
+    scene = corridor(np.random.default_rng(7), "c", 1.2, "across")
+    pl, start, goal = make_planner(scene, own_strides(bench_character))
     with pytest.raises(PlanError) as err:
         pl.plan(start, goal)
     msg = str(err.value)

@@ -100,7 +100,8 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
         why = "; ".join(clips.errors.values()) or "it has no actions"
         raise PlanError(f"character {ob.name!r} has no usable clips ({why})")
     library = library_for(ob, clips)
-    steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature)
+    steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature,
+                          stride=(settings.stride_min, settings.stride_max))
     forward = world_forward(ob, clips.analyses)
     cache = _CACHES.setdefault(scene.name, FootprintCache())
     cache.update(object_geometry(ground, obst))

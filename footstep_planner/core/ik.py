@@ -50,6 +50,9 @@ from .offsets import body_offsets, smooth_offsets
 from .rig import Rig, forward_kinematics
 from .settings import Settings
 
+#: s: the finest level of the body's height offset (3.8.1): it changes between stances
+#: over about this long.
+BODY_RISE_FINE = 0.25
 #: m a swinging foot keeps above the surface.
 GROUND_MARGIN = 0.002
 #: The leg is never stretched past this share of its length (a straight knee pops).
@@ -413,7 +416,12 @@ def _offset_body(pose: np.ndarray, legs: _Legs, tg: FootTargets, t: np.ndarray, 
     dp, dpsi = body_offsets(np.asarray(body_pos, float), yaw, p_loc, tg.pin, planted_mask,
                             alpha=settings.ik_alpha, beta=settings.ik_beta, iterations=settings.ik_iterations)
     if np.isfinite(dpsi).any():
+        raw = dp
         dp, dpsi = smooth_offsets(t, dp, dpsi)
+        # the height offset on a coarser finest level: stepping up or down a stair the
+        # stances' offsets differ by centimetres, fitted two frames apart the body jolts
+        dp[:, 2] = smooth_offsets(t, raw, np.where(np.isfinite(raw).all(axis=1), 0.0, np.nan),
+                                  fine=BODY_RISE_FINE)[0][:, 2]
     else:
         dp, dpsi = np.zeros((F, 3)), np.zeros(F)
     if still is not None:  # (held over its place as far as ``still``: up and down only)

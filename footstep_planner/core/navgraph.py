@@ -73,6 +73,11 @@ def fine_keys(xy: np.ndarray, heading: np.ndarray) -> list[tuple[int, int, int]]
     return list(zip(c[:, 0].tolist(), c[:, 1].tolist(), b.tolist()))
 
 
+#: m: the ground between two footprints may rise this much above the higher of them
+#: (a swinging foot steps over a bump, not up a stair and down again).
+MAX_BUMP = 0.1
+
+
 class PlanError(FootstepError):
     """No path: the message says why, and where the nearest reachable point is.
     ``expanded`` footprints were expanded before the search gave up (0: refused before
@@ -295,15 +300,19 @@ class Planner:
     def _between(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For footprint pairs (rows of a, b (N, 3)): (ground continues between them,
         the way between them is clear of obstacles). Three points between are tested:
-        the ground must be under each within a step's height; no obstacle may stand
-        there below head height, nor closer than half the clearance at the hips."""
+        the ground must be under each within a step's height, and no higher than
+        MAX_BUMP over the higher footprint; no obstacle may stand there below head
+        height, nor closer than half the clearance at the hips."""
         t = np.array([0.25, 0.5, 0.75])
         pts = a[:, None] + (b - a)[:, None] * t[None, :, None]
         top = pts.copy()
         top[..., 2] = np.maximum(a[:, None, 2], b[:, None, 2]) + self.max_step_height
         hit = self.ground.ray_down(top.reshape(-1, 3), 2 * self.max_step_height + 0.2)
         ground = hit.hit.reshape(len(a), 3).all(axis=1)
-        clear = np.ones(len(a), bool)
+        # a step does not pass over ground higher than both its ends (a landing's corner
+        # cut from one flight to the other): the swinging foot would have to climb it
+        rise = np.where(hit.hit, hit.z, -np.inf).reshape(len(a), 3).max(axis=1)
+        clear = rise <= np.maximum(a[:, 2], b[:, 2]) + MAX_BUMP
         if self.obstacles is not None and self.obstacles.mesh.n:
             base = np.minimum(a[:, None, 2], b[:, None, 2]) + np.zeros((1, 3))
             head = np.concatenate([pts[..., :2], (base + 1.6)[..., None]], axis=2).reshape(-1, 3)
@@ -312,11 +321,23 @@ class Planner:
             hips[:, 2] -= 0.6
             _, d = self.obstacles.nearest(hips, max_dist=0.5 * self.clearance)
             near = (d < 0.5 * self.clearance).reshape(len(a), 3).any(axis=1)
-            clear = ~inside & ~near
+            clear &= ~inside & ~near
             long = np.flatnonzero(clear & (np.linalg.norm((b - a)[:, :2], axis=1) > LONG_WAY))
             if len(long):  # (a jump's three points may all fall inside a thick wall: look all along)
                 clear[long] = self._clear_along(a[long], b[long])
         return ground, clear
+
+    def _no_bump(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(K,) whether the ground from ``a`` (3,) to each of ``b`` (K, 3) (a foot's swing,
+        from its last footprint to its next) stays within MAX_BUMP of the higher end:
+        a foot swings over a tread between two, not over a landing's corner."""
+        t = np.array([0.25, 0.5, 0.75])
+        pts = a[None, None] + (b - a)[:, None] * t[None, :, None]
+        top = np.maximum(a[2], b[:, 2])
+        pts[..., 2] = top[:, None] + self.max_step_height
+        hit = self.ground.ray_down(pts.reshape(-1, 3), 2 * self.max_step_height + 0.2)
+        rise = np.where(hit.hit, hit.z, -np.inf).reshape(len(b), 3).max(axis=1)
+        return rise <= top + MAX_BUMP
 
     def _clear_along(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) whether the way from each ``a`` to ``b`` (N, 3) keeps the body's clearance
@@ -517,7 +538,7 @@ class Planner:
         """(S,) s: each step's cost, its duration plus the turn, jump and run penalties
         (a gait change is added per successor)."""
         st, cfg = self.steps, self.settings
-        return (st.duration + cfg.turn_penalty * np.abs(st.turn)
+        return (st.time_cost(cfg.stride_penalty) + cfg.turn_penalty * np.abs(st.turn)
                 + np.where(st.jump, cfg.jump_penalty, 0.0)
                 + np.where(st.gait == "run", cfg.run_penalty, 0.0))
 
@@ -568,6 +589,9 @@ class Planner:
         if ok.any():
             ok[ok] &= self._way_clear(node, batch.sel[todo][ok], np.c_[nxt[ok], z[ok]],
                                       fine_keys(nxt[ok], psi[ok]))
+        walk = ok & ~self.steps.jump[batch.sel[todo]]
+        if walk.any() and node.parent >= 0:  # the stepping foot swings from the footprint before
+            ok[walk] &= self._no_bump(search.nodes[node.parent].position, np.c_[nxt[walk], z[walk]])
         batch.state[todo] = np.where(ok, 1, 2)
         batch.z[todo] = z
 
@@ -689,10 +713,7 @@ class Planner:
 
     def _step_costs(self) -> tuple[np.ndarray, np.ndarray]:
         """(length (S,) m, least cost (S,) s) of each step, its turn penalty aside."""
-        st, cfg = self.steps, self.settings
-        cost = st.duration + cfg.turn_penalty * np.abs(st.turn) \
-            + np.where(st.gait == "run", cfg.run_penalty, 0.0) + np.where(st.jump, cfg.jump_penalty, 0.0)
-        return np.hypot(st.fwd, st.left), cost
+        return np.hypot(self.steps.fwd, self.steps.left), self._base_costs()
 
     def _cost_speed(self) -> tuple[float, float]:
         """(v m/s, slack m): the metres per second of cost of the two steps (one of each

@@ -78,7 +78,10 @@ def refine(orig_pos, orig_heading, desired_pos, desired_heading, iterations: int
     sweep. With ``height`` (positions (M, 3) -> the same on the surface) the sweeps in
     between only drop the footprints onto the surface, and ``snap`` checks the last
     sweep: a footprint it refuses goes back to its place before refinement (which the
-    path already held). Inputs are not modified."""
+    path already held). A ``snap`` with ``crosses_edge(a, b) -> (M,) bool`` (see
+    ``pipeline.surface_snap``) keeps each footprint on the side of every step edge it
+    was desired on: a move across one is refused (a footprint planned on a stair tread
+    stays on it). Inputs are not modified."""
     op = np.asarray(orig_pos, float)
     oh = np.asarray(orig_heading, float)
     pos = np.array(desired_pos, dtype=float, copy=True)
@@ -97,6 +100,7 @@ def refine(orig_pos, orig_heading, desired_pos, desired_heading, iterations: int
         move &= ~np.asarray(fixed, bool)
     idx = np.flatnonzero(move[1:-1]) + 1
     start_p, start_h = pos[idx].copy(), head[idx].copy()
+    edge = getattr(snap, "crosses_edge", None)
     for it in range(iterations):
         tp, th = local_targets(op, oh, pos, head)
         # half-way: a simultaneous update alone flips left and right feet every sweep
@@ -105,8 +109,13 @@ def refine(orig_pos, orig_heading, desired_pos, desired_heading, iterations: int
         last = it == iterations - 1
         if height is not None and not last:
             new_p = height(new_p)
+            if edge is not None:
+                across = edge(start_p, new_p)
+                new_p[across], new_h[across] = pos[idx][across], head[idx][across]
         elif snap is not None:
             sp, ok = snap(new_p, new_h)
+            if edge is not None:
+                ok &= ~edge(start_p, sp)
             rejected[idx[~ok]] += 1
             back_p, back_h = (start_p, start_h) if height is not None else (pos[idx], head[idx])
             new_p = np.where(ok[:, None], sp, back_p)

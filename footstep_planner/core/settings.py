@@ -90,6 +90,15 @@ class Settings:
         bent into arcs of up to this curvature (1/radius) either way, beyond the turns the
         library's own clips make, so a library of one straight walk still turns; the IK puts
         the feet on the bent footprints. 0: only the clips' own steps.""")
+    stride_min: float = setting(0.4, "1", 0.05, 1.0, """Walking steps may be shortened down to
+        this share of their clip's stride (the same clip, its footprints scaled and the feet put
+        there by IK), so stair treads, kerbs and tight places are stepped on: 0.4 of a 0.7 m
+        step fits one 28 cm tread per step. 1: the clips' own strides only.""")
+    stride_max: float = setting(1.0, "1", 1.0, 3.0, """Walking steps may be lengthened up to this
+        share of their clip's stride (1: never).""")
+    stride_penalty: float = setting(2.0, "1", 0.0, 100.0, """An adapted stride costs its time times
+        1 + this times |ln(share of the clip's stride)|: above about 1.2 a longer stride covers
+        ground dearer than the clip's own, so open ground keeps the clip's stride.""")
     max_expansions: int = setting(20000, "footprints", 1, 10_000_000, """The search gives up after
         expanding this many footprints (a bound on work, the same on every machine).""")
 

@@ -252,7 +252,9 @@ def smooth_footprints(position, heading, iterations: int = 4, snap: SnapFn | Non
     ``fixed`` footprints (default: the first and the last) are ignored, they never move.
     A snapped position that is not finite counts as not ok. The guarantee "never enters an
     obstacle" assumes the input footprints are valid stances. Fewer than 3 footprints: the
-    input is returned unchanged (nothing moves, so nothing is snapped).
+    input is returned unchanged (nothing moves, so nothing is snapped). A ``snap`` with
+    ``crosses_edge(a, b) -> (N,) bool`` (``pipeline.surface_snap``) also refuses a move
+    across a step edge from where the footprint was planned (it stays on its tread).
     """
     pos = np.array(position, dtype=np.float64)
     head = np.array(heading, dtype=np.float64)
@@ -269,6 +271,7 @@ def smooth_footprints(position, heading, iterations: int = 4, snap: SnapFn | Non
         raise ValueError(f"iterations must be >= 0, got {iterations}")
     mask = _fixed_mask(fixed, n)
     rejected = np.zeros(n, dtype=int)
+    position0 = pos.copy()
     if n < MIN_FOOTPRINTS:
         return Smoothed(pos, head, int(iterations), rejected)
 
@@ -284,6 +287,9 @@ def smooth_footprints(position, heading, iterations: int = 4, snap: SnapFn | Non
                     f"snap must return positions ({n}, 3) and ok ({n},), got "
                     f"{snapped.shape} and {ok.shape}")
             ok = ok.astype(bool) & np.all(np.isfinite(snapped), axis=1)
+            edge = getattr(snap, "crosses_edge", None)
+            if edge is not None and ok.any():
+                ok[ok] &= ~edge(position0[ok], snapped[ok])
             stay = ~ok & ~mask
             rejected += stay
             new_pos = np.where(ok[:, None], snapped, pos)

@@ -11,11 +11,19 @@ that side, bent along arcs up to ``bend_curvature`` (1/m) either way, so a libra
 straight walk still turns (labelled "group@tau", synthesized with that clip; the IK puts
 the feet on the bent footprints). A jump step flies: it may cross a gap, and only a jump
 step may.
+
+*Adapted strides* (``stride_steps``): a walking step may also be shortened or lengthened,
+its forward length times ``stride`` between ``Settings.stride_min`` and ``stride_max``
+(sideways and turn kept, the same clip and duration: the refinement's similarity maps
+the clip's footprints onto the shorter ones and the IK puts the feet there), so that
+stair treads, kerbs and short gaps between obstacles are stepped on with an ordinary
+walk. An adapted step costs more than its time (``Settings.stride_penalty``), so open
+ground keeps the clips' own stride.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -45,6 +53,16 @@ class StepSet:
     gait: np.ndarray  # (N,) object: "walk" / "run" (the gait stepped in)
     jump: np.ndarray  # (N,) bool
     label: np.ndarray  # (N,) object: clip name, or "group@param" for a blend
+    stride: np.ndarray | None = None  # (N,) the clip's forward length scaled by (1: its own)
+
+    def __post_init__(self):
+        if self.stride is None:
+            object.__setattr__(self, "stride", np.ones(len(self.fwd)))
+
+    def time_cost(self, stride_penalty: float) -> np.ndarray:
+        """(N,) s: each step's duration, an adapted stride's made dearer by
+        ``stride_penalty`` per unit of |ln stride| (see ``Settings.stride_penalty``)."""
+        return self.duration * (1.0 + stride_penalty * np.abs(np.log(self.stride)))
 
     @property
     def n(self) -> int:
@@ -56,7 +74,15 @@ class StepSet:
         if not sets:
             raise StepError("the clip library gives no steps: it needs at least one walk or run clip")
         return StepSet(*(np.concatenate([getattr(part, f) for part in sets]) for f in
-                         ("fwd", "left", "turn", "duration", "foot", "gait", "jump", "label")))
+                         FIELDS))
+
+    def take(self, sel) -> "StepSet":
+        """The steps ``sel`` (a mask or indices)."""
+        return StepSet(*(getattr(self, f)[sel] for f in FIELDS))
+
+
+#: StepSet's array fields, in order.
+FIELDS = ("fwd", "left", "turn", "duration", "foot", "gait", "jump", "label", "stride")
 
 
 def relative(a: Footprint, b: Footprint, forward: np.ndarray) -> tuple[float, float, float]:
@@ -183,21 +209,26 @@ def bend_curvatures(lo: float, hi: float, limit: float, reach: tuple[float, floa
 
 def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_interval: int = 3,
                   jump_tolerance: float = 0.1,
-                  bend_curvature: float = Settings.bend_curvature) -> StepSet:
+                  bend_curvature: float = Settings.bend_curvature,
+                  stride: tuple[float, float] = (Settings.stride_min, Settings.stride_max)) -> StepSet:
     """Steps of every cyclic clip of the library's turning groups, of blends between
     neighbouring clips of a group, of its outermost clips bent beyond the group's range
     out to +-``bend_curvature`` on a side where no clip of the library turns that
     tightly (``bent_step``, ``bend_curvatures``; 0: none: a library that turns keeps its
     own turns, and where it turns only walking, runs do not bend), and of the jumps
     (take-off to landing, within ``jump_tolerance`` of their length and 10 degrees of
-    their direction: the refinement stage bends the clip that far)."""
+    their direction: the refinement stage bends the clip that far), and the walking steps
+    of the clips and their blends with adapted strides (``stride_steps``, ``stride``:
+    (least, most) share of the clip's forward length)."""
     by = {a.name: a for a in analyses}
     groups = _group_steps(library, by)
     taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]
     reach = (min(taus), max(taus)) if taus else (0.0, 0.0)
     rows = []  # foot, fwd, left, turn, duration, gait, jump, label
+    plain = set()  # the labels of clips and blends within their group's range
     for gait, group, per_clip in groups:
         rows += _cyclic_rows(gait, group, per_clip, blends_per_interval)
+        plain |= {r[-1] for r in rows}
         if bend_curvature > 0:
             rows += _bent_rows(gait, group, per_clip, bend_curvature, reach)
     for sp in library.specials:
@@ -206,10 +237,41 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
         raise StepError("the clip library gives no steps: it needs walk or run clips "
                         "with at least two steps of each foot")
     cols = list(zip(*rows))
-    return StepSet(fwd=np.array(cols[1], float), left=np.array(cols[2], float),
-                   turn=np.array(cols[3], float), duration=np.array(cols[4], float),
-                   foot=np.array(cols[0], int), gait=np.array(cols[5], object),
-                   jump=np.array(cols[6], bool), label=np.array(cols[7], object))
+    own = StepSet(fwd=np.array(cols[1], float), left=np.array(cols[2], float),
+                  turn=np.array(cols[3], float), duration=np.array(cols[4], float),
+                  foot=np.array(cols[0], int), gait=np.array(cols[5], object),
+                  jump=np.array(cols[6], bool), label=np.array(cols[7], object))
+    cyclic = np.array([lab in plain for lab in own.label]) & (own.gait == "walk")
+    return StepSet.concat([own, stride_steps(own.take(cyclic), *stride)])
+
+
+#: Adapted strides are spaced at most this ratio apart (from the clip's own outwards).
+STRIDE_RATIO = 1.25
+
+
+def stride_factors(lo: float, hi: float) -> np.ndarray:
+    """The stride factors (not 1) from ``lo`` to ``hi``: both ends and, between them and
+    1, factors at most STRIDE_RATIO apart (geometrically spaced); an end within 1 % of 1
+    gives none."""
+    out = []
+    for end in (lo, hi):
+        if abs(np.log(end)) < 0.01:
+            continue
+        n = int(np.ceil(abs(np.log(end)) / np.log(STRIDE_RATIO) - 1e-9))
+        out += list(np.exp(np.log(end) * np.arange(1, n + 1) / n))
+    return np.array(sorted(out))
+
+
+def stride_steps(steps: StepSet, lo: float, hi: float) -> StepSet:
+    """``steps`` again at each stride factor between ``lo`` and ``hi`` (``stride_factors``):
+    forward lengths scaled, the rest kept."""
+    k = stride_factors(lo, hi)
+    if not steps.n or not len(k):
+        return steps.take(np.zeros(0, int))
+    idx = np.tile(np.arange(steps.n), len(k))
+    out = steps.take(idx)
+    f = np.repeat(k, steps.n)
+    return replace(out, fwd=out.fwd * f, stride=f)
 
 
 def _group_steps(library: Library, by: dict) -> list[tuple]:

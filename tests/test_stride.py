@@ -1,0 +1,71 @@
+"""Adapted strides (issue 14): steps shortened (or lengthened) from the same clip, and
+footprints kept on the tread they were planned on. Pure core, no bpy."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from footstep_planner.core.refinement import refine
+from footstep_planner.core.steps import STRIDE_RATIO, StepSet, stride_factors, stride_steps
+
+
+@given(st.floats(0.1, 1.0), st.floats(1.0, 2.0))
+@settings(max_examples=60, deadline=None)
+def test_stride_factors_reach_both_ends_in_small_ratios(lo, hi):
+    k = stride_factors(lo, hi)
+    assert np.all(np.diff(k) > 0) and not np.any(np.abs(np.log(k)) < 0.01)
+    if lo < 0.99:
+        assert np.isclose(k.min(), lo)
+    if hi > 1.011:
+        assert np.isclose(k.max(), hi)
+    ladder = np.r_[k[k < 1], 1.0, k[k > 1]]
+    assert np.all(np.diff(np.log(ladder)) <= np.log(STRIDE_RATIO) + 1e-9)
+
+
+def _steps(n=4):
+    rng = np.random.default_rng(1)
+    return StepSet(rng.uniform(0.5, 0.8, n), rng.uniform(-0.3, 0.3, n), rng.uniform(-0.3, 0.3, n),
+                   rng.uniform(0.4, 0.6, n), np.arange(n) % 2, np.array(["walk"] * n, object),
+                   np.zeros(n, bool), np.array([f"c{i}" for i in range(n)], object))
+
+
+def test_adapted_strides_scale_the_forward_length_only_and_cost_more_than_their_time():
+    base = _steps()
+    out = stride_steps(base, 0.4, 1.3)
+    k = stride_factors(0.4, 1.3)
+    assert out.n == base.n * len(k)
+    np.testing.assert_allclose(out.fwd, np.tile(base.fwd, len(k)) * np.repeat(k, base.n))
+    for f in ("left", "turn", "duration", "foot", "label"):
+        assert (getattr(out, f) == np.tile(getattr(base, f), len(k))).all()
+    np.testing.assert_array_equal(base.time_cost(2.0), base.duration)  # the clip's own: its time
+    cost = out.time_cost(2.0)
+    assert (cost > out.duration).all()
+    # with a penalty over ~1.2, a longer stride covers a metre dearer than the clip's own
+    per_m = cost / out.fwd
+    own = np.tile(base.duration / base.fwd, len(k))
+    assert (per_m[out.stride > 1] > own[out.stride > 1]).all()
+
+
+@given(st.floats(-0.2, 0.2), st.integers(3, 8))
+@settings(max_examples=40, deadline=None)
+def test_refinement_never_moves_a_footprint_across_a_step_edge(shift, n):
+    """Treads 0.28 m deep along x: whatever the clips' footprints pull towards, each
+    refined footprint stays on the tread it was desired on."""
+    tread = 0.28
+    desired = np.c_[np.arange(n) * tread + 0.14, np.where(np.arange(n) % 2, -0.1, 0.1), np.zeros(n)]
+    desired[:, 2] = np.floor(desired[:, 0] / tread) * 0.17
+    orig = desired.copy()
+    orig[:, 0] = np.arange(n) * 0.7 + shift  # the clip's own stride: 0.7 m
+    head = np.zeros(n)
+
+    def snap(p, h):
+        p = np.array(p, float)
+        p[:, 2] = np.floor(p[:, 0] / tread) * 0.17
+        return p, np.ones(len(p), bool)
+
+    def crosses_edge(a, b):
+        return np.floor(np.asarray(a)[:, 0] / tread) != np.floor(np.asarray(b)[:, 0] / tread)
+
+    snap.crosses_edge = crosses_edge
+    out = refine(orig, head, desired, head, 10, snap)
+    np.testing.assert_array_equal(np.floor(out.position[:, 0] / tread), np.floor(desired[:, 0] / tread))
