@@ -307,6 +307,9 @@ def _stand(planner: Planner, fps: list[PathFootprint]) -> bool:
 #: ``turn_in_place_angle`` from the way the character faces (the goal's heading) is taken
 #: for a loop, and a turn in place is weighed against it.
 LOOP_REACH = 1.5
+#: rad: a walk to the goal's heading whose footprints within LOOP_REACH of the goal face
+#: further than this (or than ``turn_in_place_angle``) from it looped round to it.
+LOOPED = np.radians(120.0)
 
 
 def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float | None = None,
@@ -314,36 +317,80 @@ def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float
     """``Planner.plan`` that turns in place where that beats a walking loop: at the start
     when the way ahead lies more than ``turn_in_place_angle`` from the way the character
     faces (the walk then leaves from the turned feet), and at the end when, with a goal
-    heading, the walk that may arrive facing any way arrives more than that from it (the
-    path ends turning on the spot to it). Only where the walk planned as without turning
-    turns that far within LOOP_REACH of the start (or of the goal), or is refused, are
-    the turns weighed (the way ahead, a search without the goal's heading): elsewhere it
-    costs one search, as without turning. The result's footprints hold the turns
-    (``split``); ``body``: see ``pivot_footprints``."""
+    heading, the walk arrives further than that from it (it then arrives facing its way
+    and the path ends turning on the spot to the goal's heading). Where the map's way in
+    (``arrival_way``) arrives further than that from the goal's heading, the walk that
+    arrives facing its way is searched first, and the one to the goal's heading only if
+    that arrives near enough after all: a search that loops round to the heading can take
+    the whole budget (the way in hugs the inside of a bend, so it is only a guess). Without a goal heading
+    the walk is planned first and the way ahead weighed only where it turns that far
+    within LOOP_REACH of the start, or is refused; with one, the walking-distance map is
+    built once more to weigh both. A walk to the goal's heading that still faces further
+    than LOOPED from it within LOOP_REACH of the goal is weighed against one arriving
+    facing its way. The
+    result's footprints hold the turns (``split``); ``body``: see ``pivot_footprints``."""
     cfg = planner.settings
-    if cfg.turn_in_place_angle <= 0:
+    angle = cfg.turn_in_place_angle
+    if angle <= 0:
         return planner.plan(start, goal, goal_heading)
     t0 = time.perf_counter()
-    res, refused = _try(planner, start, goal, goal_heading)
-    head = []
-    if res is None or _loops(res.footprints, _mean_heading(start[0], start[-1]), cfg.turn_in_place_angle):
-        head = start_turn(planner, start, goal, body)
-        if head:
-            res, refused = _try(planner, [head[-1]], goal, goal_heading)
-    origin = [head[-1]] if head else start
-    if goal_heading is not None and (res is None or _loops(res.footprints[::-1], goal_heading,
-                                                           cfg.turn_in_place_angle)):
-        free, _ = _try(planner, origin, goal, None)
-        if free is not None and abs(float(_wrap(goal_heading - free.footprints[-1].heading))) > cfg.turn_in_place_angle:
-            tail = end_turn(planner, free.footprints[-1], goal_heading, body)
-            if tail:
-                res = replace(free, footprints=list(free.footprints) + tail)
+    if goal_heading is None:
+        res, refused = _try(planner, start, goal, None)
+        head = []
+        if res is None or _loops(res.footprints, _mean_heading(start[0], start[-1]), angle):
+            head = start_turn(planner, start, goal, body)
+            if head:
+                res, refused = _try(planner, [head[-1]], goal, None)
+    else:
+        field = planner.distance_field(np.asarray(goal, float))
+        head = start_turn(planner, start, goal, body, field=field)
+        origin = [head[-1]] if head else start
+        res, refused = None, None
+        way = arrival_way(planner, field, origin, goal)
+        looping = way is not None and abs(float(_wrap(goal_heading - way))) > angle
+        if not looping:
+            res, refused = _try(planner, origin, goal, goal_heading)
+        if looping or res is None or _loops(res.footprints[::-1], goal_heading, max(angle, LOOPED)):
+            free, err = _try(planner, origin, goal, None)
+            if free is not None and abs(float(_wrap(goal_heading - free.footprints[-1].heading))) > angle:
+                tail = end_turn(planner, free.footprints[-1], goal_heading, body)
+                if tail:
+                    res = replace(free, footprints=list(free.footprints) + tail)
+            if res is None and looping:  # (the walk arrives facing near enough after all)
+                res, refused = _try(planner, origin, goal, goal_heading)
+            refused = refused or err
     if res is None:
         raise refused
     if head:
         fps = head[:-1] + [replace(res.footprints[0], label=PIVOT)] + list(res.footprints[1:])
         res = replace(res, footprints=fps)
     return replace(res, seconds=time.perf_counter() - t0)
+
+
+#: m from the goal at which ``arrival_way`` reads the way in
+ARRIVAL_REACH = 1.0
+
+
+def arrival_way(planner: Planner, field, start: list[PathFootprint], goal) -> float | None:
+    """The heading (rad) the walk from ``start`` arrives at ``goal`` with, as the
+    walking-distance map ``field`` leads there: its way followed from the middle of the
+    feet until ARRIVAL_REACH from the goal, then straight on to it; None where the map has
+    no way."""
+    p = np.mean([np.asarray(f.position, float) for f in start], axis=0)[:2]
+    goal = np.asarray(goal, float)
+    step = 0.5 * field.cell
+    d0, _ = field.at_and_ahead(p[None])
+    if not np.isfinite(d0[0]):
+        return None
+    for _ in range(int(d0[0] / step) * 2 + 20):
+        d, ahead = field.at_and_ahead(p[None])
+        if np.hypot(*(goal[:2] - p)) <= ARRIVAL_REACH or not np.isfinite(ahead[0]):
+            break
+        p = p + step * np.array([np.cos(ahead[0]), np.sin(ahead[0])])
+    v = goal[:2] - p
+    if np.hypot(*v) < 1e-6:
+        return None
+    return float(np.arctan2(v[1], v[0])) - _yaw(planner.forward)
 
 
 def _try(planner: Planner, start, goal, heading) -> tuple[PlanResult | None, PlanError | None]:
