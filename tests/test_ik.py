@@ -91,6 +91,45 @@ def test_swing_targets_hold_the_footprint_and_ease_between():
     np.testing.assert_allclose(off[:5], np.broadcast_to(off[5], (5, 3)))  # held before the first
 
 
+def _step_swing(rise: float, ground):
+    """A foot's swing from (0, 0, 0.1) to (0.56, 0, 0.1 + rise) over 20 frames, the clip
+    sweeping it along at its own pace; ``ground(points) -> heights``."""
+    F = 40
+    planted = np.zeros(F, bool)
+    planted[:10] = planted[30:] = True
+    A0 = np.c_[np.linspace(-0.28, 0.84, F), np.zeros(F), np.full(F, 0.1)]
+    R0 = np.tile(np.eye(3), (F, 1, 1))
+    ankle = np.zeros((F, 3))
+    ankle[:10] = [0.0, 0.0, 0.1]
+    ankle[30:] = [0.56, 0.0, 0.1 + rise]
+    plain, _ = swing_targets(planted, A0, R0, ankle, R0)
+    A, _ = swing_targets(planted, A0, R0, ankle, R0, ground)
+    return plain, A, slice(10, 30)
+
+
+@pytest.mark.parametrize("rise", [0.34, -0.34])
+def test_a_swing_up_or_down_a_stair_rises_first_or_goes_over_first(rise):
+    """Two 17 cm risers between a foot's footprints (treads 0.28 m deep): up, the foot
+    rises ahead of the plain swing and goes forward behind it; down, the other way
+    round; never past either footprint. A slope as steep is left as it is."""
+    def stairs(p):
+        p = np.asarray(p, float)
+        return np.floor(np.clip(p[:, 0] + 0.14, 0.0, 0.84) / 0.28) * (0.17 if rise > 0 else -0.17)
+
+    plain, A, sw = _step_swing(rise, stairs)
+    dz = (A[sw, 2] - plain[sw, 2]) * np.sign(rise)
+    dx = A[sw, 0] - plain[sw, 0]
+    if rise > 0:
+        assert dz.min() > -1e-9 and dz.max() > 0.02 and dx.max() < 1e-9 and dx.min() < -0.02
+    else:
+        assert dz.max() < 1e-9 and dz.min() < -0.02 and dx.min() > -1e-9 and dx.max() > 0.02
+    assert A[sw, 0].min() >= -1e-9 and A[sw, 0].max() <= 0.56 + 1e-9
+    np.testing.assert_allclose(A[:10], plain[:10])
+    np.testing.assert_allclose(A[30:], plain[30:])
+    slope, A2, _ = _step_swing(rise, lambda p: np.asarray(p, float)[:, 0] * rise / 0.56)
+    np.testing.assert_allclose(A2, slope)
+
+
 def _stand(F=20, spread=0.0):
     basis = np.tile(np.eye(4), (F, len(RIG.names), 1, 1))
     body = np.zeros((F, 3))

@@ -53,6 +53,16 @@ from .settings import Settings
 #: s: the finest level of the body's height offset (3.8.1): it changes between stances
 #: over about this long.
 BODY_RISE_FINE = 0.25
+#: m of height between a swing's footprints from which it is retimed as a stair step
+#: (``_stair_swing``), fully from STAIR_RISE.
+CLIMB_MIN = 0.04
+STAIR_RISE = 0.12
+#: m between the ground samples that find a step's edge under a swing (a 25 degree slope
+#: rises 1.4 cm over it).
+EDGE_SAMPLE = 0.03
+#: How far ahead (behind) of the swing's time its early (late) motion runs, at most 1
+#: (monotone): see ``_stair_swing``.
+STAIR_LEAD = 0.6
 #: m a swinging foot keeps above the surface.
 GROUND_MARGIN = 0.002
 #: The leg is never stretched past this share of its length (a straight knee pops).
@@ -167,7 +177,7 @@ def smoothstep(u: np.ndarray) -> np.ndarray:
 
 
 def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np.ndarray,
-                  rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                  rot: np.ndarray, ground_z=None) -> tuple[np.ndarray, np.ndarray]:
     """Ankle positions (F, 3) and foot rotations (F, 3, 3) for every frame of one foot:
     ``ankle``/``rot`` where ``planted``; elsewhere the clip's own (``A0``, ``R0``) plus a
     correction eased (smoothstep) from the last planted frame's to the next one's, held
@@ -186,7 +196,8 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     prev_c = np.where(prev < 0, nxt, prev)
     nxt_c = np.where(nxt >= F, prev, nxt)
     span = np.maximum(nxt_c - prev_c, 1)
-    u = smoothstep((f - prev_c) / span)[:, None]
+    x = (f - prev_c) / span
+    u = smoothstep(x)[:, None]
     o = (1 - u) * off[prev_c] + u * off[nxt_c]
     tv = (1 - u) * turn[prev_c] + u * turn[nxt_c]
     A = A0 + o
@@ -195,7 +206,65 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     # strike, and off it after a liftoff, was tried: it holds the foot back while the
     # clip's foot rushes on, then lets it go faster than any clip: more pops, not fewer.)
     A[idx], R[idx] = ankle[idx], rot[idx]
+    swing = ~planted & (prev >= 0) & (nxt < F)
+    if swing.any() and ground_z is not None:
+        A = _stair_swing(A, swing & _over_edge(A, prev_c, nxt_c, ground_z), prev_c, nxt_c, x)
     return A, R
+
+
+def _over_edge(A: np.ndarray, a: np.ndarray, b: np.ndarray, ground_z) -> np.ndarray:
+    """(F,) whether the ground from ankle target ``A[a]`` to ``A[b]`` (each frame's last
+    and next planted frames) steps by more than CLIMB_MIN between samples EDGE_SAMPLE m
+    apart (a stair's nosing, a kerb; not a slope), by ``ground_z`` (points -> heights)."""
+    pairs, inv = np.unique(np.c_[a, b], axis=0, return_inverse=True)
+    pa, pb = A[pairs[:, 0]], A[pairs[:, 1]]
+    n = max(int(np.ceil(np.max(np.linalg.norm(pb[:, :2] - pa[:, :2], axis=1)) / EDGE_SAMPLE)), 1)
+    u = np.linspace(0.0, 1.0, n + 1)
+    pts = pa[:, None] + u[None, :, None] * (pb - pa)[:, None]
+    pts[..., 2] = 0.5 * (pa[:, None, 2] + pb[:, None, 2])  # (``ground_z`` looks 0.3 m up and down)
+    z = np.asarray(ground_z(pts.reshape(-1, 3)), float).reshape(len(pairs), n + 1)
+    edge = (np.nan_to_num(np.abs(np.diff(z, axis=1)), nan=0.0) > CLIMB_MIN).any(axis=1)
+    return edge[np.ravel(inv)]
+
+
+def _stair_swing(A: np.ndarray, swing: np.ndarray, a: np.ndarray, b: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Ankle targets ``A`` (F, 3) retimed on swings between footprints at different
+    heights (``swing`` (F,), from planted frame ``a`` to ``b``, ``x`` the share of the
+    swing done): up a step the foot rises early and goes forward late, down one it goes
+    forward early and comes down late, each along the path it had (the clip's swing):
+    it clears the nosing it passes over instead of sweeping into the riser, or dropping
+    off the edge, in the last frames. Fully so from STAIR_RISE m of height change,
+    not at all under CLIMB_MIN."""
+    F = len(A)
+    dz = A[b, 2] - A[a, 2]
+    w = np.clip((np.abs(dz) - CLIMB_MIN) / (STAIR_RISE - CLIMB_MIN), 0.0, 1.0) * swing
+    if not w.any():
+        return A
+    # the shares of the swing done by the horizontal and the vertical motion: up, the
+    # rise ahead (at the liftoff's own pace) and the way forward behind; down, the way
+    # forward ahead and the drop behind (at the strike's own pace)
+    up = dz > 0
+    k, mid = STAIR_LEAD, x * (1.0 - x)
+    h = np.where(up, x - k * mid, x + k * mid)
+    v = np.where(up, x + k * x * mid, x - k * (1.0 - x) * mid)
+    span = b - a
+
+    def at(share):  # A at the fractional frames a + share * span (linear between frames)
+        f = np.clip(a + share * span, 0, F - 1)
+        i = np.minimum(np.floor(f).astype(int), F - 2)
+        t = (f - i)[:, None]
+        return (1 - t) * A[i] + t * A[i + 1]
+
+    h, v = at(h), at(v)
+    # never past the footprint it goes to, nor back behind the one it leaves (a clip's
+    # foot reaches out and settles back at the strike: on a stair, onto the next riser)
+    d = A[b, :2] - A[a, :2]
+    p = np.einsum("fi,fi->f", h[:, :2] - A[a, :2], d) / np.maximum(np.einsum("fi,fi->f", d, d), 1e-12)
+    h[:, :2] -= (p - np.clip(p, 0.0, 1.0))[:, None] * d
+    out = A.copy()
+    out[:, :2] += w[:, None] * (h[:, :2] - A[:, :2])
+    out[:, 2] += w * (v[:, 2] - A[:, 2])
+    return out
 
 
 def _frame_rate(t: np.ndarray) -> float:
@@ -375,7 +444,7 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
         drop = _reach_drop(world, legs, tg, _frame_rate(t), budget, heel_local[:, :3], toe_local[:, :3])
         body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
         world[:, legs.chain, 2, 3] -= drop[:, None]
-        ankle_t, rot_t = _all_frame_targets(world, legs, tg)
+        ankle_t, rot_t = _all_frame_targets(world, legs, tg, ground_z)
     with _timed(sec, "legs"):  # 3.8.2
         planes = [_swing_planes(tg.footprint[k], np.asarray(fp_pos, float), np.asarray(fp_normal, float))
                   for k in range(2)]
@@ -512,17 +581,19 @@ def roll_to_reach(hip: np.ndarray, ankle: np.ndarray, rot: np.ndarray, pin: np.n
     return ankle, rot
 
 
-def _all_frame_targets(world: np.ndarray, legs: _Legs, tg: FootTargets) -> tuple[np.ndarray, np.ndarray]:
+def _all_frame_targets(world: np.ndarray, legs: _Legs, tg: FootTargets, ground_z=None
+                       ) -> tuple[np.ndarray, np.ndarray]:
     """Every frame's ankle targets (2, F, 3) and foot rotations (2, F, 3, 3), world: on the
     footprint while planted, the clip's own swing (the foot bones in ``world``) plus a
-    correction easing from one footprint's to the next's in between (``swing_targets``)."""
+    correction easing from one footprint's to the next's in between (``swing_targets``;
+    ``ground_z`` finds the swings up or down a step)."""
     F = len(world)
     ankle_t = np.zeros((2, F, 3))
     rot_t = np.zeros((2, F, 3, 3))
     for k in range(2):
         Wf = world[:, legs.foot[k]]
         ankle_t[k], rot_t[k] = swing_targets(tg.weight[k] >= 1.0, Wf[:, :3, 3], Wf[:, :3, :3], tg.ankle[k],
-                                             tg.foot_rot[k])
+                                             tg.foot_rot[k], ground_z)
     return ankle_t, rot_t
 
 
