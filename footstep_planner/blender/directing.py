@@ -8,10 +8,11 @@ re-bake, an ``after_bake`` that splices the new keys into the old bake's
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..core import turn_in_place
 from ..core.directed import MAX_STAND
 from ..core.errors import FootstepError
 from ..core.jobs import MAX_FRAME
@@ -57,7 +58,16 @@ class ViaRoute:
                              pause=float(self.pauses.get(name, 0.0)), stop=name in self.stops,
                              hurry=name in self.hurry)
                     for name, pos, h in self.waypoints]
-        self.route = plan_via(setup.planner, start, self.wps)
+        from ..core.pipeline import standing_body
+
+        body = standing_body(setup.library, setup.analyses)
+        head = turn_in_place.start_turn(setup.planner, start, self.wps[0].position, body)
+        self.route = plan_via(setup.planner, [head[-1]] if head else start, self.wps, body)
+        if head:  # (the way leaves from the turned feet: the turn's pivot steps come first)
+            res = self.route.result
+            fps = head[:-1] + [replace(res.footprints[0], label=turn_in_place.PIVOT)] + list(res.footprints[1:])
+            self.route = replace(self.route, result=replace(res, footprints=fps),
+                                 arrivals=[i + len(head) - 1 for i in self.route.arrivals])
         return self.route.result
 
     def marks(self, fps: float, frame_start: float) -> list:

@@ -243,7 +243,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
         fs = context.scene.footstep
         fs.plan_json = json.dumps({k: doc[k] for k in ("footprints", "search", "character", "stages", "quality",
                                                        "name", "track", "action", "frame_start", "frame_end",
-                                                       "waypoints") if k in doc})
+                                                       "waypoints", "turns_in_place") if k in doc})
         q, st = doc["quality"], doc["stages"]
         fs.last_report = (f"{doc['frames'] if 'frames' in doc else st['frames']} frames baked into "
                           f"{doc['track']!r}; skate {q['foot_skate']['max_mm']:.1f} mm max, goal "

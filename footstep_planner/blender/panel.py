@@ -143,6 +143,9 @@ def _draw_report(layout, fs):
             ("ground penetration, max", f"{q['penetration']['max_mm']:.1f} mm"),
             ("goal", f"{q['goal']['distance_m'] * 100:.1f} cm"),
             ("pops made by the planner", f"{q['pops']['introduced']['count']}")]
+    for t in doc.get("turns_in_place") or ():
+        rows.append((f"turns in place at the {t['where']}",
+                     f"{t['degrees']:+.0f} deg, frames {t['frames'][0]:g}-{t['frames'][1]:g}"))
     for w in doc.get("waypoints") or ():
         asked = "" if w.get("arrive") is None else f" (asked {w['arrive']:.0f})"
         got = w.get("achieved") if w.get("achieved") is not None else w.get("planned")

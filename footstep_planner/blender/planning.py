@@ -14,14 +14,14 @@ import bpy
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..core import report
+from ..core import report, turn_in_place
 from ..core.analysis import ClipAnalysis
 from ..core.directed import Performance, TimingError, arrival_frames, arrival_times, perform
 from ..core.ik import IKResult, solve_ik
 from ..core.library import Library
 from ..core.rig import Rig, forward_kinematics
 from ..core.navgraph import FootprintCache, PathFootprint, PlanError, PlanResult, Planner
-from ..core.pipeline import Synthesis, stage_row, surface_snap
+from ..core.pipeline import Synthesis, stage_row, standing_body, surface_snap
 from ..core.pipeline import synthesize as _synthesize
 from ..core.settings import Settings
 from ..core.steps import library_steps
@@ -194,7 +194,7 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     setup.start = start
     if route is not None:
         return route(setup, start, heading), setup
-    return setup.planner.plan(start, goal, heading), setup
+    return turn_in_place.plan(setup.planner, start, goal, heading, standing_body(setup.library, setup.analyses)), setup
 
 
 def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=None,
@@ -203,15 +203,36 @@ def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=
     and time per scene frame, footprints kept on the tagged surfaces. The character starts
     from standing on its start footprints and stops to standing at the goal, turned to
     ``goal_heading`` (the planner's heading, rad) when given; the synthesis's path
-    (``Synthesis.plan``) holds both standing feet at either end."""
+    (``Synthesis.plan``) holds both standing feet at either end. A path that turns in
+    place (``core.turn_in_place``) plays each turn as a leg of its own."""
+    path = result.footprints
+    other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
+    return legs_of(scene, setup, settings or Settings())(path, other, goal, goal_heading, None, None, None)
+
+
+def legs_of(scene, setup: PlanSetup, settings: Settings):
+    """``core.directed.SynthFn`` on this scene: a leg from standing to standing (a path
+    that turns in place: its turns and walk, ``core.turn_in_place.synthesize``)."""
     pl = setup.planner
     snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
-    path = result.footprints
-    other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
-    return _synthesize(path, setup.library, setup.analyses, settings or Settings(),
-                       fps=scene_fps(scene), forward=setup.forward, snap=snap, goal=goal, standing=True,
-                       start_other=other, goal_heading=goal_heading)
+    fps = scene_fps(scene)
+    body = standing_body(setup.library, setup.analyses)
+
+    def leg(path, other, goal, heading, lead, hold, pace):
+        if other is None:
+            other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
+        return _synthesize(path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward, snap=snap,
+                           goal=goal, standing=True, start_other=other, goal_heading=heading, pace=pace, lead=lead,
+                           hold=hold)
+
+    def turning(path, other, goal, heading, lead, hold, pace):
+        if any(f.label == turn_in_place.PIVOT for f in path):
+            return turn_in_place.synthesize(path, leg, other, goal, heading, lead, hold, pace, setup.forward, pl.foot,
+                                            settings.turn_step_angle, body)
+        return leg(path, other, goal, heading, lead, hold, pace)
+
+    return turning
 
 
 @dataclass
@@ -286,20 +307,8 @@ def _perform(scene, result: PlanResult, setup: PlanSetup, settings: Settings, ma
              frame_start: float, body) -> Performance:
     """The path through its marks leg by leg, stopping where they stop, their frames met
     (read on ``body(synthesis)``: the body the bake will have, after the IK)."""
-    pl = setup.planner
-    snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
-                        step_height=pl.max_step_height)
-    fps = scene_fps(scene)
-
-    def leg(path, other, leg_goal, leg_heading, lead, hold, pace):
-        if other is None:
-            other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
-        return _synthesize(path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward, snap=snap,
-                           goal=leg_goal, standing=True, start_other=other, goal_heading=leg_heading, pace=pace,
-                           lead=lead, hold=hold)
-
-    return perform(result.footprints, marks, leg, goal, heading, pace_range=(settings.pace_min, settings.pace_max),
-                   frame_start=frame_start, body=body)
+    return perform(result.footprints, marks, legs_of(scene, setup, settings), goal, heading,
+                   pace_range=(settings.pace_min, settings.pace_max), frame_start=frame_start, body=body)
 
 
 def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=None) -> list[dict]:
@@ -378,7 +387,7 @@ def solve(planned: Planned, settings: Settings) -> Solved:
     timer = StageTimer()
     walk = _walk_motion(setup)
     with timer("pose_blend"):
-        quat, hips = blend_pose(syn.final.schedule, syn.tracks)
+        quat, hips = blend_pose(syn.posed_schedule(), syn.tracks)
         basis = flat_feet(setup.rig, pose_bases(setup.rig, quat, hips), syn.stand_weight(), walk.heel_local,
                           walk.toe_local)
     pl = setup.planner
@@ -394,7 +403,7 @@ def solve(planned: Planned, settings: Settings) -> Solved:
     with timer("ik"):
         ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
                       walk.heel_local, walk.toe_local, syn.final.schedule.feet, syn.planted(), pos, head, normal,
-                      setup.forward, settings, ground_z=ground_z)
+                      setup.forward, settings, ground_z=ground_z, still=syn.flat)
     return Solved(ik, spin, timer.seconds["pose_blend"], timer.seconds["ik"])
 
 

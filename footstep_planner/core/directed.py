@@ -464,7 +464,21 @@ def _join2(A: Synthesis, B: Synthesis) -> Synthesis:
                   tau=cat(A.tau, B.tau), final=final, tau_final=cat(A.tau_final, B.tau_final),
                   s_final=cat(A.s_final, B.s_final),
                   speed_pins=list(A.speed_pins) + [(u + du, s) for u, s in B.speed_pins],
-                  seconds=seconds, tracks={**A.tracks, **B.tracks}, standing=A.standing, joined_planted=planted)
+                  seconds=seconds, tracks={**A.tracks, **B.tracks}, standing=A.standing,
+                  turns=list(A.turns) + [_shifted(t, A.final.schedule.n - 1) for t in B.turns],
+                  flat=None if A.flat is None and B.flat is None else cat(_flat(A), _flat(B)),
+                  joined_planted=planted)
+
+
+def _flat(s: Synthesis) -> np.ndarray:
+    return np.zeros(s.final.schedule.n) if s.flat is None else s.flat
+
+
+def _shifted(turn: dict, frames: int) -> dict:
+    """A turn in place (``Synthesis.turns``) of a leg that begins ``frames`` later: one at
+    the start of a leg after the first is at a "waypoint" (where the path stopped)."""
+    where = "waypoint" if turn["where"] == "start" and frames > 0 else turn["where"]
+    return dict(turn, where=where, frames=[f + frames for f in turn["frames"]])
 
 
 __all__ = ["ARRIVE_BAND", "Joined", "Mark", "Performance", "TimingError", "arrival_frames", "arrival_times", "join",

@@ -414,12 +414,15 @@ def _timed(seconds: dict, stage: str):
 def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, body_heading: np.ndarray,
              spin: float, heel_local: np.ndarray, toe_local: np.ndarray, feet: np.ndarray, planted: list,
              fp_pos: np.ndarray, fp_heading: np.ndarray, fp_normal: np.ndarray, forward: np.ndarray,
-             settings: Settings | None = None, ground_z=None) -> IKResult:
+             settings: Settings | None = None, ground_z=None, still: np.ndarray | None = None) -> IKResult:
     """Thesis 3.8 on a synthesized motion. ``basis`` (F, B, 4, 4) the blended pose
     (``pose.pose_bases``), the body on (body_pos, body_heading); the footprints and their
     planted ranges from the synthesis. ``ground_z(points (M, 3)) -> heights (M,)`` (NaN
     where there is no surface) lets a swinging foot clear the ground: where the heel or
-    the toe would pass under the surface, the ankle is lifted by that much.
+    the toe would pass under the surface, the ankle is lifted by that much. ``still``
+    (F,) 0..1: how far the body keeps its place over the ground where the synthesis put
+    it, the body offset moving it only up and down there (a turn in place: the legs
+    reach the pivot steps, the body stays over its spot).
     Returns the adjusted body and pose bases."""
     settings = settings or Settings()
     sec = {}
@@ -433,7 +436,7 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
                           settings.balance_band)
         sole = [sole_points(rig, pose, SIDES[k], heel_local[k, :3], toe_local[k, :3]) for k in range(2)]
     with _timed(sec, "body_offset"):  # 3.8.1
-        body_pos, yaw, offset = _offset_body(pose, legs, tg, t, body_pos, yaw, settings)
+        body_pos, yaw, offset = _offset_body(pose, legs, tg, t, body_pos, yaw, settings, still)
         world = _legs_in_world(pose, legs, body_pos, yaw)
     with _timed(sec, "reach"):
         budget = _drop_budget(np.asarray(body_pos, float)[:, 2] - offset[0][:, 2], tg, offset[0][:, 2],
@@ -465,11 +468,12 @@ def _legs_in_world(pose: np.ndarray, legs: _Legs, pos: np.ndarray, yaw: np.ndarr
 
 
 def _offset_body(pose: np.ndarray, legs: _Legs, tg: FootTargets, t: np.ndarray, body_pos: np.ndarray,
-                 yaw: np.ndarray, settings: Settings):
+                 yaw: np.ndarray, settings: Settings, still: np.ndarray | None = None):
     """Thesis 3.8.1: the body (object position ``body_pos`` (F, 3) m, world yaw ``yaw``
     (F,) rad) pulled and turned so the pinned points (where fully planted) reach their
     targets, the offsets spread over time (``offsets.smooth_offsets``; zero when no frame
-    is planted). ``pose`` (F, B, 4, 4) armature space, ``t`` (F,) s. Returns (body
+    is planted; held over its place as far as ``still`` (F,)). ``pose`` (F, B, 4, 4)
+    armature space, ``t`` (F,) s. Returns (body
     position (F, 3), yaw (F,), (dp (F, 3), dpsi (F,)))."""
     F = len(t)
     # the pinned points in armature space: that is the body frame turned by the object's
@@ -489,6 +493,8 @@ def _offset_body(pose: np.ndarray, legs: _Legs, tg: FootTargets, t: np.ndarray, 
                                   fine=BODY_RISE_FINE)[0][:, 2]
     else:
         dp, dpsi = np.zeros((F, 3)), np.zeros(F)
+    if still is not None:  # (held over its place as far as ``still``: up and down only)
+        dp[:, :2] *= 1.0 - np.clip(np.asarray(still, float), 0.0, 1.0)[:, None]
     return np.asarray(body_pos, float) + dp, yaw + dpsi, (dp, dpsi)
 
 

@@ -34,6 +34,7 @@ from .steps import bend_chain
 from .surface import FootShape, Ground, footprint_support
 from .timing import StageTimer
 from .trajectory import transfer_body
+from .turn_in_place import PIVOT
 
 SnapFn = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
@@ -98,11 +99,32 @@ class Synthesis:
     seconds: dict = field(default_factory=dict)  # stage -> s
     tracks: dict = field(default_factory=dict, repr=False)  # clip name -> ClipTrack
     standing: Standing | None = None  # starting and stopping standing (the last column's clip)
+    turns: list = field(default_factory=list)  # where it turns in place (``turn_in_place.synthesize``)
+    flat: np.ndarray | None = field(default=None, repr=False)  # (F,) the feet kept level at least this much
+
+    def posed_schedule(self) -> Schedule:
+        """The final schedule as the pose is blended from it: through a turn in place
+        (``flat``), the standing clip's weight (the last column) raised to TURN_STAND where
+        it is less and the others scaled down to make room, so the legs step nearer under
+        the body, as in a pivot step (the feet's contacts, and so their planted times,
+        stay the walk's)."""
+        S = self.final.schedule
+        if self.flat is None or self.standing is None:
+            return S
+        w = np.array(S.weights, float, copy=True)
+        lam = np.maximum(w[:, -1], TURN_STAND * self.flat)
+        rest = w[:, :-1].sum(axis=1)
+        w[:, :-1] *= np.where(rest > 1e-12, (1.0 - lam) / np.maximum(rest, 1e-12), 0.0)[:, None]
+        w[:, -1] = lam
+        return replace(S, weights=w)
 
     def stand_weight(self) -> np.ndarray:
-        """(F,) the standing clip's weight at each frame (0 everywhere without standing)."""
+        """(F,) how far the feet are laid level at each frame: the standing clip's weight
+        (0 everywhere without standing), or ``flat`` where that is more (a turn in place
+        pivots on level feet)."""
         S = self.final.schedule
-        return S.weights[:, -1].copy() if self.standing is not None else np.zeros(S.n)
+        w = S.weights[:, -1].copy() if self.standing is not None else np.zeros(S.n)
+        return w if self.flat is None else np.maximum(w, self.flat)
 
     # ------------------------------------------------------------------ results
     @property
@@ -344,19 +366,20 @@ def _standing_planted(planted: list, S: Schedule, stand: Standing) -> list:
 
 
 def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Settings, snap,
-              timer: StageTimer, key: str, bends=None, stand: Standing | None = None) -> Pass:
+              timer: StageTimer, key: str, bends=None, stand: Standing | None = None, pinned: bool = False) -> Pass:
     """One round: play the schedule, refine the played footprints (each step bent by
     ``bends`` (N-1,) 1/m, as the planner bent it) towards the desired ones (stage
     ``refinement<key>``), carry the played body onto them (``body_trajectory<key>``).
     With ``stand`` the standing feet at either end stay where they are desired and the
-    body stands over them (``stand_body``) as the standing clip takes over."""
+    body stands over them (``stand_body``) as the standing clip takes over. ``pinned``:
+    every footprint stays where it is desired (a turn in place's pivot steps)."""
     fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
     with timer(f"refinement{key}"):
         played = playback(schedule, tracks, start=(desired_pos[0], desired_head[0]), forward=forward)
         orig = bend_chain(played.footprints, played.footprint_heading, bends, fwd)
         fixed = None
-        if stand is not None:
-            fixed = np.zeros(len(desired_pos), bool)
+        if stand is not None or pinned:
+            fixed = np.full(len(desired_pos), pinned)
             fixed[[0, 1, -2, -1]] = True
         refined = refine(*orig, desired_pos, desired_head, settings.refinement_iterations, snap, fixed=fixed,
                          height=getattr(snap, "height", None))
@@ -364,9 +387,44 @@ def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Se
         body_pos, body_head = transfer_body(played.footprints, played.footprint_heading, refined.position,
                                             refined.heading, schedule.walk_times, played.root,
                                             played.heading, schedule.walk_t)
+        if pinned:  # (turning on the spot: the body turns steadily, not step by step)
+            body_head = _steady(body_head, schedule.fps)
         if stand is not None:
             body_pos, body_head = stand_body(schedule, tracks[stand.clip], refined, body_pos, body_head, fwd)
+        if pinned:
+            body_pos = _on_the_spot(body_pos, schedule.t)
     return Pass(schedule, played, refined, body_pos, body_head)
+
+
+def _on_the_spot(body_pos: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """A turn in place's body (F, 3) kept over the spot it stands on, first to last (eased
+    from one to the other), at the heights it has: the walk's body, carried onto pivot
+    steps, would sway back and forth with its steps' lead and lag."""
+    out = np.array(body_pos, float, copy=True)
+    u = (t - t[0]) / max(t[-1] - t[0], 1e-9)
+    u = u * u * (3.0 - 2.0 * u)
+    out[:, :2] = (1.0 - u)[:, None] * body_pos[0, :2] + u[:, None] * body_pos[-1, :2]
+    return out
+
+
+#: A turn in place's pose keeps the standing clip's weight at least this (``Synthesis.
+#: posed_schedule``): the walk's stride and its feet's lift shrink.
+TURN_STAND = 0.4
+
+#: How far a turn in place's feet are laid level (``Synthesis.flat``): the walk's heel
+#: strike and toe-off, played on the spot, would pitch the foot steeply while the leg
+#: twists over it.
+TURN_FLAT = 1.0
+
+#: s: the Gaussian width over which a turn in place's body heading is smoothed
+TURN_SMOOTHING = 0.3
+
+
+def _steady(heading: np.ndarray, fps: float) -> np.ndarray:
+    """A body heading (F,) low-passed over TURN_SMOOTHING s, its ends kept."""
+    from scipy.ndimage import gaussian_filter1d
+
+    return gaussian_filter1d(np.asarray(heading, float), TURN_SMOOTHING * fps, mode="nearest")
 
 
 def stand_body(S: Schedule, track: ClipTrack, refined: Refined, body_pos: np.ndarray, body_head: np.ndarray,
@@ -459,6 +517,15 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
             tracks = _tracks_of(library, analyses)
         cyc = cyclic_clips(library)
         stand = None
+        pivot = standing and len(path) > 1 and all(f.label == PIVOT for f in path[1:])
+        shown = None
+        if pivot and cyc:  # a turn in place: the straight walk's steps on the pivot footprints, all kept
+            straight = _straight(library, cyc)
+            other = start_other if start_other is not None and start_other.foot != path[0].foot else \
+                replace(path[0], foot=1 - path[0].foot)
+            shown = [replace(other, label=STAND_LABEL, time=0.0)] + list(path)
+            path = [shown[0]] + [replace(f, label=straight, gait="walk", jump=False) for f in path]
+            goal = goal_heading = None
         if standing and cyc:
             fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
             stand = _standing(library, tracks, cyc, settings, lead, hold)
@@ -470,27 +537,28 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
         rate = _step_pace(pace, len(steps))
         bends = np.array([library.bend_of(f.label) for f in path[1:]])  # steps bent beyond the clips
         with timer("smoothing"):  # 3.3
-            smoothed = _smooth(path, settings, snap, goal, fixed=2 if stand else 1)
+            smoothed = _smooth(path, settings, snap, goal, fixed=len(path) if shown else 2 if stand else 1)
         # 3.5 / 3.6 with the plan's clips
         sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand,
                               pace=rate)
         first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1",
-                          bends, stand)
+                          bends, stand, pinned=shown is not None)
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
             curves = _tau_curves(library, cyc, sch1, first, settings)
             pins = speed_pins(steps, tracks, [f.gait for f in path[1:]])
             loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
             sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco, stand, rate)
-        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends, stand)
+        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends, stand,
+                            pinned=shown is not None)
         tau_final = np.interp(sch2.u, sch1.u, curves.tau)
         s_final = loco.speed(sch2.u, sch2.n)
     seconds = timer.seconds
     seconds["refinement"] = seconds["refinement_1"] + seconds["refinement_2"]
     seconds["body_trajectory"] = seconds["body_trajectory_1"] + seconds["body_trajectory_2"]
-    return Synthesis(plan=list(path), settings=settings, clips=sch2.clips, smoothed=smoothed,
+    return Synthesis(plan=list(shown or path), settings=settings, clips=sch2.clips, smoothed=smoothed,
                      first=first, tau_plan=curves.plan, tau_raw=curves.raw, tau=curves.tau, final=final,
                      tau_final=tau_final, s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks,
-                     standing=stand)
+                     standing=stand, flat=None if shown is None else np.full(sch2.n, TURN_FLAT))
 
 
 def beside_position(fp, foot: int, forward, width: float, stand: ClipTrack | None = None):
@@ -522,9 +590,7 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
     if len(path) > 2 and path[0].label == STAND_LABEL:  # already standing at both ends
         return list(path)
     first, loco = path[0], [f.label for f in path[1:] if f.label not in {s.clip for s in library.specials}]
-    straight = min(cyc, key=lambda c: (library.turn_groups.get("walk") is not None
-                                       and c not in [g.clip for g in library.turn_groups["walk"].clips],
-                                       abs(_clip_tau(library, c))))
+    straight = _straight(library, cyc)
     label = loco[0] if loco else straight
     if other is None or other.foot == first.foot:
         other = replace(first, foot=1 - first.foot, position=beside_position(first, 1 - first.foot, forward, 2 * STAND_WIDTH))
@@ -540,6 +606,13 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
     end = replace(last, foot=1 - last.foot, position=beside_position(last, 1 - last.foot, forward, 2 * STAND_WIDTH, stand),
                   label=straight, gait="walk", jump=False)
     return path + [end]
+
+
+def _straight(library: Library, cyc: list[str]) -> str:
+    """The straightest clip of the walk's turning group (of any cyclic clip without one)."""
+    walk = library.turn_groups.get("walk")
+    return min(cyc, key=lambda c: (walk is not None and c not in [g.clip for g in walk.clips],
+                                   abs(_clip_tau(library, c))))
 
 
 def _step_pace(pace, n: int) -> np.ndarray | None:
@@ -558,7 +631,8 @@ def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings
     made from the straightest walk (``standing_track``) added to ``tracks``; the walk is
     held, at either end, where the stepping foot swings past the standing one
     (``mid_swing``)."""
-    walk = min(cyc, key=lambda c: (tracks[c].gait != "walk", abs(_clip_tau(library, c))))
+    gait = tracks.gait_of if isinstance(tracks, _LazyTracks) else (lambda c: tracks[c].gait)
+    walk = min(cyc, key=lambda c: (gait(c) != "walk", abs(_clip_tau(library, c))))
     idle = next((sp.clip for sp in library.specials if sp.kind == "idle" and sp.clip in tracks), None)
     if idle is None:
         idle = f"{walk}~stand"
@@ -568,6 +642,44 @@ def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings
     lead = min(own, STAND_LEAD) if lead is None else max(float(lead), 0.0)
     u = mid_swing(tracks[walk])
     return Standing(clip=idle, lead=lead, hold=hold, u_start=u, u_back=2.0 - u)
+
+
+def standing_body(library: Library, analyses) -> np.ndarray:
+    """(2,) where the body (the root) of the library's standing pose (``_standing``: its
+    idle clip, or one made from its walk) stands from the middle of its feet: (ahead,
+    left) m in the feet's frame. Zeros without a cyclic clip."""
+    cyc = cyclic_clips(library)
+    if not cyc:
+        return np.zeros(2)
+    tracks = _LazyTracks(analyses)  # (only the walk's and the idle's are made)
+    st = _standing(library, tracks, cyc, Settings())
+    tr = tracks[st.clip]
+    smp = tr.sample(np.array([st.clip_time]))
+    local = 0.25 * (smp["heel"][0, 0] + smp["toe"][0, 0] + smp["heel"][1, 0] + smp["toe"][1, 0])  # root frame
+    f = np.asarray(tr.rest_forward, float)[:2]
+    f = f / np.linalg.norm(f)
+    return -np.array([local[:2] @ f, local[:2] @ [-f[1], f[0]]])
+
+
+class _LazyTracks(dict):
+    """Clip name -> ClipTrack, each made (``make_track``) when first asked for; a track's
+    ``gait`` read from its analysis without making it."""
+
+    def __init__(self, analyses):
+        super().__init__()
+        self.by = {a.name: a for a in analyses} if not isinstance(analyses, dict) else {}
+        if isinstance(analyses, dict):
+            self.update(analyses)
+
+    def __missing__(self, name: str) -> ClipTrack:
+        self[name] = make_track(self.by[name])
+        return self[name]
+
+    def __contains__(self, name) -> bool:
+        return dict.__contains__(self, name) or name in self.by
+
+    def gait_of(self, name: str) -> str:
+        return self.by[name].gait if name in self.by else self[name].gait
 
 
 def mid_swing(track: ClipTrack) -> float:
@@ -672,14 +784,14 @@ def _blend_group_schedule(steps: list[PlanStep], tracks, cyc: list[str], fps: fl
 
 
 def _final_pass(sch2: Schedule, tracks, first: Pass, forward, settings: Settings, snap, timer: StageTimer,
-                goal, bends=None, stand: Standing | None = None) -> Pass:
+                goal, bends=None, stand: Standing | None = None, pinned: bool = False) -> Pass:
     """The blend groups' pass. With a goal, the path's end is moved by where the first
     pass's body ended, and once more if the blend groups still miss it by more than
     GOAL_TOLERANCE."""
     desired, heading = first.refined.position, first.refined.heading
     if goal is not None:
         desired = ease_end(desired, heading, np.asarray(goal, float)[:2] - first.body_pos[-1, :2], snap)
-    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand)
+    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand, pinned)
     if goal is not None:
         miss = np.asarray(goal, float)[:2] - final.body_pos[-1, :2]
         if np.linalg.norm(miss) > GOAL_TOLERANCE:

@@ -17,6 +17,7 @@ import numpy as np
 from .navgraph import PathFootprint, PlanError, PlanResult, Planner
 from .plan_file import PlanFile
 from .surface import footprint_support
+from .turn_in_place import PIVOT
 
 #: m and rad: a step further than this from every step of the library is out of reach
 REACH_SLACK = 0.3
@@ -61,7 +62,8 @@ def step_offsets(fps: list[PathFootprint], forward) -> np.ndarray:
 
 def problems_of(planner: Planner, fps: list[PathFootprint]) -> list[str]:
     """Per footprint: why it can't be stepped on ('' when it can): off the surface, in an
-    obstacle, or no step of the library reaches it from the footprint before."""
+    obstacle, or no step of the library reaches it from the footprint before (a turn in
+    place's pivot step needs none)."""
     pos = np.array([f.position for f in fps], float)
     head = np.array([f.heading for f in fps], float)
     sup = footprint_support(planner.ground, planner.obstacles, pos, head, planner.forward, planner.foot,
@@ -71,6 +73,8 @@ def problems_of(planner: Planner, fps: list[PathFootprint]) -> list[str]:
     for i, (fwd, left, turn) in enumerate(step_offsets(fps, planner.forward), 1):
         if abs(fwd) <= SIDE_FWD and abs(left) <= SIDE_WIDTH and abs(turn) <= SIDE_TURN and not fps[i].jump:
             continue  # (the feet side by side)
+        if fps[i].label == PIVOT:
+            continue  # (a turn in place's pivot step: no clip's)
         rows = (st.foot == fps[i - 1].foot) & (st.jump == fps[i].jump)
         if not rows.any():
             out[i] = out[i] or f"the library has no {'jump' if fps[i].jump else 'step'} from the " \
@@ -119,11 +123,11 @@ def nearest_steps(planner: Planner, fps: list[PathFootprint]) -> np.ndarray:
 def relabel(planner: Planner, fps: list[PathFootprint], which, retime_from: int | None = None
             ) -> list[PathFootprint]:
     """The footprints with those at indices ``which`` (and any whose clip the library
-    doesn't have) carried by the library's nearest step, and, from ``retime_from`` (or
+    doesn't have, but a turn in place's pivot steps) carried by the library's nearest step, and, from ``retime_from`` (or
     the first of those) on, times that add up the steps' durations."""
     st = planner.steps
     known = set(st.label.tolist())
-    which = set(int(i) for i in which) | {i for i, f in enumerate(fps) if i and f.label not in known}
+    which = set(int(i) for i in which) | {i for i, f in enumerate(fps) if i and f.label not in known | {PIVOT}}
     if not which and retime_from is None:
         return fps
     rows = nearest_steps(planner, fps)

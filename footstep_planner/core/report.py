@@ -104,9 +104,18 @@ def plan_report(result: PlanResult, syn: Synthesis, character: str, goal, frame_
     doc["character"] = character
     doc["goal"] = _r4(goal)
     doc["stages"] = stage_row(len(result.footprints), result.seconds, syn, **later_stages)
+    doc["turns_in_place"] = turn_rows(syn, frame_start)
     if synthesis:
         doc["synthesis"] = syn.to_dict(frame0=float(frame_start))
     return doc
+
+
+def turn_rows(syn: Synthesis, frame_start: float) -> list[dict]:
+    """Where the motion turns in place (``turn_in_place``): at the "start", at a "waypoint"
+    it stops at or at the "end"; the degrees the body turns (positive left), its pivot
+    steps, its first and last scene frame (the first frame being ``frame_start``) and its
+    seconds."""
+    return [dict(t, frames=[frame_start + f for f in t["frames"]]) for t in getattr(syn, "turns", [])]
 
 
 def bake_report(result: PlanResult, syn: Synthesis, *, character: str, goal, name: str, forward,

@@ -147,6 +147,16 @@ class Settings:
         controls (foot_ik, toe_ik and the knee's pole, IK/FK switch at IK) instead of the FK
         controls; the arms stay FK and the torso and spine are keyed as without it.""")
 
+    # --- turning in place -----------------------------------------------------------
+    turn_in_place_angle: float = setting(math.radians(75), "rad", 0.0, math.pi, """When the way
+        ahead at the start lies further than this from the way the character faces (behind it,
+        beside it), or the goal's heading further than this from the way the walk arrives, the
+        character turns on the spot in pivot steps there instead of walking a loop. 0 switches
+        turning in place off.""")
+    turn_step_angle: float = setting(math.radians(60), "rad", math.radians(10), math.radians(75), """A
+        pivot step of a turn in place turns a foot at most this far, and opens the feet at most
+        this far apart.""")
+
     def __post_init__(self):
         self.check()
 

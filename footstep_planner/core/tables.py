@@ -70,6 +70,7 @@ def format_plan(character: str, goal, result, syn, frame0: float, rate: float, s
                      f"{math.degrees(head[i]):6.0f} {fr:7.1f}  {f.label}{' (jump)' if f.jump else ''}")
     lines.append(f"search: {result.expanded} footprints expanded, {result.generated} generated, "
                  f"{result.seconds * 1e3:.0f} ms")
+    lines += format_turns([dict(t, frames=[frame0 + f for f in t["frames"]]) for t in getattr(syn, "turns", [])])
     lines.append(format_stages([stages]))
     lines.append(f"tau {syn.tau_final.min():+.2f} to {syn.tau_final.max():+.2f} 1/m; running "
                  f"(s > 0.5) {np.mean(syn.s_final > 0.5) * 100:.0f} % of the frames")
@@ -104,9 +105,17 @@ def format_bake(doc) -> str:
         f"{intro['max_excess_deg']:.1f} deg over" + (f" ({intro['bone']}, frame {intro['frame']})"
                                                      if intro['bone'] else ""),
     ]
+    lines += format_turns(doc.get("turns_in_place", []))
     if doc.get("waypoints"):
         lines.append(format_waypoints(doc["waypoints"]))
     return "\n".join(lines)
+
+
+def format_turns(turns: list[dict]) -> list[str]:
+    """One line per turn in place (the report's ``turns_in_place``)."""
+    return [f"turns in place at the {t['where']}: {abs(t['degrees']):.0f} deg "
+            f"{'left' if t['degrees'] > 0 else 'right'} in {t['steps']} pivot steps, frames "
+            f"{t['frames'][0]:g}-{t['frames'][1]:g} ({t['seconds']:.1f} s)" for t in turns]
 
 
 def format_waypoints(rows: list[dict]) -> str:

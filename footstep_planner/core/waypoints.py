@@ -39,10 +39,14 @@ class Route:
     arrivals: list[int]
 
 
-def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypoint]) -> Route:
+def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypoint], body=(0.0, 0.0)) -> Route:
     """The footprints from ``start`` through every waypoint in order (each reached within
-    the goal radius, and heading tolerance when it has a heading). A leg that can't be
-    found raises PlanError naming the leg."""
+    the goal radius, and heading tolerance when it has a heading). Where the path stops
+    at a waypoint and the way on lies behind or beside it, it turns in place there
+    (``turn_in_place.start_turn``; ``body``: see ``turn_in_place.pivot_footprints``). A
+    leg that can't be found raises PlanError naming the leg."""
+    from .turn_in_place import start_turn
+
     if not waypoints:
         raise PlanError("no waypoint to go to")
     t0 = time.perf_counter()
@@ -64,6 +68,10 @@ def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypo
         if wp.stops and i + 1 < len(waypoints):  # stand there: the next leg leaves from the other foot beside it
             path.append(beside(planner, path[-1]))
             origin = [path[-1]]
+            turn = start_turn(planner, path[-2:], waypoints[i + 1].position, body, first=path[-2].foot)
+            if turn:  # (the way on lies behind: turn on the spot first, the foot that arrived stepping first)
+                path += [replace(f, time=path[-1].time) for f in turn[1:]]
+                origin = [path[-1]]
     return Route(PlanResult(path, counts[0], counts[1], time.perf_counter() - t0, cost), arrivals)
 
 

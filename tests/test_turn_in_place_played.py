@@ -1,0 +1,224 @@
+"""Turning in place as Blender plays it (issue 14): a goal behind the start is reached after
+a turn on the spot (the body stays over the start while it turns round, then walks
+away, no loop), a goal facing back the way the walk came ends with a turn on the spot,
+and a start facing a corridor's wall turns to walk along it. Baked through the command
+line, saved, reopened and read frame by frame through the depsgraph; with the sample
+character and the CMU library."""
+
+import json
+import math
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from conftest import needs_cmu, scene_with_cmu
+
+CHAR = "Footstep Mannequin"
+FPS = 30
+
+
+def _turns_saved(fp, tmp_path, char: str = "mannequin", start_turn: float = 0.0, goal_turn: float = 0.0):
+    """The Turns sample scene, its Start (and Goal) turned by these angles (rad), with the
+    sample character (or the CMU library) at Start, saved: (path, character name)."""
+    import bpy
+
+    if char == "mannequin":
+        bpy.ops.wm.read_homefile(use_empty=True)
+        scene = import_module(fp.__name__ + ".blender.sample_scenes").build("turns")
+        scene.render.fps, scene.render.fps_base = FPS, 1.0
+        ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    else:
+        scene, ob = scene_with_cmu(fp, "turns", FPS)
+    scene.objects["Start"].rotation_euler.z += start_turn
+    scene.objects["Goal"].rotation_euler.z += goal_turn
+    bpy.context.view_layer.update()
+    path = str(tmp_path / "turn.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    return path, ob.name
+
+
+def _bake(fp, path, char, tmp_path, *extra):
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    out, rep = str(tmp_path / "baked.blend"), str(tmp_path / "baked.json")
+    assert cli(["bake", path, "--character", char, "--start", "Start", "--goal", "Goal", "--out", out,
+                "--report", rep, *extra]) == 0
+    with open(rep) as fh:
+        return out, json.load(fh)
+
+
+def _played(fp, out, doc):
+    """The saved bake reopened and played through the depsgraph: (body (F, 3), body yaw
+    (F,) rad, unwrapped, foot skate figures of the report's stances (``metrics.foot_skate``),
+    the heel and toe points (2, F, 3) each)."""
+    import bpy
+
+    metrics = import_module(fp.__name__ + ".core.metrics")
+    bpy.ops.wm.open_mainfile(filepath=out)
+    scene = bpy.context.scene
+    ob = scene.objects[doc["character"]]
+    feet = doc["feet"]
+    heel_local, toe_local = np.array(feet["heel_local"]), np.array(feet["toe_local"])
+    first, n = doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1
+    body, yaw = np.empty((n, 3)), np.empty(n)
+    heel, toe = np.empty((2, n, 3)), np.empty((2, n, 3))
+    dg = bpy.context.evaluated_depsgraph_get()
+    for i in range(n):
+        scene.frame_set(first + i)
+        ev = ob.evaluated_get(dg)
+        mw = np.array(ev.matrix_world)
+        body[i], yaw[i] = mw[:3, 3], math.atan2(mw[1, 0], mw[0, 0])
+        for k, name in enumerate(feet["bones"]):
+            m = mw @ np.array(ev.pose.bones[name].matrix)
+            heel[k, i], toe[k, i] = (m @ heel_local[k])[:3], (m @ toe_local[k])[:3]
+    stances = [{"foot": "LR".index(f["foot"]), "start": f["planted_frames"][0] - first,
+                "end": f["planted_frames"][1] - first, "stance": f["frame"] - first,
+                "position": np.array(f["position"]), "heading": f["heading"]} for f in doc["footprints"]]
+    return body, np.unwrap(yaw), stances, metrics.foot_skate(heel, toe, stances)
+
+
+def _check_start_turn(fp, out, doc, skate_mm: float):
+    turns = doc["turns_in_place"]
+    assert [t["where"] for t in turns] == ["start"] and abs(turns[0]["degrees"]) >= 150
+    assert all(f["clip"] == "pivot" for f in doc["footprints"][2:2 + turns[0]["steps"]])
+    body, yaw, stances, skate = _played(fp, out, doc)
+    a, b = (f - doc["frame_start"] for f in turns[0]["frames"])
+    start = body[0, :2]
+    # the body stays over the start while it turns round, by at least 150 degrees ...
+    assert np.linalg.norm(body[a:b + 1, :2] - start, axis=1).max() < 0.03
+    assert abs(yaw[b] - yaw[a]) >= math.radians(150)
+    # ... then walks away: never behind the start (a walking U-turn swings 0.9 m behind it)
+    ahead = np.array([math.cos(yaw[b] + math.pi / 2), math.sin(yaw[b] + math.pi / 2)])  # (the rig faces -Y)
+    assert ((body[b:, :2] - start) @ -ahead).min() > -0.1
+    # the planted feet stay put through the turn as through the walk
+    turning = [k for k, s in enumerate(stances) if s["start"] <= b]
+    assert max(skate["per_stance_mm"][k] for k in turning) < 1.0 and skate["max_mm"] < skate_mm
+    q = doc["quality"]
+    assert q["goal"]["distance_m"] < 0.05 and abs(q["goal"]["heading_deg"]) < 5.0
+    intro = q["pops"]["introduced"]
+    assert intro["count"] <= 5 and intro["max_excess_deg"] <= 5.0
+
+
+def test_a_goal_behind_the_start_is_reached_after_a_turn_in_place(fp, empty_scene, tmp_path, capsys):
+    path, char = _turns_saved(fp, tmp_path, start_turn=math.pi)
+    out, doc = _bake(fp, path, char, tmp_path)
+    assert "turns in place at the start" in capsys.readouterr().out
+    _check_start_turn(fp, out, doc, 1.0)
+
+
+@needs_cmu
+def test_the_cmu_library_turns_in_place_too(fp, empty_scene, tmp_path):
+    path, char = _turns_saved(fp, tmp_path, "cmu", start_turn=math.pi)
+    out, doc = _bake(fp, path, char, tmp_path)
+    _check_start_turn(fp, out, doc, 5.0)
+
+
+def test_a_goal_facing_back_ends_with_a_turn_in_place(fp, empty_scene, tmp_path):
+    """The Goal turned round: the walk arrives facing its way and turns on the spot to the
+    goal's heading (instead of a loop to arrive facing it), standing still at the goal."""
+    path, char = _turns_saved(fp, tmp_path, goal_turn=math.pi)
+    out, doc = _bake(fp, path, char, tmp_path)
+    turns = doc["turns_in_place"]
+    assert [t["where"] for t in turns] == ["end"] and abs(turns[0]["degrees"]) >= 120
+    body, yaw, stances, skate = _played(fp, out, doc)
+    a = turns[0]["frames"][0] - doc["frame_start"]
+    assert np.linalg.norm(body[a:, :2] - body[-1, :2], axis=1).max() < 0.03
+    assert skate["max_mm"] < 1.0
+    q = doc["quality"]
+    assert q["goal"]["distance_m"] < 0.05 and abs(q["goal"]["heading_deg"]) < 5.0
+    intro = q["pops"]["introduced"]
+    assert intro["count"] <= 5 and intro["max_excess_deg"] <= 5.0
+
+
+def test_turning_in_place_off_has_no_room_to_walk_round(fp, empty_scene, tmp_path):
+    """``turn_in_place_angle=0`` plans as before: facing the end of the Turns path, half a
+    metre from it, the walking turn has no room, and the plan is refused; turning in
+    place, it is not (its first steps leave the way the path goes)."""
+    import bpy
+
+    path, char = _turns_saved(fp, tmp_path, start_turn=math.pi)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    navgraph = import_module(fp.__name__ + ".core.navgraph")
+    settings = import_module(fp.__name__ + ".core.settings").Settings(turn_in_place_angle=0.0)
+    scene = bpy.context.scene
+    goal, heading = planning.goal_of(scene, "Goal")
+    with pytest.raises(navgraph.PlanError, match="cannot be reached"):
+        planning.plan(scene, bpy.data.objects[char], goal, heading, scene.objects["Start"], settings)
+    result, _ = planning.plan(scene, bpy.data.objects[char], goal, heading, scene.objects["Start"])
+    assert sum(f.label == "pivot" for f in result.footprints) >= 4
+
+
+def test_a_turning_plan_saved_and_baked_turns_again(fp, empty_scene, tmp_path):
+    """``plan --out-plan`` keeps the pivot steps; ``bake --plan`` plays them as a turn."""
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    path, char = _turns_saved(fp, tmp_path, start_turn=math.pi)
+    plan = str(tmp_path / "plan.json")
+    assert cli(["plan", path, "--character", char, "--start", "Start", "--goal", "Goal", "--out-plan", plan]) == 0
+    with open(plan) as fh:
+        labels = [f["clip"] for f in json.load(fh)["footprints"]]
+    assert labels.count("pivot") >= 4
+    rep = str(tmp_path / "again.json")
+    assert cli(["bake", path, "--plan", plan, "--out", str(tmp_path / "again.blend"), "--report", rep]) == 0
+    with open(rep) as fh:
+        doc = json.load(fh)
+    assert [t["where"] for t in doc["turns_in_place"]] == ["start"]
+    assert doc["quality"]["foot_skate"]["max_mm"] < 1.0
+
+
+def test_a_job_back_to_the_start_turns_at_both_ends_and_the_panel_says_so(fp, empty_scene, tmp_path):
+    """A job list's return from the Goal to the Start (the Turns scene's U-turn): it turns
+    in place to face the way back, and at the Start to face the Start's way; the panel's
+    Plan reports the same turns."""
+    import bpy
+
+    path, char = _turns_saved(fp, tmp_path)
+    jobs = tmp_path / "jobs.json"
+    rep = tmp_path / "back.json"
+    jobs.write_text(json.dumps([{"character": char, "goal": "Start", "start": "Goal", "name": "back",
+                                 "report": str(rep)}]))
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    assert cli(["bake", path, "--job", str(jobs), "--out", str(tmp_path / "jobs.blend")]) == 0
+    doc = json.loads(rep.read_text())
+    assert [t["where"] for t in doc["turns_in_place"]] == ["start", "end"]
+    assert all(abs(t["degrees"]) >= 90 for t in doc["turns_in_place"])
+    q = doc["quality"]
+    assert q["goal"]["distance_m"] < 0.05 and abs(q["goal"]["heading_deg"]) < 5.0
+    assert q["foot_skate"]["max_mm"] < 1.0 and q["pops"]["introduced"]["count"] <= 5
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    fs = scene.footstep
+    fs.character, fs.goal, fs.start = bpy.data.objects[char], scene.objects["Start"], scene.objects["Goal"]
+    assert bpy.ops.footstep.plan() == {"FINISHED"}
+    planned = json.loads(fs.plan_json)
+    assert [t["where"] for t in planned["turns_in_place"]] == ["start", "end"]
+
+
+def test_a_pause_where_the_way_turns_back_turns_in_place_there(fp, empty_scene, tmp_path):
+    """Out along the Turns path to A, pause, and back past the start's way: the path stops
+    at A and turns on the spot there toward the way back; the arrival frame asked for the
+    goal is still met as Blender plays the saved scene."""
+    import bpy
+
+    path, char = _turns_saved(fp, tmp_path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    for name, at in (("A", (5.0, 0.0, 0.0)), ("Back", (1.5, 0.0, 0.0))):
+        e = bpy.data.objects.new(name, None)
+        e.location = at
+        scene.collection.objects.link(e)
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    out, rep = str(tmp_path / "via.blend"), str(tmp_path / "via.json")
+    assert cli(["bake", path, "--character", char, "--start", "Start", "--goal", "Back", "--via", "A",
+                "--pause", "A=0.5", "--arrive", "Back=440", "--out", out, "--report", rep]) == 0
+    with open(rep) as fh:
+        doc = json.load(fh)
+    turns = doc["turns_in_place"]
+    assert [t["where"] for t in turns] == ["waypoint"] and abs(turns[0]["degrees"]) >= 60
+    rows = {r["name"]: r for r in doc["waypoints"]}
+    assert abs(rows["Back"]["achieved"] - 440) <= 1.0
+    assert rows["A"]["achieved"] < turns[0]["frames"][0]
+    body, yaw, stances, skate = _played(fp, out, doc)
+    a, b = (f - doc["frame_start"] for f in turns[0]["frames"])
+    assert np.linalg.norm(body[a:b + 1, :2] - body[a, :2], axis=1).max() < 0.03
+    assert skate["max_mm"] < 1.0
