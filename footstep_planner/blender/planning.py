@@ -125,11 +125,14 @@ def character_footprints(ob, setup: PlanSetup) -> list[PathFootprint]:
 def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
                         width: float = 0.1) -> list[PathFootprint]:
     """Both feet side by side, ``width`` either side of ``position`` (3,), turned
-    ``heading`` (the planner's frame), dropped onto the ground; PlanError naming ``what``
-    when there is no traversable surface under a foot."""
+    ``heading`` (the planner's frame) and, with ``Settings.curvature_penalty``, each
+    turned out as the walk turns it out (``StepSet.toe_out``: the first step then leaves
+    straight, not askew), dropped onto the ground; PlanError naming ``what`` when there is no traversable surface under a
+    foot."""
     ang = heading + np.arctan2(setup.forward[1], setup.forward[0])
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
     p = np.asarray(position, float)[:3]
+    toe = setup.planner.steps.toe_out() if setup.planner.settings.curvature_penalty > 0 else 0.0
     out = []
     for k, sign in ((0, 1), (1, -1)):
         q = p + sign * width * left
@@ -137,7 +140,7 @@ def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
         if not hit.hit[0]:
             raise PlanError(f"{what} stands at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}), not above a traversable "
                             "surface: move it onto a traversable mesh, or pick a Start")
-        out.append(PathFootprint(k, np.array([q[0], q[1], hit.z[0]]), heading, 0.0, "start", "walk"))
+        out.append(PathFootprint(k, np.array([q[0], q[1], hit.z[0]]), heading + sign * toe, 0.0, "start", "walk"))
     return out
 
 

@@ -73,6 +73,10 @@ def fine_keys(xy: np.ndarray, heading: np.ndarray) -> list[tuple[int, int, int]]
     return list(zip(c[:, 0].tolist(), c[:, 1].tolist(), b.tolist()))
 
 
+#: m: a step's curvature (``Settings.curvature_penalty``) is its veer over its clip's
+#: step length, or over this for a shorter one.
+MIN_STEP = 0.2
+
 #: m: the ground between two footprints may rise this much above the higher of them
 #: (a swinging foot steps over a bump, not up a stair and down again).
 MAX_BUMP = 0.1
@@ -538,7 +542,11 @@ class Planner:
         """(S,) s: each step's cost, its duration plus the turn, jump and run penalties
         (a gait change is added per successor)."""
         st, cfg = self.steps, self.settings
+        veer = np.abs(st.veer())
+        length = np.maximum(np.hypot(st.fwd / st.stride, st.left), MIN_STEP)  # (a shortened step: its clip's)
+        kappa = (veer + np.abs(st.sidestep()) / length) / length  # 1/m: the way's heading change and a crab's
         return (st.time_cost(cfg.stride_penalty) + cfg.turn_penalty * np.abs(st.turn)
+                + cfg.curvature_penalty * kappa
                 + np.where(st.jump, cfg.jump_penalty, 0.0)
                 + np.where(st.gait == "run", cfg.run_penalty, 0.0))
 

@@ -76,6 +76,48 @@ class StepSet:
         return StepSet(*(np.concatenate([getattr(part, f) for part in sets]) for f in
                          FIELDS))
 
+    def toe_out(self) -> float:
+        """rad, how far each foot of the straightest walk turns out from the way it walks
+        (its left foot's heading that much left of it, the right's right): a quarter of
+        the difference of its right and left steps' turns, for the walking clip (or
+        blend) of the clips' own stride whose strides turn least. 0 without one."""
+        return self._straight()[0]
+
+    def _straight(self) -> tuple[float, float]:
+        """(toe-out rad, half the straightest walk's stance width m: how far a step goes
+        sideways across the way walked, from the left foot to the right and back)."""
+        best, out = np.inf, (0.0, 0.0)
+        walk = (self.gait == "walk") & ~self.jump & (self.stride == 1.0)
+        for lab in set(self.label[walk]):
+            sel = walk & (self.label == lab)
+            t0, t1 = self.turn[sel & (self.foot == 0)], self.turn[sel & (self.foot == 1)]
+            if len(t0) and len(t1) and abs(t0.mean() + t1.mean()) < best:
+                toe = 0.25 * float(t1.mean() - t0.mean())
+                side = self._across(toe)
+                best = abs(t0.mean() + t1.mean())
+                out = (toe, 0.5 * float(side[sel & (self.foot == 1)].mean() - side[sel & (self.foot == 0)].mean()))
+        return out
+
+    def _across(self, toe: float) -> np.ndarray:
+        """(N,) m each step's sideways move across the way walked (its start foot's frame
+        turned back by the foot's toe-out ``toe``)."""
+        a = np.where(self.foot == 0, toe, -toe)
+        return np.sin(a) * self.fwd + np.cos(a) * self.left
+
+    def sidestep(self) -> np.ndarray:
+        """(N,) m each step's sideways move across the way walked beyond the straightest
+        walk's (half its stance width, right from the left foot and left from the right):
+        steps that crab, which a straight way must not take one after another."""
+        toe, half = self._straight()
+        return self._across(toe) - np.where(self.foot == 0, -half, half)
+
+    def veer(self) -> np.ndarray:
+        """(N,) rad, each step's turn beyond the straightest walk's (``toe_out``): the
+        heading change of the way walked, not of the foot (a straight walk's steps turn
+        each foot out and back, and veer 0)."""
+        two = 2.0 * self.toe_out()
+        return self.turn - np.where(self.foot == 0, -two, two)
+
     def take(self, sel) -> "StepSet":
         """The steps ``sel`` (a mask or indices)."""
         return StepSet(*(getattr(self, f)[sel] for f in FIELDS))
