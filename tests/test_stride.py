@@ -69,3 +69,19 @@ def test_refinement_never_moves_a_footprint_across_a_step_edge(shift, n):
     snap.crosses_edge = crosses_edge
     out = refine(orig, head, desired, head, 10, snap)
     np.testing.assert_array_equal(np.floor(out.position[:, 0] / tread), np.floor(desired[:, 0] / tread))
+
+
+def test_the_distance_maps_stair_treads_are_a_flight_not_a_kerb():
+    """``_Grid.flight_cells``: cells with a riser on two sides (a flight's treads) are a
+    flight; a single kerb's top and foot, and level floor, are not."""
+    from footstep_planner.core.navgraph import _Grid
+
+    nx, ny = 14, 3
+    z = np.zeros((1, nx, ny))
+    z[0, 2:] = 0.15  # a 15 cm kerb between cells 1 and 2
+    z[0, 8:12] = 0.15 + 0.17 * np.arange(1, 5)[:, None]  # four treads of a flight up
+    z[0, 12:] = 0.15 + 0.17 * 5
+    grid = _Grid(np.zeros(2), 0.25, nx, ny, np.arange(nx * ny).reshape(1, nx, ny), z, np.zeros((nx * ny, 2)))
+    flight = grid.flight_cells(np.ones((1, nx, ny), bool), 0.3)[0]
+    assert flight[8:12].all()  # treads: a riser behind and ahead
+    assert not flight[:8].any() and not flight[13:].any()  # floor, the kerb's foot and top, the top

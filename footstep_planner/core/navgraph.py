@@ -1079,8 +1079,13 @@ class FieldCells:
         return FieldCells(grid, walk_edges, bridge_edges)
 
 
-#: How much longer the heuristic counts a way along a cell beside an unwalkable one.
+#: How much longer the heuristic counts a way along a cell beside an unwalkable one ...
 EDGE_COST = 1.5
+#: ... and one up or down a riser of a flight of stairs (``_Grid.flight_cells``: a step
+#: of more than CLIMB_STEP m between treads): stairs are climbed in shortened strides,
+#: several times a walk's time per metre (weighted search only, as EDGE_COST).
+CLIMB_COST = 3.0
+CLIMB_STEP = 0.1
 
 #: The weighted search's heuristic adds AHEAD_TURN_COST seconds per radian that a
 #: footprint is turned away from the way to the goal (the direction to the cell
@@ -1204,14 +1209,34 @@ class _Grid:
         inner = pw[2:, 1:-1] & pw[:-2, 1:-1] & pw[1:-1, 2:] & pw[1:-1, :-2]
         return walk & ~inner[None]
 
+    def flight_cells(self, walk: np.ndarray, step_height: float) -> np.ndarray:
+        """(L, nx, ny) walkable cell levels with a step up or down (more than CLIMB_STEP,
+        within ``step_height``) on two or more of their four sides: a stair's treads, not
+        the top or the foot of a single kerb."""
+        nx, ny = self.nx, self.ny
+        z = np.where(walk, self.z, np.nan)
+        count = np.zeros(walk.shape, int)
+        for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            here = (slice(max(0, -di), nx - max(0, di)), slice(max(0, -dj), ny - max(0, dj)))
+            there = (slice(max(0, di), nx + min(0, di)), slice(max(0, dj), ny + min(0, dj)))
+            near = np.zeros(walk.shape, bool)
+            for lb in range(walk.shape[0]):
+                dz = np.abs(z[(slice(None),) + here] - z[lb][there][None])
+                near[(slice(None),) + here] |= (dz > CLIMB_STEP) & (dz <= step_height)
+            count += near
+        return walk & (count >= 2)
+
     def neighbour_edges(self, walk: np.ndarray, step_height: float, edge: np.ndarray | None = None,
                         edge_cost: float = 1.0) -> list[tuple]:
         """(rows, cols, lengths) of the edges between 8-connected walkable cell levels
         whose heights differ by at most ``step_height``; an edge touching a cell beside
         an unwalkable one (``edge``) is ``edge_cost`` times as long, so the heuristic's
-        way keeps off edges and walls as footprints must."""
+        way keeps off edges and walls as footprints must, and (with ``edge_cost`` too) one
+        up or down a riser between two stair treads (``flight_cells``) CLIMB_COST times:
+        stairs are climbed in short steps."""
         nx, ny, out = self.nx, self.ny, []
         nl = walk.shape[0]
+        flight = self.flight_cells(walk, step_height) if edge is not None and edge_cost != 1.0 else None
         for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):
             sa = (slice(0, nx - di), slice(max(0, -dj), ny - max(0, dj)))
             sb = (slice(di, nx), slice(max(0, dj), ny + min(0, dj)))
@@ -1222,6 +1247,9 @@ class _Grid:
                     length = np.full(m.sum(), np.hypot(di, dj) * self.cell)
                     if edge is not None and edge_cost != 1.0:
                         length *= np.where(edge[la][sa][m] | edge[lb][sb][m], edge_cost, 1.0)
+                        riser = (np.abs(self.z[la][sa][m] - self.z[lb][sb][m]) > CLIMB_STEP) \
+                            & flight[la][sa][m] & flight[lb][sb][m]
+                        length *= np.where(riser, CLIMB_COST, 1.0)
                     out.append((self.ids[la][sa][m], self.ids[lb][sb][m], length))
         return out
 
