@@ -259,18 +259,17 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     tightly (``bent_step``, ``bend_curvatures``; 0: none: a library that turns keeps its
     own turns, and where it turns only walking, runs do not bend), and of the jumps
     (take-off to landing, within ``jump_tolerance`` of their length and 10 degrees of
-    their direction: the refinement stage bends the clip that far), and the walking steps
-    of the clips and their blends with adapted strides (``stride_steps``, ``stride``:
-    (least, most) share of the clip's forward length)."""
+    their direction: the refinement stage bends the clip that far), and every walking step
+    again with adapted strides (``stride_steps``, ``stride``: (least, most) share of the
+    clip's forward length; a shortened bent step turns as much in less way: a library of
+    wide turns turns on a stair's landing)."""
     by = {a.name: a for a in analyses}
     groups = _group_steps(library, by)
     taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]
     reach = (min(taus), max(taus)) if taus else (0.0, 0.0)
     rows = []  # foot, fwd, left, turn, duration, gait, jump, label
-    plain = set()  # the labels of clips and blends within their group's range
     for gait, group, per_clip in groups:
         rows += _cyclic_rows(gait, group, per_clip, blends_per_interval)
-        plain |= {r[-1] for r in rows}
         if bend_curvature > 0:
             rows += _bent_rows(gait, group, per_clip, bend_curvature, reach)
     for sp in library.specials:
@@ -283,7 +282,7 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
                   turn=np.array(cols[3], float), duration=np.array(cols[4], float),
                   foot=np.array(cols[0], int), gait=np.array(cols[5], object),
                   jump=np.array(cols[6], bool), label=np.array(cols[7], object))
-    cyclic = np.array([lab in plain for lab in own.label]) & (own.gait == "walk")
+    cyclic = (own.gait == "walk") & ~own.jump
     return StepSet.concat([own, stride_steps(own.take(cyclic), *stride)])
 
 
