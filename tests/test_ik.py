@@ -271,3 +271,22 @@ def test_ease_peaks_covers_the_values_and_changes_no_faster_than_its_rate(v, rat
     out = ease_peaks(v, rate)
     assert np.all(out >= v - 1e-12)
     assert np.all(np.abs(np.diff(out)) <= rate + 1e-9)
+
+
+def test_the_body_height_is_eased_only_where_the_feet_stand_at_different_heights():
+    """``_on_steps``: 0 where both feet's last footprints are level (a take-off keeps the
+    fine fit of the body's height), 1 around stances a step apart (a stair), eased."""
+    from footstep_planner.core.ik import FootTargets, _on_steps
+
+    F = 120
+    weight = np.zeros((2, F))
+    weight[0, 0:20] = weight[1, 15:40] = weight[0, 35:60] = weight[1, 55:80] = weight[0, 75:100] = 1.0
+    weight[1, 95:] = 1.0
+    pin = np.zeros((2, F, 3))
+    pin[1, 55:80, 2] = 0.17  # one footprint up a step; the others level
+    tg = FootTargets(weight, np.zeros((2, F), int), pin, np.zeros((2, F, 3)), np.zeros((2, F, 3, 3)),
+                     np.zeros((2, F, 3)))
+    w = _on_steps(tg, 30.0)
+    assert w[:30].max() < 1e-6 and w[116:].max() < 1e-3  # level stances: the fine fit
+    assert w[60:92].min() > 0.99  # the right foot's last footprint up the step, the left's below
+    assert np.abs(np.diff(w)).max() < 0.25  # eased in and out

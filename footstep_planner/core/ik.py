@@ -50,8 +50,8 @@ from .offsets import body_offsets, smooth_offsets
 from .rig import Rig, forward_kinematics
 from .settings import Settings
 
-#: s: the finest level of the body's height offset (3.8.1): it changes between stances
-#: over about this long.
+#: s: the finest level of the body's height offset (3.8.1) where the feet stand at
+#: different heights (``_on_steps``): it changes between stances over about this long.
 BODY_RISE_FINE = 0.25
 #: m of height between a swing's footprints from which it is retimed as a stair step
 #: (``_stair_swing``), fully from STAIR_RISE.
@@ -487,15 +487,37 @@ def _offset_body(pose: np.ndarray, legs: _Legs, tg: FootTargets, t: np.ndarray, 
     if np.isfinite(dpsi).any():
         raw = dp
         dp, dpsi = smooth_offsets(t, dp, dpsi)
-        # the height offset on a coarser finest level: stepping up or down a stair the
-        # stances' offsets differ by centimetres, fitted two frames apart the body jolts
-        dp[:, 2] = smooth_offsets(t, raw, np.where(np.isfinite(raw).all(axis=1), 0.0, np.nan),
-                                  fine=BODY_RISE_FINE)[0][:, 2]
+        # where the feet stand at different heights (stairs, a kerb) the height offset on
+        # a coarser finest level: the stances' offsets differ by centimetres, fitted two
+        # frames apart the body jolts (elsewhere, a take-off's push needs the fine fit)
+        w = _on_steps(tg, _frame_rate(t))
+        if w.any():
+            coarse = smooth_offsets(t, raw, np.where(np.isfinite(raw).all(axis=1), 0.0, np.nan),
+                                    fine=BODY_RISE_FINE)[0][:, 2]
+            dp[:, 2] += w * (coarse - dp[:, 2])
     else:
         dp, dpsi = np.zeros((F, 3)), np.zeros(F)
     if still is not None:  # (held over its place as far as ``still``: up and down only)
         dp[:, :2] *= 1.0 - np.clip(np.asarray(still, float), 0.0, 1.0)[:, None]
     return np.asarray(body_pos, float) + dp, yaw + dpsi, (dp, dpsi)
+
+
+def _on_steps(tg: FootTargets, fps: float) -> np.ndarray:
+    """(F,) 0..1: how far each frame lies where the two feet's last footprints differ in
+    height by more than CLIMB_MIN (on stairs, at a kerb), eased over BODY_RISE_FINE."""
+    F = tg.weight.shape[1]
+    f = np.arange(F)
+    z = np.zeros((2, F))
+    for k in range(2):
+        on = tg.weight[k] >= 1.0 - 1e-9
+        if not on.any():
+            return np.zeros(F)
+        last = np.maximum.accumulate(np.where(on, f, -1))
+        last = np.where(last < 0, np.flatnonzero(on)[0], last)
+        z[k] = tg.pin[k, last, 2]
+    win = max(1, int(round(BODY_RISE_FINE * fps)))
+    step = (np.abs(z[0] - z[1]) > CLIMB_MIN).astype(float)
+    return np.clip(gaussian_filter1d(maximum_filter1d(step, 2 * win + 1), win / 2.0), 0.0, 1.0)
 
 
 def _drop_budget(floor_z: np.ndarray, tg: FootTargets, dp_z: np.ndarray, fps: float) -> np.ndarray:
