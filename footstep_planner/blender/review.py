@@ -142,16 +142,59 @@ def _render_character(scene, ob, frame: int, path: str) -> str:
         cam = bpy.data.objects.new("CharacterCamera", bpy.data.cameras.new("CharacterCamera"))
         scene.collection.objects.link(cam)
     yaw = ob.matrix_world.to_euler("XYZ").z
-    side = np.array([math.cos(yaw), math.sin(yaw), 0.0])  # the rig's +X: the character's side
-    cam.location = tuple(hips + 4.0 * side + [0.0, 0.0, 0.8])
+    spot, hidden = _camera_spot(scene, hips, yaw)
+    cam.location = tuple(spot)
     cam.rotation_euler = (Vector(hips.tolist()) - cam.location).to_track_quat("-Z", "Y").to_euler()
     scene.camera = cam
     scene.render.engine = "BLENDER_WORKBENCH"
     scene.display.shading.color_type = "MATERIAL"
     scene.render.resolution_x, scene.render.resolution_y = 640, 480
     scene.render.filepath = path
-    bpy.ops.render.render(write_still=True)
+    try:
+        bpy.ops.render.render(write_still=True)
+    finally:
+        for other in hidden:
+            other.hide_render = False
     return path
+
+
+#: m: the character camera stands this far from the hips, this high above them ...
+CAMERA_DISTANCE, CAMERA_RISE = 4.0, 0.8
+#: ... at the character's side if the view is clear, else the first of these turns (rad)
+#: about it from there that is (a stairwell's walls, a corridor).
+#: m above the hips of the points the camera must see (head, hips, feet).
+VIEW_POINTS = (0.7, 0.0, -0.8)
+CAMERA_TURNS = (0.0, math.pi, math.pi / 4, -math.pi / 4, 3 * math.pi / 4, -3 * math.pi / 4,
+                math.pi / 2, -math.pi / 2)
+
+
+def _camera_spot(scene, hips: np.ndarray, yaw: float) -> tuple[np.ndarray, list]:
+    """Where the character camera sees the hips unobstructed (the rig's +X side first,
+    then round it: ``CAMERA_TURNS``), and the objects hidden from the render to see them
+    at all when every spot is blocked (their ``hide_render`` set: the caller restores it)."""
+    from mathutils import Vector
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    first, blockers = None, []
+    for turn in CAMERA_TURNS:
+        d = np.array([math.cos(yaw + turn), math.sin(yaw + turn), 0.0])
+        spot = hips + CAMERA_DISTANCE * d + [0.0, 0.0, CAMERA_RISE]
+        first = spot if first is None else first
+        hits = []
+        for aim in VIEW_POINTS:  # (the head, the hips and the feet in view)
+            way = hips + [0.0, 0.0, aim] - spot
+            reach = float(np.linalg.norm(way)) - 0.6  # (up to the character's reach, not into it)
+            hit, _, _, _, other, _ = scene.ray_cast(depsgraph, Vector(spot.tolist()),
+                                                    Vector((way / np.linalg.norm(way)).tolist()), distance=reach)
+            if hit:
+                hits.append(other.original if other is not None else None)
+        if not hits:
+            return spot, []
+        blockers += hits
+    hidden = [b for b in dict.fromkeys(blockers) if b is not None and not b.hide_render]
+    for b in hidden:
+        b.hide_render = True
+    return first, hidden
 
 
 def _material(name: str, rgba) -> bpy.types.Material:
