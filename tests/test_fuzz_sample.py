@@ -44,7 +44,7 @@ def records(tmp_path_factory):
     return {rec["id"]: rec for rec in fuzz.run_cases(cases, work, jobs=2, timeout=50)}
 
 
-def test_the_sample_is_quick_and_fixed():
+def test_the_sample_spans_the_kinds_on_the_sample_scene_and_is_fixed():
     cases = [fc.make_case(*fc.parse_id(cid)) for cid, _ in SAMPLE]
     assert len({c.kind for c in cases}) >= 7
     assert not any(need.startswith("@scene:") for c in cases for need in c.needs())  # (the sample scene only)

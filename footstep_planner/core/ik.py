@@ -49,17 +49,15 @@ from scipy.spatial.transform import Rotation
 from .offsets import body_offsets, smooth_offsets
 from .rig import Rig, forward_kinematics
 from .settings import Settings
+from .surface import EDGE_STEP, steps_along
 
 #: s: the finest level of the body's height offset (3.8.1) where the feet stand at
 #: different heights (``_on_steps``): it changes between stances over about this long.
 BODY_RISE_FINE = 0.25
 #: m of height between a swing's footprints from which it is retimed as a stair step
-#: (``_stair_swing``), fully from STAIR_RISE.
-CLIMB_MIN = 0.04
+#: (``_stair_swing``; a step's edge, ``surface.EDGE_STEP``), fully from STAIR_RISE.
+CLIMB_MIN = EDGE_STEP
 STAIR_RISE = 0.12
-#: m between the ground samples that find a step's edge under a swing (a 25 degree slope
-#: rises 1.4 cm over it).
-EDGE_SAMPLE = 0.03
 #: How far ahead (behind) of the swing's time its early (late) motion runs, at most 1
 #: (monotone): see ``_stair_swing``.
 STAIR_LEAD = 0.6
@@ -214,16 +212,12 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
 
 def _over_edge(A: np.ndarray, a: np.ndarray, b: np.ndarray, ground_z) -> np.ndarray:
     """(F,) whether the ground from ankle target ``A[a]`` to ``A[b]`` (each frame's last
-    and next planted frames) steps by more than CLIMB_MIN between samples EDGE_SAMPLE m
-    apart (a stair's nosing, a kerb; not a slope), by ``ground_z`` (points -> heights)."""
+    and next planted frames) has a step's edge (``surface.steps_along``: a stair's
+    nosing, a kerb; not a slope, nor a gap), by ``ground_z`` (points -> heights)."""
     pairs, inv = np.unique(np.c_[a, b], axis=0, return_inverse=True)
     pa, pb = A[pairs[:, 0]], A[pairs[:, 1]]
-    n = max(int(np.ceil(np.max(np.linalg.norm(pb[:, :2] - pa[:, :2], axis=1)) / EDGE_SAMPLE)), 1)
-    u = np.linspace(0.0, 1.0, n + 1)
-    pts = pa[:, None] + u[None, :, None] * (pb - pa)[:, None]
-    pts[..., 2] = 0.5 * (pa[:, None, 2] + pb[:, None, 2])  # (``ground_z`` looks 0.3 m up and down)
-    z = np.asarray(ground_z(pts.reshape(-1, 3)), float).reshape(len(pairs), n + 1)
-    edge = (np.nan_to_num(np.abs(np.diff(z, axis=1)), nan=0.0) > CLIMB_MIN).any(axis=1)
+    jump = steps_along(ground_z, pa, pb, 0.5 * (pa[:, 2] + pb[:, 2]))  # (``ground_z`` looks 0.3 m up and down)
+    edge = (np.nan_to_num(jump, nan=0.0) > CLIMB_MIN).any(axis=1)
     return edge[np.ravel(inv)]
 
 

@@ -307,16 +307,11 @@ class Planner:
         the ground must be under each within a step's height, and no higher than
         MAX_BUMP over the higher footprint; no obstacle may stand there below head
         height, nor closer than half the clearance at the hips."""
-        t = np.array([0.25, 0.5, 0.75])
-        pts = a[:, None] + (b - a)[:, None] * t[None, :, None]
-        top = pts.copy()
-        top[..., 2] = np.maximum(a[:, None, 2], b[:, None, 2]) + self.max_step_height
-        hit = self.ground.ray_down(top.reshape(-1, 3), 2 * self.max_step_height + 0.2)
-        ground = hit.hit.reshape(len(a), 3).all(axis=1)
+        pts, z = self._ground_between(a, b)
+        ground = np.isfinite(z).all(axis=1)
         # a step does not pass over ground higher than both its ends (a landing's corner
         # cut from one flight to the other): the swinging foot would have to climb it
-        rise = np.where(hit.hit, hit.z, -np.inf).reshape(len(a), 3).max(axis=1)
-        clear = rise <= np.maximum(a[:, 2], b[:, 2]) + MAX_BUMP
+        clear = self._under_bump(a, b, z)
         if self.obstacles is not None and self.obstacles.mesh.n:
             base = np.minimum(a[:, None, 2], b[:, None, 2]) + np.zeros((1, 3))
             head = np.concatenate([pts[..., :2], (base + 1.6)[..., None]], axis=2).reshape(-1, 3)
@@ -331,17 +326,29 @@ class Planner:
                 clear[long] = self._clear_along(a[long], b[long])
         return ground, clear
 
+    def _ground_between(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(points (N, 3, 3) a quarter, half and three quarters of the way from each ``a``
+        to ``b`` (N, 3), the ground's height under them (N, 3), nan where none within a
+        step's height)."""
+        t = np.array([0.25, 0.5, 0.75])
+        pts = a[:, None] + (b - a)[:, None] * t[None, :, None]
+        top = pts.copy()
+        top[..., 2] = np.maximum(a[:, None, 2], b[:, None, 2]) + self.max_step_height
+        hit = self.ground.ray_down(top.reshape(-1, 3), 2 * self.max_step_height + 0.2)
+        return pts, np.where(hit.hit, hit.z, np.nan).reshape(len(a), 3)
+
+    @staticmethod
+    def _under_bump(a: np.ndarray, b: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """(N,) whether the ground ``z`` (N, 3) between each ``a`` and ``b`` (N, 3) stays
+        within MAX_BUMP of the higher end."""
+        return np.nan_to_num(z, nan=-np.inf).max(axis=1) <= np.maximum(a[:, 2], b[:, 2]) + MAX_BUMP
+
     def _no_bump(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(K,) whether the ground from ``a`` (3,) to each of ``b`` (K, 3) (a foot's swing,
         from its last footprint to its next) stays within MAX_BUMP of the higher end:
         a foot swings over a tread between two, not over a landing's corner."""
-        t = np.array([0.25, 0.5, 0.75])
-        pts = a[None, None] + (b - a)[:, None] * t[None, :, None]
-        top = np.maximum(a[2], b[:, 2])
-        pts[..., 2] = top[:, None] + self.max_step_height
-        hit = self.ground.ray_down(pts.reshape(-1, 3), 2 * self.max_step_height + 0.2)
-        rise = np.where(hit.hit, hit.z, -np.inf).reshape(len(b), 3).max(axis=1)
-        return rise <= top + MAX_BUMP
+        a = np.broadcast_to(np.asarray(a, float), b.shape)
+        return self._under_bump(a, b, self._ground_between(a, b)[1])
 
     def _clear_along(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) whether the way from each ``a`` to ``b`` (N, 3) keeps the body's clearance

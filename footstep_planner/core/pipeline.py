@@ -31,7 +31,7 @@ from .refinement import Refined, refine
 from .settings import Settings
 from .smoothing import Smoothed, smooth_footprints
 from .steps import bend_chain
-from .surface import FootShape, Ground, footprint_support
+from .surface import EDGE_STEP, FootShape, Ground, footprint_support, steps_along
 from .timing import StageTimer
 from .trajectory import transfer_body
 from .turn_in_place import PIVOT
@@ -49,13 +49,6 @@ TAU_RATE = 10.0
 
 #: m: the feet of a standing character lie this far either side of its middle.
 STAND_WIDTH = 0.1
-
-#: m: the ground steps (up or down) by more than this between two samples EDGE_SPACING m
-#: apart at an edge (a stair's nosing, a kerb): smoothing and refinement keep each
-#: footprint on the tread it was planned on (``surface_snap``'s ``crosses_edge``) ...
-EDGE_STEP = 0.04
-#: ... sampled this far apart (a 25 degree slope rises 1.4 cm over it).
-EDGE_SPACING = 0.03
 
 #: The label of the standing foot a standing path begins with (``standing_path``).
 STAND_LABEL = "stand"
@@ -240,21 +233,19 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
 
     def crosses_edge(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) whether the ground from each footprint ``a`` (N, 3) to ``b`` (N, 3) has an
-        edge (a step up or down of more than EDGE_STEP between samples EDGE_SPACING
-        apart, or no surface): a footprint moved across one leaves the tread, kerb or
-        floor it was planned on."""
+        edge (``surface.steps_along``: a step of more than EDGE_STEP, or no surface): a
+        footprint moved across one leaves the tread, kerb or floor it was planned on
+        (smoothing and refinement keep each footprint on its side)."""
         a, b = np.asarray(a, float), np.asarray(b, float)
-        n = len(a)
-        if not n:
+        if not len(a):
             return np.zeros(0, bool)
-        k = max(int(np.ceil(np.max(np.linalg.norm(b[:, :2] - a[:, :2], axis=1)) / EDGE_SPACING)), 1)
-        u = np.linspace(0.0, 1.0, k + 1)
-        pts = a[:, None] + u[None, :, None] * (b - a)[:, None]
-        pts[..., 2] = np.maximum(a[:, None, 2], b[:, None, 2]) + step_height
-        hit = ground.ray_down(pts.reshape(-1, 3), 2 * step_height + 0.2)
-        z = np.where(hit.hit, hit.z, np.nan).reshape(n, k + 1)
-        jump = np.abs(np.diff(z, axis=1))
-        return ~np.all(np.isfinite(z), axis=1) | (np.nan_to_num(jump, nan=np.inf) > EDGE_STEP).any(axis=1)
+
+        def under(p):
+            hit = ground.ray_down(p, 2 * step_height + 0.2)
+            return np.where(hit.hit, hit.z, np.nan)
+
+        jump = steps_along(under, a, b, np.maximum(a[:, 2], b[:, 2]) + step_height)
+        return (np.nan_to_num(jump, nan=np.inf) > EDGE_STEP).any(axis=1)
 
     snap.height = height
     snap.crosses_edge = crosses_edge
@@ -631,8 +622,7 @@ def _standing(library: Library, tracks: dict, cyc: list[str], settings: Settings
     made from the straightest walk (``standing_track``) added to ``tracks``; the walk is
     held, at either end, where the stepping foot swings past the standing one
     (``mid_swing``)."""
-    gait = tracks.gait_of if isinstance(tracks, _LazyTracks) else (lambda c: tracks[c].gait)
-    walk = min(cyc, key=lambda c: (gait(c) != "walk", abs(_clip_tau(library, c))))
+    walk = _straight(library, cyc)
     idle = next((sp.clip for sp in library.specials if sp.kind == "idle" and sp.clip in tracks), None)
     if idle is None:
         idle = f"{walk}~stand"
@@ -662,8 +652,7 @@ def standing_body(library: Library, analyses) -> np.ndarray:
 
 
 class _LazyTracks(dict):
-    """Clip name -> ClipTrack, each made (``make_track``) when first asked for; a track's
-    ``gait`` read from its analysis without making it."""
+    """Clip name -> ClipTrack, each made (``make_track``) when first asked for."""
 
     def __init__(self, analyses):
         super().__init__()
@@ -677,9 +666,6 @@ class _LazyTracks(dict):
 
     def __contains__(self, name) -> bool:
         return dict.__contains__(self, name) or name in self.by
-
-    def gait_of(self, name: str) -> str:
-        return self.by[name].gait if name in self.by else self[name].gait
 
 
 def mid_swing(track: ClipTrack) -> float:

@@ -272,6 +272,7 @@ def smooth_footprints(position, heading, iterations: int = 4, snap: SnapFn | Non
     mask = _fixed_mask(fixed, n)
     rejected = np.zeros(n, dtype=int)
     position0 = pos.copy()
+    edge = getattr(snap, "crosses_edge", None)
     if n < MIN_FOOTPRINTS:
         return Smoothed(pos, head, int(iterations), rejected)
 
@@ -287,7 +288,6 @@ def smooth_footprints(position, heading, iterations: int = 4, snap: SnapFn | Non
                     f"snap must return positions ({n}, 3) and ok ({n},), got "
                     f"{snapped.shape} and {ok.shape}")
             ok = ok.astype(bool) & np.all(np.isfinite(snapped), axis=1)
-            edge = getattr(snap, "crosses_edge", None)
             if edge is not None and ok.any():
                 ok[ok] &= ~edge(position0[ok], snapped[ok])
             stay = ~ok & ~mask

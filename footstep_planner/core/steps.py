@@ -24,6 +24,7 @@ ground keeps the clips' own stride.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -81,11 +82,13 @@ class StepSet:
         (its left foot's heading that much left of it, the right's right): a quarter of
         the difference of its right and left steps' turns, for the walking clip (or
         blend) of the clips' own stride whose strides turn least. 0 without one."""
-        return self._straight()[0]
+        return self._straight[0]
 
+    @cached_property
     def _straight(self) -> tuple[float, float]:
         """(toe-out rad, half the straightest walk's stance width m: how far a step goes
-        sideways across the way walked, from the left foot to the right and back)."""
+        sideways across the way walked, from the left foot to the right and back), read
+        once per step set."""
         best, out = np.inf, (0.0, 0.0)
         walk = (self.gait == "walk") & ~self.jump & (self.stride == 1.0)
         for lab in set(self.label[walk]):
@@ -108,7 +111,7 @@ class StepSet:
         """(N,) m each step's sideways move across the way walked beyond the straightest
         walk's (half its stance width, right from the left foot and left from the right):
         steps that crab, which a straight way must not take one after another."""
-        toe, half = self._straight()
+        toe, half = self._straight
         return self._across(toe) - np.where(self.foot == 0, -half, half)
 
     def veer(self) -> np.ndarray:

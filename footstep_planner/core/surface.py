@@ -239,6 +239,27 @@ class FootShape:
                 + local[:, 1, None] * left[..., None, :])
 
 
+#: m: the ground steps (up or down) by more than this between two samples EDGE_SPACING m
+#: apart at an edge (a stair's nosing, a kerb) ...
+EDGE_STEP = 0.04
+#: ... sampled this far apart (a 25 degree slope rises 1.4 cm over it).
+EDGE_SPACING = 0.03
+
+
+def steps_along(height, a: np.ndarray, b: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """(N, K) m how much the ground steps between consecutive samples at most
+    EDGE_SPACING apart along each way from ``a`` to ``b`` (N, 3): ``height(points (M, 3))
+    -> (M,)`` the surface's height under each point (nan where none), the points at the
+    heights ``z`` (N,) it looks from; nan where a sample has no ground."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    k = max(int(np.ceil(np.max(np.linalg.norm(b[:, :2] - a[:, :2], axis=1), initial=0.0) / EDGE_SPACING)), 1)
+    u = np.linspace(0.0, 1.0, k + 1)
+    pts = a[:, None] + u[None, :, None] * (b - a)[:, None]
+    pts[..., 2] = np.asarray(z, float)[:, None]
+    h = np.asarray(height(pts.reshape(-1, 3)), float).reshape(len(a), k + 1)
+    return np.abs(np.diff(h, axis=1))
+
+
 @dataclass(frozen=True)
 class Support:
     ok: np.ndarray  # (N,) bool: the foot is supported and clear

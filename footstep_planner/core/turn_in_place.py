@@ -62,13 +62,9 @@ def _axes(heading: float, forward) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _corners(pos: np.ndarray, heading: np.ndarray, forward, foot: FootShape) -> np.ndarray:
-    """(K, 4, 2) the corners of K footprints' rectangles (positions (K, >=2), headings (K,))."""
-    a = np.asarray(heading, float) + _yaw(forward)
-    f = np.stack([np.cos(a), np.sin(a)], axis=-1)
-    l = np.stack([-np.sin(a), np.cos(a)], axis=-1)
-    p = np.asarray(pos, float)[..., :2]
-    return np.stack([p + foot.front * f + foot.half_width * l, p + foot.front * f - foot.half_width * l,
-                     p - foot.back * f - foot.half_width * l, p - foot.back * f + foot.half_width * l], axis=-2)
+    """(K, 4, 2) the corners of K footprints' rectangles (positions (K, >=2), headings (K,)),
+    in order round them (``FootShape.corners`` less the middle)."""
+    return foot.corners(np.asarray(pos, float), np.asarray(heading, float), forward)[..., [0, 1, 3, 2], :]
 
 
 def _clear(cand: np.ndarray, other: np.ndarray) -> np.ndarray:
