@@ -290,3 +290,66 @@ def test_the_body_height_is_eased_only_where_the_feet_stand_at_different_heights
     assert w[:30].max() < 1e-6 and w[116:].max() < 1e-3  # level stances: the fine fit
     assert w[60:92].min() > 0.99  # the right foot's last footprint up the step, the left's below
     assert np.abs(np.diff(w)).max() < 0.25  # eased in and out
+
+
+def _leaving_a_tread(F=40, liftoff=10, strike=30):
+    """A foot planted with its toe tip 3 cm short of a 17 cm riser (at x = 0.2), swinging
+    on at once to a footprint up the step: ankle targets, rotations, planted frames,
+    sole points (heel, ball, toe tip), swing planes and the ground."""
+    from footstep_planner.core.ik import _swing_planes
+
+    planted = np.zeros(F, bool)
+    planted[:liftoff] = planted[strike:] = True
+    index = np.where(planted, (np.arange(F) >= strike).astype(int), -1)
+    planes = _swing_planes(index, np.array([[0.0, 0.0, 0.0], [0.45, 0.0, 0.17]]), np.tile([0.0, 0.0, 1.0], (2, 1)))
+    x = np.clip((np.arange(F) - liftoff + 1) / (strike - liftoff + 1), 0.0, 1.0)
+    ankle = np.c_[0.45 * x, np.zeros(F), 0.08 + 0.17 * x + 0.05 * np.sin(np.pi * x)]
+    rot = np.tile(np.eye(3), (F, 1, 1))
+    sole = [(np.tile(loc, (F, 1)), np.zeros(F)) for loc in ([-0.08, 0, -0.08], [0.1, 0, -0.08], [0.17, 0, -0.08])]
+    return ankle, rot, planted, sole, planes, (lambda p: np.where(np.asarray(p)[:, 0] >= 0.2, 0.17, 0.0))
+
+
+def test_a_foot_leaving_a_tread_by_the_next_riser_rises_before_it_goes_on():
+    """Swinging straight on, the toe would sweep into the riser the frame after the
+    liftoff and the lift would jump 15 cm in a frame. Kept over its footprint, the foot
+    rises at about the lift's rate first, then goes on; its targets stay between where
+    they were and the footprint; on flat ground nothing changes."""
+    from footstep_planner.core.ik import LIFT_RATE, _ground_lift, _kept_over_footprints
+
+    ankle, rot, planted, sole, planes, ground = _leaving_a_tread()
+    before = _ground_lift(ankle, rot, planted, sole, planes, ground)
+    a, r = _kept_over_footprints(ankle, rot, planted, sole, planes, ground)
+    after = _ground_lift(a, r, planted, sole, planes, ground)
+    assert np.diff(before).max() > 0.1  # the case is real
+    assert np.diff(after).max() <= 2 * LIFT_RATE
+    held = a[:, 0] - ankle[:, 0]
+    assert held.max() <= 1e-12 and held[10:13].min() < -0.01  # held back over the footprint
+    assert a[:, 0].min() >= -1e-12
+    np.testing.assert_allclose(a[:, 2], ankle[:, 2])  # the height is the lift's
+    flat = _kept_over_footprints(ankle, rot, planted, sole, planes, lambda p: np.zeros(len(p)))
+    np.testing.assert_allclose(flat[0], ankle)
+    np.testing.assert_allclose(flat[1], rot)
+
+
+@settings(**HYP)
+@given(pull=st.floats(0.01, 0.05), rate_deg=st.floats(2.0, 10.0))
+def test_a_roll_for_reach_comes_and_goes_no_faster_than_its_rate(pull, rate_deg):
+    """A hip drawing away from a planted foot by ``pull`` m a frame: rolled with a rate,
+    the foot's turn changes by at most that rate a frame, its pinned ball stays put, and
+    on every frame the ankle is no further from the hip than the unhurried roll leaves it
+    (rolling early never loses reach)."""
+    F = 30
+    heel_l, toe_l = np.array([0.0, -0.04, -0.04]), np.array([0.0, 0.14, -0.04])
+    ankle = np.tile([0.0, -0.3, 0.04], (F, 1))
+    hip = np.c_[np.zeros(F), np.zeros(F), np.full(F, 0.78) + pull * np.clip(np.arange(F) - 10, 0, 8)]
+    rot = np.tile(np.eye(3), (F, 1, 1))
+    pin = ankle + toe_l
+    args = (hip, ankle, rot, pin, np.ones(F, bool), np.ones(F, bool), toe_l - heel_l, 0.82)
+    a0, r0 = roll_to_reach(*args)
+    rate = np.radians(rate_deg)
+    a1, r1 = roll_to_reach(*args, rate=rate)
+    turn = Rotation.from_matrix(r1).magnitude()
+    assert Rotation.from_matrix(r0).magnitude().max() > 0.05  # the hip does draw away
+    assert np.abs(np.diff(turn)).max() <= rate + 1e-9
+    np.testing.assert_allclose(a1 + np.einsum("fij,j->fi", r1, toe_l), pin, atol=1e-9)
+    assert (np.linalg.norm(a1 - hip, axis=1) <= np.linalg.norm(a0 - hip, axis=1) + 1e-9).all()

@@ -85,3 +85,27 @@ def test_the_distance_maps_stair_treads_are_a_flight_not_a_kerb():
     flight = grid.flight_cells(np.ones((1, nx, ny), bool), 0.3)[0]
     assert flight[8:12].all()  # treads: a riser behind and ahead
     assert not flight[:8].any() and not flight[13:].any()  # floor, the kerb's foot and top, the top
+
+
+@settings(deadline=None, database=None, max_examples=40)
+@given(st.lists(st.sampled_from([0.0, 0.17, -0.17, 0.05]), min_size=2, max_size=12),
+       st.floats(0.0, 5.0), st.one_of(st.none(), st.floats(0.5, 2.0)))
+def test_a_step_up_or_down_is_played_slower_by_its_height(dz, climb_time, pace):
+    """``pipeline._climb_pace``: each step's pace over 1 + climb_time times the height
+    its swinging foot climbs or descends (from the footprint before the step's own);
+    on level ground the pace is left as it was (None stays None)."""
+    from types import SimpleNamespace
+
+    from footstep_planner.core.pipeline import _climb_pace
+
+    z = np.cumsum([0.0] + dz)
+    path = [SimpleNamespace(position=np.array([0.3 * i, 0.0, h])) for i, h in enumerate(z)]
+    rate = None if pace is None else np.full(len(path) - 1, pace)
+    out = _climb_pace(rate, path, climb_time)
+    rise = np.abs(z[1:] - np.r_[z[0], z[:-2]])
+    if climb_time * rise.max() < 1e-9:
+        assert out is rate
+        return
+    expect = (1.0 if pace is None else pace) / (1.0 + climb_time * rise)
+    np.testing.assert_allclose(out, expect)
+    assert (out <= (1.0 if pace is None else pace) + 1e-12).all()

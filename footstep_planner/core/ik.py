@@ -79,6 +79,13 @@ LIFT_RATE = 0.02
 #: s after a liftoff (and before a strike) over which every point of a swinging foot comes
 #: to keep ``GROUND_MARGIN`` over the ground (near a footprint: its clearance over its plane).
 LIFT_RAMP = 0.15
+#: Shares of the way to its footprint a swinging foot is drawn where the ground would
+#: lift it too fast next to one (``_kept_over_footprints``), tried in turn ...
+HOME_SHARES = (0.25, 0.5, 0.75, 1.0)
+#: ... and the share per frame that draw comes and goes at.
+HOME_RATE = 0.34
+#: Passes of that draw, each checking the eased draw of the one before.
+HOME_PASSES = 3
 #: m a swinging foot's heel, ball or toe tip may come nearer the surface than the
 #: clearance it keeps before the foot is lifted (rounding, not a dip).
 CLEARANCE_TOL = 0.001
@@ -88,6 +95,9 @@ HIPS_DROP_MAX = 0.03
 #: rad, the most a planted foot rolls about its pinned heel or toe (the other end rising)
 #: to reach a footprint the capped hips cannot.
 MAX_ROLL = np.radians(25.0)
+#: rad/s at most a planted foot's roll for reach comes and goes (a foot that flips onto its
+#: ball in a frame pops).
+ROLL_RATE = np.radians(180.0)
 #: rad, the most a planted foot's toe is bent up beyond its clip's bend to keep its tip
 #: out of the footprint.
 MAX_TOE_BEND = np.radians(30.0)
@@ -438,10 +448,13 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
         drop = _reach_drop(world, legs, tg, _frame_rate(t), budget, heel_local[:, :3], toe_local[:, :3])
         body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
         world[:, legs.chain, 2, 3] -= drop[:, None]
-        ankle_t, rot_t = _all_frame_targets(world, legs, tg, ground_z)
     with _timed(sec, "legs"):  # 3.8.2
         planes = [_swing_planes(tg.footprint[k], np.asarray(fp_pos, float), np.asarray(fp_normal, float))
                   for k in range(2)]
+        ankle_t, rot_t = _all_frame_targets(world, legs, tg, ground_z)
+        for k in range(2):
+            ankle_t[k], rot_t[k] = _kept_over_footprints(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k],
+                                                         planes[k], ground_z, _frame_rate(t))
         lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t))
                 for k in range(2)]
         bend = [toe_bend(ankle_t[k] + lift[k][:, None] * [0.0, 0.0, 1.0], rot_t[k], tg.weight[k] >= 1.0,
@@ -556,13 +569,15 @@ def _reach_drop(world: np.ndarray, legs: _Legs, tg: FootTargets, fps: float, bud
         toe_pinned = np.all(np.isclose(tg.pin_local[k], toe_local[k]), axis=1)
         tg.ankle[k], tg.foot_rot[k] = roll_to_reach(hip, tg.ankle[k], tg.foot_rot[k], tg.pin[k], toe_pinned,
                                                     tg.weight[k] >= 1.0, toe_local[k] - heel_local[k],
-                                                    ROLL_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
+                                                    ROLL_REACH * (legs.thigh_len[k] + legs.shin_len[k]),
+                                                    ROLL_RATE / fps)
     rest = _reach_needs(world, legs, tg, drop).max(axis=0)
     return drop + (lower_smoothly(rest, win) if rest.max() > 1e-6 else 0.0)
 
 
 def roll_to_reach(hip: np.ndarray, ankle: np.ndarray, rot: np.ndarray, pin: np.ndarray, toe_pinned: np.ndarray,
-                  planted: np.ndarray, heel_to_toe: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+                  planted: np.ndarray, heel_to_toe: np.ndarray, reach: float, rate: float | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Copies of one foot's ankle targets ``ankle`` (F, 3) and rotations ``rot`` (F, 3, 3),
     rolled where ``planted`` (F,) and the ankle is beyond ``reach`` (m) of ``hip`` (F, 3):
     about the pinned point ``pin`` (F, 3) and the foot's lateral axis, the free end rising
@@ -570,15 +585,42 @@ def roll_to_reach(hip: np.ndarray, ankle: np.ndarray, rot: np.ndarray, pin: np.n
     ankle within reach, at most ``MAX_ROLL`` (the pinned point stays put, so the foot does
     not slide). ``heel_to_toe`` (3,) in the foot bone's frame is the foot's length axis.
     Closed form: with the lever a = ankle - pin, d = pin - hip and Rodrigues' rotation
-    about k, |d + R a|^2 = |d|^2 + |a|^2 + 2 (A cos phi + B sin phi + C)."""
+    about k, |d + R a|^2 = |d|^2 + |a|^2 + 2 (A cos phi + B sin phi + C).
+    With ``rate`` (rad per frame) the roll comes and goes no faster (``ease_peaks``, over
+    the planted frames about those that need it: the free end starts rising early)."""
     ankle, rot = ankle.copy(), rot.copy()
     idx = np.flatnonzero(planted & (np.linalg.norm(ankle - hip, axis=1) > reach + 1e-9))
     if not len(idx):
         return ankle, rot
+    phi, better = _roll_angles(hip, ankle, rot, pin, toe_pinned, heel_to_toe, reach, idx)
+    if rate is not None:
+        roll = np.zeros(len(ankle))
+        roll[idx[better]] = phi[better]
+        roll = ease_peaks(np.maximum(roll, 0.0), rate) - ease_peaks(np.maximum(-roll, 0.0), rate)
+        idx = np.flatnonzero(planted & (roll != 0.0))
+        phi, better = roll[idx], np.ones(len(idx), bool)
+    k = _roll_axis(rot[idx], heel_to_toe)
+    R = Rotation.from_rotvec(k * phi[:, None]).as_matrix()
+    new = pin[idx] + np.einsum("fij,fj->fi", R, ankle[idx] - pin[idx])
+    ankle[idx] = np.where(better[:, None], new, ankle[idx])
+    rot[idx] = np.where(better[:, None, None], R @ rot[idx], rot[idx])
+    return ankle, rot
+
+
+def _roll_axis(rot: np.ndarray, heel_to_toe: np.ndarray) -> np.ndarray:
+    """(n, 3) the level axis across each foot (rotations ``rot`` (n, 3, 3), length axis
+    ``heel_to_toe`` (3,) in the foot bone's frame) that a roll turns it about."""
+    k = np.cross(np.einsum("fij,j->fi", rot, heel_to_toe), [0.0, 0.0, 1.0])
+    return k / np.maximum(np.linalg.norm(k, axis=1, keepdims=True), 1e-12)
+
+
+def _roll_angles(hip, ankle, rot, pin, toe_pinned, heel_to_toe, reach, idx) -> tuple[np.ndarray, np.ndarray]:
+    """(phi (n,) rad, better (n,) bool) at the frames ``idx``: the least roll (signed about
+    ``_roll_axis``, at most MAX_ROLL) that brings the ankle within ``reach`` of the hip
+    (``roll_to_reach``), and whether it brings it nearer at all."""
     pivot = pin[idx]
     a, d = ankle[idx] - pivot, pivot - hip[idx]
-    k = np.cross(np.einsum("fij,j->fi", rot[idx], heel_to_toe), [0.0, 0.0, 1.0])
-    k /= np.maximum(np.linalg.norm(k, axis=1, keepdims=True), 1e-12)
+    k = _roll_axis(rot[idx], heel_to_toe)
     ka = np.einsum("fi,fi->f", k, a)
     A = np.einsum("fi,fi->f", d, a - k * ka[:, None])
     B = np.einsum("fi,fi->f", d, np.cross(k, a))
@@ -589,12 +631,8 @@ def roll_to_reach(hip: np.ndarray, ankle: np.ndarray, rot: np.ndarray, pin: np.n
     sign = np.where(toe_pinned[idx], -1.0, 1.0)
     mag = np.where(sign[None] * cand >= 0, np.abs(cand), np.inf).min(axis=0)
     phi = sign * np.minimum(mag, MAX_ROLL)
-    R = Rotation.from_rotvec(k * phi[:, None]).as_matrix()
-    new = pivot + np.einsum("fij,fj->fi", R, a)
-    better = np.linalg.norm(new - hip[idx], axis=1) < np.linalg.norm(ankle[idx] - hip[idx], axis=1)
-    ankle[idx] = np.where(better[:, None], new, ankle[idx])
-    rot[idx] = np.where(better[:, None, None], R @ rot[idx], rot[idx])
-    return ankle, rot
+    new = pivot + np.einsum("fij,fj->fi", Rotation.from_rotvec(k * phi[:, None]).as_matrix(), a)
+    return phi, np.linalg.norm(new - hip[idx], axis=1) < np.linalg.norm(ankle[idx] - hip[idx], axis=1)
 
 
 def _all_frame_targets(world: np.ndarray, legs: _Legs, tg: FootTargets, ground_z=None
@@ -676,6 +714,35 @@ def _plane_z(point: np.ndarray, normal: np.ndarray, xy: np.ndarray) -> np.ndarra
                             + normal[..., 1] * (xy[..., 1] - point[..., 1])) / nz
 
 
+def _lift_need(ankle: np.ndarray, rot: np.ndarray, free: np.ndarray, sole: list, planes, ground_z,
+               fps: float) -> np.ndarray:
+    """(n,) m each ``free`` frame's foot (targets ``ankle`` (F, 3), ``rot`` (F, 3, 3)) must
+    rise for its ``sole`` points to keep their clearance (see ``_ground_lift``), not eased."""
+    pts = np.stack([ankle[free] + np.einsum("fij,fj->fi", rot[free], loc[free]) for loc, _ in sole])  # (P, n, 3)
+    (pa, pb), (na, nb), u, gap = (x[..., free, :] if x.ndim > 1 else x[free] for x in planes)
+    base = (1 - u) * _plane_z(pa, na, pts[..., :2]) + u * _plane_z(pb, nb, pts[..., :2])  # (P, n)
+    w = smoothstep(gap / max(LIFT_RAMP * fps, 1.0))
+    # the clearance over the planes, never under GROUND_MARGIN (the heel and ball) or, away
+    # from the footprints, under the clip's own if that is less (a toe tip a clip sinks)
+    clip = np.minimum(np.stack([h[free] for _, h in sole]), GROUND_MARGIN)
+    above = pts[..., 2] - base
+    want = above + w * np.maximum(clip - above, 0.0)
+    want = np.maximum(want, np.array([GROUND_MARGIN, GROUND_MARGIN] + [-np.inf] * (len(sole) - 2))[:, None])
+    gz = np.asarray(ground_z(pts.reshape(-1, 3)), float).reshape(want.shape)
+    depth = gz + want - pts[..., 2] - CLEARANCE_TOL
+    return np.maximum(np.where(np.isfinite(depth), depth, 0.0).max(axis=0), 0.0)
+
+
+def _lift_cone(planted: np.ndarray) -> np.ndarray:
+    """(F,) m the most a swinging foot may be lifted at each frame: ``LIFT_RATE`` per
+    frame from its last liftoff and to its next strike."""
+    F = len(planted)
+    f = np.arange(F)
+    last = np.maximum.accumulate(np.where(planted, f, -F))
+    first = np.minimum.accumulate(np.where(planted, f, 2 * F)[::-1])[::-1]
+    return LIFT_RATE * np.minimum(f - last, first - f)
+
+
 def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: list, planes, ground_z,
                  fps: float = DEFAULT_FPS) -> np.ndarray:
     """(F,) m to lift one swinging foot's ankle (targets ``ankle`` (F, 3), ``rot`` (F, 3, 3))
@@ -691,27 +758,78 @@ def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: 
     free = np.flatnonzero(~planted)
     if ground_z is None or planes is None or not len(free):
         return lift
-    pts = np.stack([ankle[free] + np.einsum("fij,fj->fi", rot[free], loc[free]) for loc, _ in sole])  # (P, n, 3)
-    (pa, pb), (na, nb), u, gap = (x[..., free, :] if x.ndim > 1 else x[free] for x in planes)
-    base = (1 - u) * _plane_z(pa, na, pts[..., :2]) + u * _plane_z(pb, nb, pts[..., :2])  # (P, n)
-    w = smoothstep(gap / max(LIFT_RAMP * fps, 1.0))
-    # the clearance over the planes, never under GROUND_MARGIN (the heel and ball) or, away
-    # from the footprints, under the clip's own if that is less (a toe tip a clip sinks)
-    clip = np.minimum(np.stack([h[free] for _, h in sole]), GROUND_MARGIN)
-    above = pts[..., 2] - base
-    want = above + w * np.maximum(clip - above, 0.0)
-    want = np.maximum(want, np.array([GROUND_MARGIN, GROUND_MARGIN] + [-np.inf] * (len(sole) - 2))[:, None])
-    gz = np.asarray(ground_z(pts.reshape(-1, 3)), float).reshape(want.shape)
-    depth = gz + want - pts[..., 2] - CLEARANCE_TOL
-    lift[free] = np.maximum(np.where(np.isfinite(depth), depth, 0.0).max(axis=0), 0.0)
+    lift[free] = _lift_need(ankle, rot, free, sole, planes, ground_z, fps)
     if lift.any():  # rising ahead of time (a step's edge), never faster than LIFT_RATE off a footprint
-        f = np.arange(len(lift))
-        last = np.maximum.accumulate(np.where(planted, f, -len(lift)))
-        first = np.minimum.accumulate(np.where(planted, f, 2 * len(lift))[::-1])[::-1]
-        cone = LIFT_RATE * np.minimum(f - last, first - f)
-        lift = np.maximum(lift, np.minimum(lower_smoothly(lift, LIFT_EASE), cone))
+        lift = np.maximum(lift, np.minimum(lower_smoothly(lift, LIFT_EASE), _lift_cone(planted)))
         lift[planted] = 0.0
     return lift
+
+
+def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: list, planes,
+                          ground_z, fps: float = DEFAULT_FPS) -> tuple[np.ndarray, np.ndarray]:
+    """One foot's swing targets (``ankle`` (F, 3), ``rot`` (F, 3, 3)) kept over the
+    footprint it leaves (reaches) where, just after the liftoff (before the strike), the
+    ground would need it lifted faster than ``LIFT_RATE`` off a footprint
+    (``_lift_cone``): a toe swept into the next riser as the foot leaves a tread, a heel
+    still over the landing as it steps down, a clip's foot reaching past its footprint
+    and settling back. There the foot's place over the ground and its turn are drawn
+    towards the nearer planted frame's, by the least share of ``HOME_SHARES`` that lets
+    the lift keep to the cone; the draw eases out at ``HOME_RATE`` per frame and is gone
+    by the swing's middle (where the footprint it is drawn to changes). The foot rises
+    off (comes down onto) its footprint before it goes on. Its height is kept (the lift
+    does the rest). Unchanged elsewhere, and without ``ground_z``."""
+    free = np.flatnonzero(~planted)
+    if ground_z is None or planes is None or not len(free) or not planted.any():
+        return ankle, rot
+    F = len(planted)
+    f = np.arange(F)
+    prev = np.maximum.accumulate(np.where(planted, f, -1))
+    nxt = np.minimum.accumulate(np.where(planted, f, F)[::-1])[::-1]
+    x = (f - prev) / np.maximum(nxt - prev, 1)
+    home = np.where((prev >= 0) & ((x <= 0.5) | (nxt >= F)), prev, nxt)
+    # the draw is gone by the middle of a swing between two footprints
+    cap = np.where((prev >= 0) & (nxt < F), np.clip(4.0 * np.abs(x - 0.5), 0.0, 1.0), 1.0)
+    key = Rotation.from_matrix(rot[home])
+    cone = _lift_cone(planted)
+    pull = np.zeros(F)
+    out_a, out_r = ankle, rot
+    for _ in range(HOME_PASSES):  # each pass checks the eased draw of the one before
+        over = free[_lift_need(out_a, out_r, free, sole, planes, ground_z, fps) > cone[free] + CLEARANCE_TOL]
+        if not len(over):
+            break
+        want = np.ones(len(over))
+        done = np.zeros(len(over), bool)
+        for s in HOME_SHARES:  # a handful of trial shares, each over every flagged frame at once
+            share = np.maximum(pull[over], s)
+            trial_a, trial_r = ankle.copy(), rot.copy()
+            trial_a[over], trial_r[over] = _towards(ankle[over], rot[over], ankle[home[over]], key[over], share)
+            ok = ~done & (_lift_need(trial_a, trial_r, over, sole, planes, ground_z, fps)
+                          <= cone[over] + CLEARANCE_TOL)
+            want[ok] = share[ok]
+            done |= ok
+        grown = pull.copy()
+        grown[over] = np.maximum(pull[over], want)
+        grown = np.minimum(ease_peaks(grown, HOME_RATE), cap)
+        grown[planted] = 0.0
+        if np.allclose(grown, pull):
+            break
+        pull = grown
+        moved = np.flatnonzero(pull > 0)
+        out_a, out_r = ankle.copy(), rot.copy()
+        out_a[moved], out_r[moved] = _towards(ankle[moved], rot[moved], ankle[home[moved]], key[moved], pull[moved])
+    return out_a, out_r
+
+
+def _towards(ankle: np.ndarray, rot: np.ndarray, to_a: np.ndarray, to_r: Rotation, share
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Ankle targets (n, 3) and foot rotations (n, 3, 3) drawn by ``share`` (scalar or
+    (n,)) towards ``to_a`` (n, 3), ``to_r`` (n rotations) over the ground: the ankle's x
+    and y, the rotation (slerp); the height kept."""
+    s = np.broadcast_to(np.asarray(share, float), (len(ankle),))
+    a = ankle.copy()
+    a[:, :2] += s[:, None] * (to_a[:, :2] - a[:, :2])
+    delta = (to_r * Rotation.from_matrix(rot).inv()).as_rotvec()
+    return a, Rotation.from_rotvec(s[:, None] * delta).as_matrix() @ rot
 
 
 def ease_peaks(v: np.ndarray, rate: float) -> np.ndarray:

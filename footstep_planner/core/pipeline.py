@@ -525,7 +525,7 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
             if pace is not None and np.ndim(pace):  # the standing steps at either end: their neighbours'
                 pace = np.r_[pace[0], np.asarray(pace, float)[:n_plan - 1], pace[-1]]
         steps = plan_steps(path, library, cyc)
-        rate = _step_pace(pace, len(steps))
+        rate = _climb_pace(_step_pace(pace, len(steps)), path, settings.climb_time)
         bends = np.array([library.bend_of(f.label) for f in path[1:]])  # steps bent beyond the clips
         with timer("smoothing"):  # 3.3
             smoothed = _smooth(path, settings, snap, goal, fixed=len(path) if shown else 2 if stand else 1)
@@ -604,6 +604,19 @@ def _straight(library: Library, cyc: list[str]) -> str:
     walk = library.turn_groups.get("walk")
     return min(cyc, key=lambda c: (walk is not None and c not in [g.clip for g in walk.clips],
                                    abs(_clip_tau(library, c))))
+
+
+def _climb_pace(rate: np.ndarray | None, path, climb_time: float) -> np.ndarray | None:
+    """(len(path) - 1,) ``rate`` (None: 1) over 1 + ``climb_time`` times the height each
+    step's swinging foot climbs or descends (from the footprint before the step's own to
+    the one it lands on; the first step's from its own), or ``rate`` itself on level
+    ground."""
+    z = np.array([f.position[2] for f in path], float)
+    rise = np.abs(z[1:] - np.r_[z[0], z[:-2]])
+    slow = 1.0 + climb_time * rise
+    if not (slow > 1.0 + 1e-9).any():
+        return rate
+    return (1.0 if rate is None else rate) / slow
 
 
 def _step_pace(pace, n: int) -> np.ndarray | None:

@@ -125,6 +125,11 @@ class Settings:
     stand_hold: float = setting(1.0, "s", 0.0, 60.0, """The character stands still at the goal this
         long after it stops, both feet planted (it also stands this long, at most half a second,
         before its first step).""")
+    climb_time: float = setting(2.0, "1/m", 0.0, 10.0, """A walking step up or down takes longer: its
+        clips' time times 1 + this times the height (m) its swinging foot climbs or descends
+        (2: a 17 cm stair step lasts 1.34 times as long), as people climb stairs slower than they
+        walk, lifting the foot over the nosing before it goes on. 0: every step at its clips'
+        pace.""")
     pace_min: float = setting(0.8, "1", 0.5, 1.0, """To arrive at a waypoint on its frame, the walk
         may be played this much slower than its clips (0.8: a step lasts 1.25 times as long); when
         that is still early the character waits, standing, at the last stop before.""")
