@@ -123,7 +123,7 @@ def cmu_character(package: str = "footstep_planner") -> Character:
     steps = library_steps(character.library_for(ob, clips), clips.analyses, bend_curvature=settings.bend_curvature,
                           stride=(settings.stride_min, settings.stride_max))
     return Character(steps, np.asarray(planning.world_forward(ob, clips.analyses)),
-                     planning.foot_shape(clips.analyses))
+                     planning.foot_shape(clips.analyses, clips.rig))
 
 
 def planner_inputs(scene: Scene, forward) -> tuple:

@@ -122,9 +122,10 @@ def test_the_script_saves_the_scenes(tmp_path):
 
 def _climbs_the_stairs(fp, scene, ob):
     """Bake ``ob`` up and down the Stairs (Start to Goal, with the goal's heading) and
-    check what the user gets: every planned stance wholly on one top (a tread, the
-    landing, a floor: its corners and middle over the same height, no toe over a riser's
-    edge), no heel or toe inside the steps on any frame, as played through the depsgraph
+    check what the user gets: every planned stance on one top (a tread, the landing, a
+    floor: the front half of the foot, toes and middle, over the same height; the heel
+    there or hanging over the nosing below; the toe tip, and TIP_ROOM ahead of it, in no
+    riser), no heel, ball or toe tip inside the steps on any frame, as played through the depsgraph
     (the report's ``penetration``), the body rising and falling smoothly, the goal
     reached."""
     import bpy
@@ -137,19 +138,27 @@ def _climbs_the_stairs(fp, scene, ob):
     setup = planning.plan_setup(scene, ob)
     pos = np.array([f["position"] for f in doc["footprints"]])
     head = np.array([f["heading"] for f in doc["footprints"]])
-    corners = setup.planner.foot.corners(pos, head, setup.forward)  # (N, 5, 2)
-    pts = np.c_[corners.reshape(-1, 2), np.repeat(pos[:, 2], 5) + 0.3]
+    probes = setup.planner.foot.probes(pos, head, setup.forward)  # (N, 8, 2)
+    pts = np.c_[probes.reshape(-1, 2), np.repeat(pos[:, 2], 8) + 0.3]
     hit = setup.planner.ground.ray_down(pts, 0.6)
-    assert hit.hit.all()
-    np.testing.assert_allclose(hit.z.reshape(-1, 5), pos[:, 2, None] * np.ones((1, 5)), atol=0.01)
+    z = np.where(hit.hit, hit.z, -np.inf).reshape(-1, 8) - pos[:, 2, None]
+    np.testing.assert_allclose(z[:, 2:7], 0.0, atol=0.01)  # the front half (toes, middle) on its tread
+    assert z[:, :2].max() < 0.01 and z[:, 7].max() < 0.01  # heel and toe tip (with room) in no riser
     assert pos[:, 2].max() > 0.8  # up on the landing (0.85 m) ...
     assert sorted(set(np.round(pos[:, 2] / 0.17).astype(int))) == [0, 1, 2, 3, 4, 5]  # ... tread by tread
     assert q["penetration"]["frames_over_tolerance"] == 0 and q["penetration"]["max_mm"] < 5.0, q["penetration"]
     assert q["foot_skate"]["max_mm"] < 5.0
     assert q["goal"]["distance_m"] < 0.05 and q["goal"]["heading_deg"] < 5.0
     rig = setup.rig
-    _, body, _, _ = import_module(fp.__name__ + ".blender.bake").evaluate_played(
+    world, body, _, _ = import_module(fp.__name__ + ".blender.bake").evaluate_played(
         scene, ob, rig, doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1)
+    for side in "lr":  # the toe tips (the toe bones' tails), as played: in no riser, through no tread
+        toe = rig.foot_chain(side)[1]
+        tip = (world[:, toe] @ (np.linalg.inv(rig.rest[toe]) @ np.append(rig.tails[toe], 1.0)))[:, :3]
+        below = setup.planner.ground.ray_down(tip + [0.0, 0.0, 0.5], 1.0)
+        inside = below.hit & (below.z > tip[:, 2])  # under a top: its depth is the way out
+        _, depth = setup.planner.ground.nearest(tip[inside], max_dist=0.5)
+        assert depth.max(initial=0.0) < 0.01, (side, depth.max(initial=0.0))
     vz = np.diff(body[:, 2]) * scene.render.fps
     assert np.abs(np.diff(vz)).max() * scene.render.fps < 12.0  # m/s^2: no jolt (over 1.2 g) up or down a step
     return doc
@@ -172,6 +181,22 @@ def test_cmu_climbs_the_stairs_tread_by_tread(fp):
     scene, ob = scene_with_cmu(fp, "stairs")
     ob.location = scene.objects["Start"].location
     ob.rotation_euler = scene.objects["Start"].rotation_euler
+    _climbs_the_stairs(fp, scene, ob)
+
+
+def test_a_mixamo_style_character_with_long_toes_climbs_the_stairs(fp, tmp_path):
+    """FBX clips from Blender's exporter with Mixamo's names, axes and units, whose toe
+    bones reach 15 cm past the ball (a foot 29 cm long on 28 cm treads): the footprints
+    keep the toe tips out of the risers, the heels hanging over the nosings going up."""
+    from benchmarks import mixamo_like
+
+    files = mixamo_like.write_character(str(tmp_path))
+    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("stairs")
+    ob, _ = import_module(fp.__name__ + ".blender.clips").import_clips(files, name="Mixamo")
+    ob.location = scene.objects["Start"].location
+    ob.rotation_euler = scene.objects["Start"].rotation_euler
+    setup = import_module(fp.__name__ + ".blender.planning").plan_setup(scene, ob)
+    assert setup.planner.foot.tip > setup.planner.foot.front + 0.05
     _climbs_the_stairs(fp, scene, ob)
 
 

@@ -115,3 +115,30 @@ def test_a_closed_solid_loses_its_underside_an_open_plane_keeps_both_faces(x, y,
     flipped = plane(x, x + size, y, y + size, z)
     flipped = TriMesh(flipped.verts, flipped.tris[:, ::-1], flipped.owner, flipped.names)
     assert flipped.without_undersides().n == flipped.n
+
+
+def test_a_heel_may_hang_over_a_nosing_and_a_long_toe_keeps_out_of_a_riser():
+    """Floor at 0, a step 0.17 high where y < 0 (the foot points -Y at heading 0). On
+    the step facing away from its edge, the heel may hang over the floor below while
+    the front half of the foot stands on the step, never the middle; facing the edge,
+    the front half must stand on it. On the floor facing the step, a long toe's tip
+    (``FootShape.tip``) and TIP_ROOM ahead of it must be clear of the riser; facing
+    down off the step it may hang over the floor."""
+    from footstep_planner.core.surface import TIP_ROOM
+
+    g = MeshGround(TriMesh.concat([plane(-5, 5, -5, 5), plane(-5, 5, -5, 0.0, 0.17, name="step")]))
+    long_toe = FootShape(back=0.1, front=0.16, half_width=0.05, tip=0.25)
+
+    def ok(xy_y, heading, z, foot=FOOT):
+        pos = np.array([[0.0, xy_y, z]])
+        s = footprint_support(g, None, pos, np.array([heading]), FWD, foot)
+        return bool(s.ok[0]), float(s.z[0])
+
+    assert ok(-0.05, 0.0, 0.17) == (True, pytest.approx(0.17))  # the heel over the floor
+    assert not ok(0.02, 0.0, 0.17)[0]  # the middle off the step
+    assert not ok(-0.05, np.pi, 0.17)[0]  # facing the edge: the toes off the step
+    edge = 0.25 + TIP_ROOM
+    assert not ok(edge - 0.01, 0.0, 0.0, long_toe)[0]  # the toe tip's room in the riser
+    assert ok(edge + 0.01, 0.0, 0.0, long_toe)[0]
+    assert ok(edge - 0.01, 0.0, 0.0)[0]  # a short toe stands there
+    assert ok(-0.2, np.pi, 0.17, long_toe)[0]  # down off the step: the toes over the floor

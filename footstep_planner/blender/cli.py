@@ -711,7 +711,7 @@ def _demo(args) -> int:
         say("\n" + format_demo_plan(doc, 30, time.perf_counter() - t1))
         say(format_bake(doc))
         doc["clips"] = [a.to_dict() for a in clips.analyses]
-        written = _demo_files(outs, scene, ob, doc, out_dir, name, planning.foot_shape(clips.analyses))
+        written = _demo_files(outs, scene, ob, doc, out_dir, name, planning.foot_shape(clips.analyses, clips.rig))
         outs.commit()
     say(f"\nbaked scene: {written['scene']}\nreview sheet: {written['sheet']}\n  frames: "
         f"{', '.join(written['shots'])}\nreport: {written['report']}"

@@ -33,7 +33,10 @@ from .scene import scene_fps
 from .surfaces import scene_surfaces
 
 #: Support answers per scene, reused while its tagged geometry is unchanged.
-_CACHES: dict[str, FootprintCache] = {}
+_CACHES: dict[tuple[str, FootShape], FootprintCache] = {}
+#: m of toes the foot's rectangle reaches ahead of the ball; a longer toe bone's tip is
+#: ``FootShape.tip``.
+TOE_ROOM = 0.07
 
 
 @dataclass
@@ -65,12 +68,17 @@ def world_forward(ob, analyses) -> np.ndarray:
     return w / np.linalg.norm(w)
 
 
-def foot_shape(analyses) -> FootShape:
+def foot_shape(analyses, rig: Rig | None = None) -> FootShape:
     """The foot's rectangle from the clips' heel and toe points (ball of the foot), with
-    room for the heel behind the ankle and the toes ahead of the ball."""
+    room for the heel behind the ankle and the toes ahead of the ball; with the ``rig``,
+    the toe tip where its toe bones reach further (``FootShape.tip``: a long toe that
+    must stay out of a riser)."""
     lengths = [np.linalg.norm(f.toe[:2] - f.heel[:2]) for a in analyses for f in a.footprints()]
     half = 0.5 * float(np.median(lengths)) if lengths else 0.08
-    return FootShape(back=half + 0.04, front=half + 0.07, half_width=0.05)
+    toes = [float(np.linalg.norm(rig.tails[t] - rig.rest[t, :3, 3])) for t in
+            (rig.foot_chain(side)[1] for side in "lr") if t is not None] if rig is not None else []
+    tip = half + max(toes) if toes and max(toes) > TOE_ROOM else 0.0
+    return FootShape(back=half + 0.04, front=half + TOE_ROOM, half_width=0.05, tip=tip)
 
 
 def object_geometry(ground, obstacles) -> dict:
@@ -103,9 +111,10 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
     steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature,
                           stride=(settings.stride_min, settings.stride_max))
     forward = world_forward(ob, clips.analyses)
-    cache = _CACHES.setdefault(scene.name, FootprintCache())
+    foot = foot_shape(clips.analyses, clips.rig)
+    cache = _CACHES.setdefault((scene.name, foot), FootprintCache())  # (a foot's answers are its own)
     cache.update(object_geometry(ground, obst))
-    planner = Planner(ground, obst, steps, forward, foot=foot_shape(clips.analyses),
+    planner = Planner(ground, obst, steps, forward, foot=foot,
                       settings=settings, cache=cache)
     return PlanSetup(planner, clips.analyses, library, forward, clips.rig)
 

@@ -453,8 +453,9 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
                   for k in range(2)]
         ankle_t, rot_t = _all_frame_targets(world, legs, tg, ground_z)
         for k in range(2):
-            ankle_t[k], rot_t[k] = _kept_over_footprints(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k],
-                                                         planes[k], ground_z, _frame_rate(t))
+            ankle_t[k], rot_t[k] = _kept_over_footprints(
+                ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t),
+                world[:, legs.thigh[k], :3, 3], MAX_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
         lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t))
                 for k in range(2)]
         bend = [toe_bend(ankle_t[k] + lift[k][:, None] * [0.0, 0.0, 1.0], rot_t[k], tg.weight[k] >= 1.0,
@@ -766,7 +767,8 @@ def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: 
 
 
 def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: list, planes,
-                          ground_z, fps: float = DEFAULT_FPS) -> tuple[np.ndarray, np.ndarray]:
+                          ground_z, fps: float = DEFAULT_FPS, hip: np.ndarray | None = None,
+                          reach: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
     """One foot's swing targets (``ankle`` (F, 3), ``rot`` (F, 3, 3)) kept over the
     footprint it leaves (reaches) where, just after the liftoff (before the strike), the
     ground would need it lifted faster than ``LIFT_RATE`` off a footprint
@@ -774,7 +776,9 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
     still over the landing as it steps down, a clip's foot reaching past its footprint
     and settling back. There the foot's place over the ground and its turn are drawn
     towards the nearer planted frame's, by the least share of ``HOME_SHARES`` that lets
-    the lift keep to the cone; the draw eases out at ``HOME_RATE`` per frame and is gone
+    the lift keep to the cone and keeps the ankle (so lifted) within ``reach`` of the
+    ``hip`` (F, 3) (else the largest that keeps it in reach: a foot held back while the
+    body climbs on would straighten its knee); the draw eases out at ``HOME_RATE`` per frame and is gone
     by the swing's middle (where the footprint it is drawn to changes). The foot rises
     off (comes down onto) its footprint before it goes on. Its height is kept (the lift
     does the rest). Unchanged elsewhere, and without ``ground_z``."""
@@ -797,16 +801,17 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
         over = free[_lift_need(out_a, out_r, free, sole, planes, ground_z, fps) > cone[free] + CLEARANCE_TOL]
         if not len(over):
             break
-        want = np.ones(len(over))
+        want = pull[over].copy()
         done = np.zeros(len(over), bool)
         for s in HOME_SHARES:  # a handful of trial shares, each over every flagged frame at once
             share = np.maximum(pull[over], s)
             trial_a, trial_r = ankle.copy(), rot.copy()
             trial_a[over], trial_r[over] = _towards(ankle[over], rot[over], ankle[home[over]], key[over], share)
-            ok = ~done & (_lift_need(trial_a, trial_r, over, sole, planes, ground_z, fps)
-                          <= cone[over] + CLEARANCE_TOL)
-            want[ok] = share[ok]
-            done |= ok
+            near = np.ones(len(over), bool) if hip is None else \
+                np.linalg.norm(trial_a[over] + cone[over, None] * [0.0, 0.0, 1.0] - hip[over], axis=1) <= reach
+            ok = (_lift_need(trial_a, trial_r, over, sole, planes, ground_z, fps) <= cone[over] + CLEARANCE_TOL)
+            want[~done & near] = share[~done & near]
+            done |= ok & near
         grown = pull.copy()
         grown[over] = np.maximum(pull[over], want)
         grown = np.minimum(ease_peaks(grown, HOME_RATE), cap)

@@ -56,6 +56,10 @@ from .surface import FootShape, Ground, footprint_support
 #: answer of its own fine cell, so it never takes a neighbour's answer near an edge.
 FINE_CELL = 0.02
 
+#: m: a footprint the distance field samples in a cell stands at the cell's level when
+#: the ground under it is this near.
+LEVEL_TOL = 0.05
+
 #: Heading bins of the fine grid (2 degrees each).
 FINE_HEADING_BINS = 180
 
@@ -417,9 +421,11 @@ class Planner:
 
     def _stands(self, pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
         """(N,) whether a foot may stand on the ground at footprints ``pos`` (N, 3) turned
-        ``heading`` (N,), obstacles aside (the distance field's own test of them)."""
-        return footprint_support(self.ground, None, pos, heading, self.forward, self.foot,
-                                 step_height=self.max_step_height).ok
+        ``heading`` (N,), at their own height (a cell's level: not on a step beside it, its
+        heel hanging over this one), obstacles aside (the distance field's own test of them)."""
+        sup = footprint_support(self.ground, None, pos, heading, self.forward, self.foot,
+                                step_height=self.max_step_height)
+        return sup.ok & (np.abs(sup.z - np.asarray(pos, float)[:, 2]) <= LEVEL_TOL)
 
     def _reroute(self, search: _Search) -> None:
         """The search floods round where it is stuck: the heuristic promised a jump there

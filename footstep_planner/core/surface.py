@@ -216,15 +216,36 @@ def _closest_on_triangles(p: np.ndarray, c: np.ndarray) -> np.ndarray:
 # ----------------------------------------------------------------------------------
 # footprints
 
+#: m a foot's toe tip keeps from higher ground ahead (a riser): the foot rolls onto its
+#: ball and lifts off without its toes meeting it.
+TIP_ROOM = 0.03
+
+
 @dataclass(frozen=True)
 class FootShape:
     """A foot's rectangle on the ground, in the foot's frame: ``back`` and ``front`` (m)
     behind and ahead of the footprint's reference point along the heading, and
-    ``half_width`` (m) to either side."""
+    ``half_width`` (m) to either side; ``tip`` (m ahead, when beyond ``front``) where a
+    long toe's tip reaches (0: at ``front``)."""
 
     back: float = 0.1
     front: float = 0.16
     half_width: float = 0.05
+    tip: float = 0.0
+
+    def probes(self, pos: np.ndarray, heading: np.ndarray, forward: np.ndarray) -> np.ndarray:
+        """(N, 8, 2) the ground points ``footprint_support`` looks under: the four
+        corners and the reference point (``corners``), the rectangle's sides level with
+        the reference point, and TIP_ROOM ahead of the toe tip (ahead of the reference,
+        at ``tip`` or ``front``)."""
+        ang = np.asarray(heading) + np.arctan2(forward[1], forward[0])
+        f = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+        left = np.stack([-f[..., 1], f[..., 0]], axis=-1)
+        more = np.array([[0.0, -self.half_width], [0.0, self.half_width],
+                         [max(self.tip, self.front) + TIP_ROOM, 0.0]])
+        extra = (np.asarray(pos)[..., None, :2] + more[:, 0, None] * f[..., None, :]
+                 + more[:, 1, None] * left[..., None, :])
+        return np.concatenate([self.corners(pos, heading, forward), extra], axis=-2)
 
     def corners(self, pos: np.ndarray, heading: np.ndarray, forward: np.ndarray) -> np.ndarray:
         """(N, 5, 2) ground points of each footprint: the four corners, then the
@@ -260,6 +281,11 @@ def steps_along(height, a: np.ndarray, b: np.ndarray, z: np.ndarray) -> np.ndarr
     return np.abs(np.diff(h, axis=1))
 
 
+#: ``FootShape.probes`` under the front half of a foot: its front corners, its reference
+#: point and the sides level with it.
+FRONT_HALF = [2, 3, 4, 5, 6]
+
+
 @dataclass(frozen=True)
 class Support:
     ok: np.ndarray  # (N,) bool: the foot is supported and clear
@@ -278,21 +304,39 @@ def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
 
     The foot's four corners and centre are dropped onto the surface from ``step_height``
     above ``pos``: all must land, within ``unevenness`` of each other, on a slope no
-    steeper than ``max_slope``. The body above the footprint must keep ``clearance`` from
-    every obstacle at the ankle, knee, hip, chest and head (up to ``body_height``).
+    steeper than ``max_slope``. Or, on a step's edge, the front half of the foot (its
+    front corners, centre and sides level with it) so, with the heel hanging over lower
+    ground (a stair's nosing, going up: a long foot on a short tread), never over
+    nothing. The toe tip (``FootShape.tip``) is never inside higher ground (a riser);
+    it may hang over lower ground (a nosing, going down). The body above the footprint
+    must keep ``clearance`` from every obstacle at the ankle, knee, hip, chest and head
+    (up to ``body_height``).
     """
     pos = np.atleast_2d(np.asarray(pos, dtype=np.float64))
-    pts = foot.corners(pos, np.broadcast_to(heading, (len(pos),)), forward)  # (N, 5, 2)
+    pts = foot.probes(pos, np.broadcast_to(heading, (len(pos),)), forward)  # (N, 8, 2)
     got, z, nor = _drop_onto(ground, pos, pts, step_height)
-    all_hit = got.all(axis=1)
-    plane_n, uneven = _foot_plane(pts, z, nor, all_hit, unevenness)
+    all_hit = got[:, :5].all(axis=1)
+    plane_n, uneven, coef = _foot_plane(pts[:, :5], z[:, :5], nor[:, :5], all_hit, unevenness)
+    # the heel hanging over a nosing: the front half level, the heel corners on or below it
+    half = all_hit & uneven & got[:, 5:7].all(axis=1)
+    if half.any():
+        pn2, un2, c2 = _foot_plane(pts[:, FRONT_HALF], z[:, FRONT_HALF], nor[:, FRONT_HALF], half, unevenness)
+        hangs = (z[:, :2] - _plane_height(c2, pts[:, :2]) <= unevenness).all(axis=1)
+        take = half & ~un2 & hangs
+        plane_n[take], uneven[take], coef[take] = pn2[take], False, c2[take]
+    # the toe tip: never inside higher ground (looked for from above the foot's own height)
+    look = np.flatnonzero(all_hit & ~uneven)
+    if len(look):
+        tip = ground.ray_down(np.c_[pts[look, 7], z[look, 4] + step_height], 2 * step_height)
+        plane = _plane_height(coef[look], pts[look, 7:8])[:, 0]
+        uneven[look] |= tip.hit & (tip.z - plane > unevenness)
     steep = all_hit & ~uneven & (np.arccos(np.clip(np.nan_to_num(plane_n[:, 2], nan=1.0), -1, 1)) > max_slope)
     reason = _reasons(all_hit, uneven, steep)
     zc = z[:, 4]
     ok = all_hit & ~uneven & ~steep
     if obstacles is not None and obstacles.mesh.n and ok.any():
         idx = np.flatnonzero(ok)
-        blocked = _blocked(obstacles, pos[idx], pts[idx], zc[idx], clearance, body_height)
+        blocked = _blocked(obstacles, pos[idx], pts[idx, :5], zc[idx], clearance, body_height)
         ok[idx[blocked]] = False
         reason[idx[blocked]] = "obstacle"
     return Support(ok, zc, plane_n, reason)
@@ -300,37 +344,45 @@ def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
 
 def _drop_onto(ground: Ground, pos: np.ndarray, pts: np.ndarray, step_height: float
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(hit (N, 5) bool, z (N, 5) m, normal (N, 5, 3)): the foot's ground points ``pts``
-    (N, 5, 2) dropped onto ``ground`` from ``step_height`` above the footprints' heights
+    """(hit (N, K) bool, z (N, K) m, normal (N, K, 3)): the foot's ground points ``pts``
+    (N, K, 2) dropped onto ``ground`` from ``step_height`` above the footprints' heights
     ``pos[:, 2]``, looking down twice that far (nan where nothing is hit)."""
-    n = len(pos)
-    top = np.concatenate([pts, np.broadcast_to(pos[:, None, 2:3] + step_height, (n, 5, 1))], axis=2)
+    n, k = pts.shape[:2]
+    top = np.concatenate([pts, np.broadcast_to(pos[:, None, 2:3] + step_height, (n, k, 1))], axis=2)
     hit = ground.ray_down(top.reshape(-1, 3), 2 * step_height)
-    return hit.hit.reshape(n, 5), hit.z.reshape(n, 5), hit.normal.reshape(n, 5, 3)
+    return hit.hit.reshape(n, k), hit.z.reshape(n, k), hit.normal.reshape(n, k, 3)
+
+
+def _plane_height(coef: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """(N, K) heights at ``xy`` (N, K, 2) of the planes z = c0 + c1 x + c2 y (``coef``
+    (N, 3); nan where a plane is nan)."""
+    return coef[:, None, 0] + coef[:, None, 1] * xy[..., 0] + coef[:, None, 2] * xy[..., 1]
 
 
 def _foot_plane(pts: np.ndarray, z: np.ndarray, nor: np.ndarray, all_hit: np.ndarray,
-                unevenness: float) -> tuple[np.ndarray, np.ndarray]:
-    """(normal (N, 3), uneven (N,) bool) of the plane z = c0 + c1 x + c2 y fitted (least
-    squares) through each footprint's five ground points ``pts`` (N, 5, 2) at heights
-    ``z`` (N, 5), for the footprints whose points all landed (``all_hit``; nan normal
-    and not uneven for the rest). Uneven: a point is more than ``unevenness`` m from the
-    plane, or a surface normal ``nor`` (N, 5, 3) under the foot is more than 15 degrees
-    from the plane's (a step edge under the foot fits a tilted plane where the surface
-    is level)."""
-    n = len(pts)
+                unevenness: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(normal (N, 3), uneven (N,) bool, coefficients (N, 3)) of the plane z = c0 + c1 x +
+    c2 y fitted (least squares) through each footprint's K ground points ``pts`` (N, K,
+    2) at heights ``z`` (N, K), for the footprints whose points all landed (``all_hit``;
+    nan normal and coefficients and not uneven for the rest). Uneven: a point is more
+    than ``unevenness`` m from the plane, or a surface normal ``nor`` (N, K, 3) under the
+    foot is more than 15 degrees from the plane's (a step edge under the foot fits a
+    tilted plane where the surface is level)."""
+    n, k = pts.shape[:2]
     plane_n = np.full((n, 3), np.nan)
+    coef = np.full((n, 3), np.nan)
     uneven = np.zeros(n, bool)
     if all_hit.any():
         i = np.flatnonzero(all_hit)
-        a = np.concatenate([np.ones((len(i), 5, 1)), pts[i]], axis=2)  # z = c0 + c1 x + c2 y
-        coef = np.linalg.solve(a.transpose(0, 2, 1) @ a, (a.transpose(0, 2, 1) @ z[i, :, None]))[..., 0]
-        resid = np.abs((a @ coef[:, :, None])[..., 0] - z[i]).max(axis=1)
-        pn = np.c_[-coef[:, 1], -coef[:, 2], np.ones(len(i))]
+        a = np.concatenate([np.ones((len(i), k, 1)), pts[i]], axis=2)  # z = c0 + c1 x + c2 y
+        c = np.linalg.solve(a.transpose(0, 2, 1) @ a, (a.transpose(0, 2, 1) @ z[i, :, None]))[..., 0]
+        resid = np.abs((a @ c[:, :, None])[..., 0] - z[i]).max(axis=1)
+        pn = np.c_[-c[:, 1], -c[:, 2], np.ones(len(i))]
         plane_n[i] = pn / np.linalg.norm(pn, axis=1, keepdims=True)
+        coef[i] = c
         agree = np.einsum("nkc,nc->nk", nor[i], plane_n[i]).min(axis=1) > np.cos(np.radians(15))
         uneven[i] = (resid > unevenness) | ~agree
-    return plane_n, uneven
+    return plane_n, uneven, coef
 
 
 def _reasons(all_hit: np.ndarray, uneven: np.ndarray, steep: np.ndarray) -> np.ndarray:
