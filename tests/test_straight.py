@@ -107,3 +107,29 @@ def test_a_character_walks_a_straight_strip_straight(fp, kind):
     r = measure(kind, 10.0, Settings(curvature_penalty=PENALTY), fp.__name__)
     assert r["off_label"] == 0, r
     assert r["tau_max"] <= 0.05 and r["drift_max_cm"] < 3.0 and r["goal_cm"] < 5.0, r
+
+
+def test_a_walk_that_veers_gets_a_straightened_step_when_straightness_is_asked():
+    """A library whose straightest walk veers (0.06 1/m, as CMU's captured walk's steps
+    do) gets, with ``straighten``, that walk's steps straightened, labelled its group at
+    tau 0 and neither veering nor crabbing; without it, nothing (the default plans keep
+    their steps); a library whose walk is straight needs none."""
+    from footstep_planner.core.analysis import analyze_clip
+    from footstep_planner.core.library import propose_library
+    from footstep_planner.core.steps import library_steps
+    from synth import synthetic_gait
+
+    walk = dict(speed=1.3, stride=1.4, duty=0.62)
+    veers = analyze_clip(synthetic_gait(name="walk", cycles=4, curvature=-0.06, **walk)[0])
+    lib = propose_library([veers])
+    plain, straight = library_steps(lib, [veers]), library_steps(lib, [veers], straighten=True)
+    new = sorted(set(straight.label) - set(plain.label))
+    assert len(new) == 1 and new[0].endswith("@+0.000"), new
+    own = straight.take((straight.label == new[0]) & (straight.stride == 1.0))
+    assert sorted(own.foot) == [0, 1]
+    np.testing.assert_allclose(straight.veer()[straight.label == new[0]], 0.0, atol=1e-9)
+    np.testing.assert_allclose(straight.sidestep()[straight.label == new[0]], 0.0, atol=1e-9)
+    assert abs(plain.veer()[plain.label == "walk"]).min() > 0.02  # the clip's own steps veer
+    level = analyze_clip(synthetic_gait(name="walk", cycles=4, **walk)[0])
+    lib = propose_library([level])
+    assert set(library_steps(lib, [level], straighten=True).label) == set(library_steps(lib, [level]).label)

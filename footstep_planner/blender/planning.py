@@ -101,7 +101,8 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
         raise PlanError(f"character {ob.name!r} has no usable clips ({why})")
     library = library_for(ob, clips)
     steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature,
-                          stride=(settings.stride_min, settings.stride_max))
+                          stride=(settings.stride_min, settings.stride_max),
+                          straighten=settings.curvature_penalty > 0)
     forward = world_forward(ob, clips.analyses)
     cache = _CACHES.setdefault(scene.name, FootprintCache())
     cache.update(object_geometry(ground, obst))

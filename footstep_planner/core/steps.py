@@ -270,7 +270,8 @@ def bend_curvatures(lo: float, hi: float, limit: float, reach: tuple[float, floa
 def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_interval: int = 3,
                   jump_tolerance: float = 0.1,
                   bend_curvature: float = Settings.bend_curvature,
-                  stride: tuple[float, float] = (Settings.stride_min, Settings.stride_max)) -> StepSet:
+                  stride: tuple[float, float] = (Settings.stride_min, Settings.stride_max),
+                  straighten: bool = Settings.curvature_penalty > 0) -> StepSet:
     """Steps of every cyclic clip of the library's turning groups, of blends between
     neighbouring clips of a group, of its outermost clips bent beyond the group's range
     out to +-``bend_curvature`` on a side where no clip of the library turns that
@@ -280,7 +281,9 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     their direction: the refinement stage bends the clip that far), and every walking step
     again with adapted strides (``stride_steps``, ``stride``: (least, most) share of the
     clip's forward length; a shortened bent step turns as much in less way: a library of
-    wide turns turns on a stair's landing)."""
+    wide turns turns on a stair's landing). With ``straighten`` (a search that prices
+    curvature, ``Settings.curvature_penalty``: without it nothing prefers them, and they
+    only move paths), each group's straightest clip straightened too (``_straight_rows``)."""
     by = {a.name: a for a in analyses}
     groups = _group_steps(library, by)
     taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]
@@ -288,7 +291,8 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     rows = []  # foot, fwd, left, turn, duration, gait, jump, label
     for gait, group, per_clip in groups:
         rows += _cyclic_rows(gait, group, per_clip, blends_per_interval)
-        rows += _straight_rows(gait, group, per_clip, rows)
+        if straighten:
+            rows += _straight_rows(gait, group, per_clip, rows)
         if bend_curvature > 0:
             rows += _bent_rows(gait, group, per_clip, bend_curvature, reach)
     for sp in library.specials:
