@@ -43,7 +43,8 @@ def strip_scene(length: float, pkg: str = "footstep_planner"):
 
 def measure(kind: str, length: float, settings=None, pkg: str = "footstep_planner") -> dict:
     """The figures of character ``kind`` (``bench_characters``; with another ``pkg``, as
-    the tests load the add-on, the sample character) on the strip, with ``settings``."""
+    the tests load the add-on, the sample character or CMU's) on the strip, with
+    ``settings``."""
     import bpy
 
     baking = import_module(pkg + ".blender.bake")
@@ -53,8 +54,16 @@ def measure(kind: str, length: float, settings=None, pkg: str = "footstep_planne
         from bench_characters import add_character
 
         ob = add_character(kind, scene)
-    else:
+    elif kind == "cmu":
+        from library import MOCAP, cmu_files
+
+        ob, _ = import_module(pkg + ".blender.clips").import_clips(cmu_files(MOCAP), name="CMU")
+        start = scene.objects["Start"]
+        ob.location, ob.rotation_euler.z = start.location, start.rotation_euler.z
+    elif kind == "mannequin":
         ob, _ = import_module(pkg + ".blender.mannequin").add_to_scene(scene, "Start")
+    else:
+        raise ValueError(f"character {kind!r}: with package {pkg!r} only 'mannequin' and 'cmu'")
     bpy.context.view_layer.update()
     goal, heading = planning.goal_of(scene, "Goal")
     planned = planning.plan_and_synthesize(scene, ob, goal, heading, settings=settings)

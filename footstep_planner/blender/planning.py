@@ -109,7 +109,8 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
         raise PlanError(f"character {ob.name!r} has no usable clips ({why})")
     library = library_for(ob, clips)
     steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature,
-                          stride=(settings.stride_min, settings.stride_max))
+                          stride=(settings.stride_min, settings.stride_max),
+                          straighten=settings.curvature_penalty > 0)
     forward = world_forward(ob, clips.analyses)
     foot = foot_shape(clips.analyses, clips.rig)
     cache = _CACHES.setdefault((scene.name, foot), FootprintCache())  # (a foot's answers are its own)
@@ -131,17 +132,30 @@ def character_footprints(ob, setup: PlanSetup) -> list[PathFootprint]:
     return standing_footprints(m @ hips, 0.0, setup, f"character {ob.name!r}")
 
 
+#: m: the standing feet's distance either side of the body, and with
+#: ``Settings.curvature_penalty`` the least and most of it as the walk's stance width sets it.
+STAND_HALF_WIDTH = 0.1
+STAND_HALF_WIDTH_RANGE = (0.05, 0.15)
+
+
 def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
-                        width: float = 0.1) -> list[PathFootprint]:
+                        width: float | None = None) -> list[PathFootprint]:
     """Both feet side by side, ``width`` either side of ``position`` (3,), turned
-    ``heading`` (the planner's frame) and, with ``Settings.curvature_penalty``, each
-    turned out as the walk turns it out (``StepSet.toe_out``: the first step then leaves
-    straight, not askew), dropped onto the ground; PlanError naming ``what`` when there is no traversable surface under a
-    foot."""
+    ``heading`` (the planner's frame), dropped onto the ground; PlanError naming ``what``
+    when there is no traversable surface under a foot. The width is by default
+    STAND_HALF_WIDTH, and with ``Settings.curvature_penalty`` half the walk's stance width
+    (``StepSet.stance_width``, within STAND_HALF_WIDTH_RANGE) and each foot turned out as
+    the walk turns it out (``StepSet.toe_out``): the first step then leaves straight, not
+    askew, along the line through ``position``, not beside it."""
     ang = heading + np.arctan2(setup.forward[1], setup.forward[0])
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
     p = np.asarray(position, float)[:3]
-    toe = setup.planner.steps.toe_out() if setup.planner.settings.curvature_penalty > 0 else 0.0
+    straight = setup.planner.settings.curvature_penalty > 0
+    toe = setup.planner.steps.toe_out() if straight else 0.0
+    if width is None:
+        width = STAND_HALF_WIDTH
+        if straight and setup.planner.steps.stance_width() > 0:
+            width = float(np.clip(0.5 * setup.planner.steps.stance_width(), *STAND_HALF_WIDTH_RANGE))
     out = []
     for k, sign in ((0, 1), (1, -1)):
         q = p + sign * width * left

@@ -79,8 +79,10 @@ class Settings:
         per 1/m of its curvature (its heading change beyond the straight walk's, and its
         sideways crab, over its clip's step length), and above 0 the standing feet turned
         out as the walk turns them: a straight way is walked with straight steps rather
-        than left and right turning steps in turn. 0.3 walks the sample character 10 m
-        within 3 cm of the line; off by default (it changes many paths, see the README).""")
+        than left and right turning steps in turn, and the library's straightest walk is
+        offered straightened (a captured walk's steps need not cancel over a stride). 0.5
+        walks the sample character and CMU's library 10 m within 3 cm of the line; off by
+        default (it changes many paths, see the README).""")
     jump_penalty: float = setting(0.5, "s", 0.0, 100.0, """Seconds added to the cost of each jump.""")
     run_penalty: float = setting(1.0, "s", 0.0, 100.0, """Seconds added to the cost of each running
         step: the path walks, and runs only where a clip needs it (a jump is entered running); 0

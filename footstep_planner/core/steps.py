@@ -84,6 +84,12 @@ class StepSet:
         blend) of the clips' own stride whose strides turn least. 0 without one."""
         return self._straight[0]
 
+    def stance_width(self) -> float:
+        """m, how far apart across the way the straightest walk (``toe_out``) puts its
+        feet: how far its steps go sideways, from the left foot to the right and back.
+        0 without one."""
+        return self._straight[1]
+
     @cached_property
     def _straight(self) -> tuple[float, float]:
         """(toe-out rad, half the straightest walk's stance width m: how far a step goes
@@ -186,23 +192,32 @@ def bent_step(m: dict, foot: int, curvature: float | None = None, by: float = 0.
     bent step keeps that arc's length, the footprints' offsets from it, the toe-out and
     the duration, and turns the arc to ``curvature``. At the clip's own curvature the step
     is unchanged. Returns (fwd, left, turn, duration)."""
-    f, l, t, dur = (float(x) for x in m[foot])
-    theta = 0.5 * (float(m[0][2]) + float(m[1][2]))  # the centre line's turn per step
-    toe = 0.25 * (float(m[1][2]) - float(m[0][2]))  # the left foot's toe-out (the right's: -toe)
-    da, db = (toe, -toe) if foot == 0 else (-toe, toe)
-    # the step in the centre line's frame at the first footprint
-    c, s = np.cos(da), np.sin(da)
-    qx, qy = c * f - s * l, s * f + c * l
-    # the footprints sit at -h and +h from the centre line (the chord turns by theta / 2)
-    h = 0.5 * (qy - qx * np.tan(0.5 * theta))
-    chord = np.hypot(qx + h * np.sin(theta), qy - h * np.cos(theta) - h)
-    arc = chord / _sinc_half(theta)
+    theta, da, h, arc = _on_centre_line(m, foot)
+    db = -da
     phi = theta + by * arc if curvature is None else curvature * arc
     # the centre line's end along the bent arc, the second footprint +h from it
     ex, ey = arc * _sinc_half(phi) * np.cos(0.5 * phi), arc * _sinc_half(phi) * np.sin(0.5 * phi)
     bx, by_ = ex - h * np.sin(phi), ey + h * np.cos(phi) + h
     c, s = np.cos(-da), np.sin(-da)
-    return np.array([c * bx - s * by_, s * bx + c * by_, phi + db - da, dur])
+    return np.array([c * bx - s * by_, s * bx + c * by_, phi + db - da, float(m[foot][3])])
+
+
+def _on_centre_line(m: dict, foot: int) -> tuple[float, float, float, float]:
+    """The step of a clip from ``foot`` (``bent_step``'s ``m``) in terms of the clip's
+    centre line: (theta, its turn per step, rad: the mean of the feet's turns; da, the
+    start foot's toe-out from it, rad; h, m: the footprints sit at -h and +h from it; arc,
+    m: its length over the step)."""
+    f, l = float(m[foot][0]), float(m[foot][1])
+    theta = 0.5 * (float(m[0][2]) + float(m[1][2]))  # the centre line's turn per step
+    toe = 0.25 * (float(m[1][2]) - float(m[0][2]))  # the left foot's toe-out (the right's: -toe)
+    da = toe if foot == 0 else -toe
+    # the step in the centre line's frame at the first footprint
+    c, s = np.cos(da), np.sin(da)
+    qx, qy = c * f - s * l, s * f + c * l
+    # the chord turns by theta / 2
+    h = 0.5 * (qy - qx * np.tan(0.5 * theta))
+    chord = np.hypot(qx + h * np.sin(theta), qy - h * np.cos(theta) - h)
+    return theta, da, h, chord / _sinc_half(theta)
 
 
 def bend_chain(position: np.ndarray, heading: np.ndarray, bends: np.ndarray | None, forward: np.ndarray
@@ -255,7 +270,8 @@ def bend_curvatures(lo: float, hi: float, limit: float, reach: tuple[float, floa
 def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_interval: int = 3,
                   jump_tolerance: float = 0.1,
                   bend_curvature: float = Settings.bend_curvature,
-                  stride: tuple[float, float] = (Settings.stride_min, Settings.stride_max)) -> StepSet:
+                  stride: tuple[float, float] = (Settings.stride_min, Settings.stride_max),
+                  straighten: bool = Settings.curvature_penalty > 0) -> StepSet:
     """Steps of every cyclic clip of the library's turning groups, of blends between
     neighbouring clips of a group, of its outermost clips bent beyond the group's range
     out to +-``bend_curvature`` on a side where no clip of the library turns that
@@ -265,7 +281,9 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     their direction: the refinement stage bends the clip that far), and every walking step
     again with adapted strides (``stride_steps``, ``stride``: (least, most) share of the
     clip's forward length; a shortened bent step turns as much in less way: a library of
-    wide turns turns on a stair's landing)."""
+    wide turns turns on a stair's landing). With ``straighten`` (a search that prices
+    curvature, ``Settings.curvature_penalty``: without it nothing prefers them, and they
+    only move paths), each group's straightest clip straightened too (``_straight_rows``)."""
     by = {a.name: a for a in analyses}
     groups = _group_steps(library, by)
     taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]
@@ -273,6 +291,8 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     rows = []  # foot, fwd, left, turn, duration, gait, jump, label
     for gait, group, per_clip in groups:
         rows += _cyclic_rows(gait, group, per_clip, blends_per_interval)
+        if straighten:
+            rows += _straight_rows(gait, group, per_clip, rows)
         if bend_curvature > 0:
             rows += _bent_rows(gait, group, per_clip, bend_curvature, reach)
     for sp in library.specials:
@@ -349,6 +369,49 @@ def _cyclic_rows(gait: str, group, per_clip: list[tuple], blends_per_interval: i
                 v = (1 - w) * ma[foot] + w * mb[foot]
                 rows.append((foot, *v, gait, False, f"{group.name}@{(1 - w) * ta + w * tb:+.3f}"))
     return rows
+
+
+#: rad: a clip whose two steps turn the way walked by less than this per stride walks
+#: straight as it is (``_straight_rows``).
+STRAIGHT_STRIDE_TURN = 1e-3
+
+
+def _straight_rows(gait: str, group, per_clip: list[tuple], rows: list[tuple]) -> list[tuple]:
+    """Step rows of the group's straightest clip (the one whose tau is nearest 0) bent to
+    curvature 0 (``bent_step``: the two feet's mean steps' stride turn taken out, their
+    toe-out, stance width, arc length and duration kept), labelled ``<group>@+0.000``
+    (synthesized with the group's weights at tau 0): a straight way's straight step.
+
+    A captured walk's footprints may lie on a straight line while its steps' turns, read
+    from the feet's yaws at a few stances, do not cancel over a stride (CMU's 16_16 walk:
+    the foot yaw of one stance is 5 degrees off, and its steps would veer 0.056 1/m right
+    where the clip walks straight): its steps chained curve away, and a planner asked for a
+    straight way alternates them with turning steps. None when that clip's steps already
+    walk straight, or the group has a step of that label."""
+    label = f"{group.name}@{0.0:+.3f}"
+    if any(r[-1] == label for r in rows):
+        return []
+    _, _, m = min(per_clip, key=lambda c: abs(c[1]))
+    if abs(float(m[0][2]) + float(m[1][2])) < STRAIGHT_STRIDE_TURN:
+        return []
+    return [(foot, *step, gait, False, label) for foot, step in enumerate(straight_steps(m))]
+
+
+def straight_steps(m: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The steps from the left foot and from the right (fwd, left, turn, duration) of a
+    clip (its two feet's mean steps ``m``, as ``bent_step``) straightened: each step's arc
+    along the centre line kept as a straight line of that length, the feet's toe-out and
+    the durations kept, and both footprints the same distance either side of the line
+    (half the clip's mean stance width): a stride of them neither veers nor crabs."""
+    line = [_on_centre_line(m, foot) for foot in (0, 1)]
+    half = 0.5 * (line[1][2] - line[0][2])  # the left foot's step goes right (h < 0), the right's left
+    out = []
+    for foot, sign in ((0, -1.0), (1, 1.0)):
+        _, da, _, arc = line[foot]
+        c, s = np.cos(-da), np.sin(-da)
+        bx, by = arc, 2.0 * sign * half
+        out.append(np.array([c * bx - s * by, s * bx + c * by, -2.0 * da, float(m[foot][3])]))
+    return tuple(out)
 
 
 def _bent_rows(gait: str, group, per_clip: list[tuple], bend_curvature: float, reach) -> list[tuple]:
