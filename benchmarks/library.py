@@ -11,6 +11,10 @@ MOCAP = os.path.join(os.path.dirname(ROOT), "shared", "mocap", "cmu")
 #: Trial names (``cmu_<name>_*.bvh``) of the library, in import order.
 LIBRARY = ["16_16", "16_11", "16_13", "16_17", "16_19", "16_35", "16_37", "16_39", "16_41", "16_43", "49_05"]
 
+#: Subject 16's start from standing and walk to a stop: ``LIBRARY + ENDS`` starts and stops
+#: with its own clips (``bench_characters.py``'s ``cmu``).
+ENDS = ["16_31", "16_33"]
+
 
 def cmu_files(mocap: str = MOCAP, names=LIBRARY) -> list[str]:
     """The BVH paths of ``names`` in ``mocap``; FileNotFoundError naming the first one

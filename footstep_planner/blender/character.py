@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core.analysis import AnalysisError, ClipAnalysis, analyze_clip
 from ..core.library import Library, LibraryError, SpecialClip, TurnGroup, GroupClip, propose_library
-from ..core.mirror import MirrorError, is_mirror, mirrored_jumps, mirrored_name
+from ..core.mirror import MIRRORED_KINDS, MirrorError, is_mirror, mirrored_jumps, mirrored_name
 from ..core.clip import SIDES, ClipMotion, clip_motion
 from ..core.rig import Rig, RigError, forward_kinematics
 from ..core.settings import Settings
@@ -44,9 +44,10 @@ def analyze_character(ob, settings: Settings | None = None, fps: float | None = 
     is reported in ``errors`` and skipped; a rig without legs raises RigError.
 
     With ``mirrors`` (for planning: ``library_for`` then puts them in the library), the
-    analyses end with the mirror images of the jumps the library uses (every jump clip's
-    when the library is the proposal) that take off from a foot no other jump of the same
-    gaits leaves the other way from: "<clip>~mirror", taking off from the other foot
+    analyses end with the mirror images of the jumps, start and stop clips the library
+    uses (every such clip's when the library is the proposal) that lead with a foot no
+    other clip of the same kind and gaits leads the other way with: "<clip>~mirror",
+    taking off (setting off, arriving) with the other foot
     (``core.mirror.mirrored_jumps``; data in memory, nothing made in the scene). A rig
     whose sides cannot be paired gets no mirrors (its jumps stay one-footed); its message
     is kept in ``errors`` under the mirror's name."""
@@ -65,17 +66,17 @@ def analyze_character(ob, settings: Settings | None = None, fps: float | None = 
 
 
 def _add_mirrors(ob, result: CharacterClips) -> None:
-    """Append to ``result`` the mirror images of the jumps the character's library plays
-    (an edited library's jump clips, else every jump clip) where they jump from one foot
-    only (``core.mirror.mirrored_jumps``)."""
-    jumps = [a for a in result.analyses if a.kind == "jump"]
+    """Append to ``result`` the mirror images of the jumps, start and stop clips the
+    character's library plays (an edited library's, else every such clip) where they lead
+    with one foot only (``core.mirror.mirrored_jumps``)."""
+    jumps = [a for a in result.analyses if a.kind in MIRRORED_KINDS]
     if ob.data.footstep.library_edited:
-        used = {sp.clip for sp in read_library(ob).specials if sp.kind == "jump"}
+        used = {sp.clip for sp in read_library(ob).specials if sp.kind in MIRRORED_KINDS}
         jumps = [a for a in jumps if a.name in used]
     if not jumps:
         return
     try:
-        made = mirrored_jumps(jumps, result.rig)
+        made = mirrored_jumps(jumps, result.rig, MIRRORED_KINDS)
     except MirrorError as ex:
         for a in jumps:
             result.errors[mirrored_name(a.name)] = str(ex)
@@ -228,16 +229,17 @@ def read_library(ob) -> Library:
 def library_for(ob, clips: CharacterClips) -> Library:
     """The library the planner uses: the user's, once edited; otherwise the proposal from
     the analysis, so a headless run needs no UI step. Either way it holds the mirror
-    images ``clips`` has of its jumps (``analyze_character``) as jumps of their own."""
+    images ``clips`` has of its jumps, start and stop clips (``analyze_character``) as
+    clips of their own of the same kind."""
     if ob.data.footstep.library_edited:
         lib = read_library(ob)
         lib.check({a.name for a in clips.analyses} | set(clips.errors))
         by = {a.name: a for a in clips.analyses}
-        jumps = {sp.clip: sp for sp in lib.specials if sp.kind == "jump"}
+        jumps = {sp.clip: sp for sp in lib.specials if sp.kind in MIRRORED_KINDS}
         for name, source in clips.mirrors.items():
             sp = jumps.get(source)
             if sp is not None and name not in lib.clips() and name not in lib.excluded and name in by:
-                lib.specials.append(SpecialClip(name, "jump", by[name].entry_gait, by[name].exit_gait))
+                lib.specials.append(SpecialClip(name, sp.kind, by[name].entry_gait, by[name].exit_gait))
         return lib
     return propose_library(clips.analyses)
 

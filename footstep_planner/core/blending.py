@@ -364,6 +364,10 @@ class PlanStep:
     foot: int
     special: str | None  # a special clip played whole across this step (a jump), else None
     weights: np.ndarray | None  # (C,) cyclic clip weights for a locomotion step
+    # the special clip's (take-off, landing) clip times across this step; None: its
+    # ``special_window`` (a start or stop clip plays one window per step, ``end_windows``)
+    window: tuple[float, float] | None = None
+    stretch: float = 1.0  # a special step lasts its window's clip time times this
 
 
 @dataclass
@@ -456,14 +460,16 @@ def build_schedule(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyclic: 
     clips = list(cyclic) + specials + ([standing.clip] if standing else [])
     w_step = _step_weights(steps, len(cyc))
     dur, windows = _step_durations(steps, tracks, cyc, feet[:-1], w_step, step_durations)
-    if pace is not None:  # (walking steps only: a special clip's step keeps its clip's time)
-        dur = np.where([step.special is None for step in steps], dur / np.asarray(pace, float), dur)
+    if pace is not None:  # (walking steps, and a start or stop clip's: a jump's step keeps its clip's time)
+        paced = [step.special is None or tracks[step.special].kind in ("start", "stop") for step in steps]
+        dur = np.where(paced, dur / np.asarray(pace, float), dur)
     footprint_times = np.concatenate([[0.0], np.cumsum(dur)])
     if standing is None:
         t, u, du_dt = _frame_times(footprint_times, dur, fps)
         walk, sigma = t, np.ones(len(t))
     else:
-        warp = _standing_warp(footprint_times, dur, fps, standing)
+        warp = _standing_warp(footprint_times, dur, fps, standing,
+                              *_clip_ends(steps, tracks, windows, footprint_times, standing))
         t, walk, sigma = warp.t, warp.walk, warp.sigma
         u = np.interp(walk, footprint_times, np.arange(len(footprint_times), dtype=float))
         du_dt = sigma / dur[np.minimum(u.astype(np.int64), len(dur) - 1)]
@@ -476,7 +482,8 @@ def build_schedule(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyclic: 
         return Schedule(t=t, u=u, clips=clips, weights=_all_weights(W, lam, len(cyc)), clip_time=clip_time,
                         clip_rate=clip_rate, footprint_times=footprint_times, feet=feet, fps=float(fps))
     clip_time[:, -1] = standing.clip_time
-    weights = _all_weights(W, np.c_[lam, warp.stand], len(cyc))
+    # (the standing clip over the specials: a start or stop clip stands under it)
+    weights = _all_weights(W, np.c_[lam * (1.0 - warp.stand)[:, None], warp.stand], len(cyc))
     return Schedule(t=t, u=u, clips=clips, weights=weights, clip_time=clip_time, clip_rate=clip_rate,
                     footprint_times=warp.real_time(footprint_times), feet=feet, fps=float(fps),
                     walk_time=walk, walk_footprint_times=footprint_times)
@@ -498,7 +505,15 @@ class Standing:
     the last footprint (the last step's foot swinging past), the standing clip taking over
     again; after STAND_SETTLE s it holds still for ``hold`` s. Each speed ramp covers
     ``ramp_steps`` footsteps of walking: a smoothstep of the walk's rate over twice their
-    time."""
+    time.
+
+    With a ``start`` clip (the library's, its kind "start"; the path's first steps are
+    its steps: ``PlanStep.special`` with one of its windows each) the walk does not speed
+    up: after the ``lead`` the start clip plays at its own speed from END_FADE s before it
+    sets off, keyed to the first footprints as a jump is, while the standing clip hands
+    over to it; it then ramps out into the cycles. With a ``stop`` clip the last steps are
+    its steps: it plays at its own speed until it has come to rest, the standing clip
+    taking over in END_FADE s, and the hold follows."""
 
     clip: str
     clip_time: float = 0.0
@@ -508,13 +523,17 @@ class Standing:
     blend: float = 0.35
     u_start: float = 1.0
     u_back: float = 1.0
+    start: str | None = None
+    stop: str | None = None
 
 
 @dataclass
 class _Warp:
     """The frames of a schedule with standing: real times ``t`` (F,) s, the walk's time
     ``walk`` (F,) s and its rate ``sigma`` (F,) (0 standing .. 1 walking), the standing
-    clip's weight ``stand`` (F,); the walk moves from ``t_go`` to ``t_stop`` s."""
+    clip's weight ``stand`` (F,); the walk moves from ``t_go`` to ``t_stop`` s, speeding
+    up over ``ramp`` s (0: at once, a start clip's own) and slowing down over
+    ``ramp_out`` s (None: as long; 0: at once, a stop clip's own)."""
 
     t: np.ndarray
     walk: np.ndarray
@@ -524,14 +543,16 @@ class _Warp:
     t_stop: float
     ramp: float
     walk0: float
+    ramp_out: float | None = None
 
     def walk_at(self, t: np.ndarray) -> np.ndarray:
         """(len(t),) the walk's time at real times ``t`` (s)."""
         t = np.asarray(t, float)
-        span = self.t_stop - self.t_go - 2 * self.ramp  # cruising, at the walk's own speed
-        return (self.walk0 + self.ramp * _ramp_integral(np.clip((t - self.t_go) / self.ramp, 0.0, 1.0))
-                + np.clip(t - self.t_go - self.ramp, 0.0, span)
-                + self.ramp * (0.5 - _ramp_integral(np.clip((self.t_stop - t) / self.ramp, 0.0, 1.0))))
+        r0, r1 = self.ramp, self.ramp if self.ramp_out is None else self.ramp_out
+        span = self.t_stop - self.t_go - r0 - r1  # cruising, at the walk's own speed
+        up = r0 * _ramp_integral(np.clip((t - self.t_go) / r0, 0.0, 1.0)) if r0 > 0 else 0.0
+        down = r1 * (0.5 - _ramp_integral(np.clip((self.t_stop - t) / r1, 0.0, 1.0))) if r1 > 0 else 0.0
+        return self.walk0 + up + np.clip(t - self.t_go - r0, 0.0, span) + down
 
     def real_time(self, walk_times: np.ndarray) -> np.ndarray:
         """(N,) the real times (s) at which the walk reaches ``walk_times``, held within
@@ -550,28 +571,82 @@ def _ramp_integral(x: np.ndarray) -> np.ndarray:
     return x ** 3 - 0.5 * x ** 4
 
 
-def _standing_warp(T: np.ndarray, dur: np.ndarray, fps: float, st: Standing) -> _Warp:
+def _rate_ramp(x: np.ndarray, r: float) -> np.ndarray:
+    """A smoothstep from 0 to 1 over ``r`` of ``x`` (a step at 0 when ``r`` is 0)."""
+    return _smoothstep(np.clip(x / r, 0.0, 1.0)) if r > 0 else (x >= 0).astype(float)
+
+
+def _standing_warp(T: np.ndarray, dur: np.ndarray, fps: float, st: Standing, own_start=None,
+                   own_stop=None) -> _Warp:
     """The standing schedule's frames (``Standing``) for footprints at walk times ``T``
     (N,) s, steps ``dur`` (N-1,) s long: the walk from ``u_start`` to N-1 - ``u_back``
     footsteps, its rate a smoothstep up over ``ramp`` s and down over as long (each covering
-    half its time of walking: ``ramp_steps`` footsteps), ramps shortened on a short path."""
+    half its time of walking: ``ramp_steps`` footsteps), ramps shortened on a short path.
+    ``own_start`` (the walk time s a start clip begins at, the s the standing clip hands
+    over to it in) and ``own_stop`` (the walk time s the walk ends at, the s before it the
+    standing clip takes over in): a start or stop clip's (``_clip_ends``), the walk at
+    its own speed from or to standing."""
     idx = np.arange(len(T), dtype=float)
-    w0 = float(np.interp(min(st.u_start, 0.5 * (len(T) - 1)), idx, T))
-    w1 = float(np.interp(max(len(T) - 1 - st.u_back, 0.5 * (len(T) - 1)), idx, T))
+    w0 = float(np.interp(min(st.u_start, 0.5 * (len(T) - 1)), idx, T)) if own_start is None else own_start[0]
+    w1 = float(np.interp(max(len(T) - 1 - st.u_back, 0.5 * (len(T) - 1)), idx, T)) if own_stop is None \
+        else own_stop[0]
     span = w1 - w0
     if span <= MIN_STEP:
         raise BlendError("the path is too short to start and stop walking on it")
     ramp = min(2.0 * st.ramp_steps * float(np.mean(dur)), span)
-    t_go = max(st.lead, 0.0)
-    t_stop = t_go + span + ramp
-    t = np.arange(int(np.ceil((t_stop + STAND_SETTLE + max(st.hold, 0.0)) * fps - FRAME_EPS)) + 1) / fps
-    sigma = _smoothstep(np.clip((t - t_go) / ramp, 0.0, 1.0)) * _smoothstep(np.clip((t_stop - t) / ramp, 0.0, 1.0))
+    r0 = 0.0 if own_start is not None else ramp
+    r1 = 0.0 if own_stop is not None else ramp
     hand = max(st.blend * ramp, MIN_RAMP)
-    stand = (1.0 - _smoothstep(np.clip((t - t_go) / hand, 0.0, 1.0))
-             + _smoothstep(np.clip((t - (t_stop - hand)) / hand, 0.0, 1.0)))
-    warp = _Warp(t, np.empty(0), sigma, np.clip(stand, 0.0, 1.0), t_go, t_stop, ramp, w0)
+    # the standing clip hands over from t_go on (to a start clip: before it, the clip held)
+    # and takes over until t_stop (from a stop clip: after it, the clip held)
+    hand0, hand1 = (hand if own is None else max(own[1], MIN_RAMP) for own in (own_start, own_stop))
+    t_go = max(st.lead, 0.0) + (0.0 if own_start is None else hand0)
+    t_stop = t_go + span + 0.5 * (r0 + r1)
+    fade0 = t_go if own_start is None else t_go - hand0
+    fade1 = t_stop - hand1 if own_stop is None else t_stop
+    end = max(t_stop, fade1 + hand1) + STAND_SETTLE + max(st.hold, 0.0)
+    t = np.arange(int(np.ceil(end * fps - FRAME_EPS)) + 1) / fps
+    sigma = _rate_ramp(t - t_go, r0) * _rate_ramp(t_stop - t, r1)
+    stand = (1.0 - _smoothstep(np.clip((t - fade0) / hand0, 0.0, 1.0))
+             + _smoothstep(np.clip((t - fade1) / hand1, 0.0, 1.0)))
+    warp = _Warp(t, np.empty(0), sigma, np.clip(stand, 0.0, 1.0), t_go, t_stop, r0, w0, r1)
     warp.walk = np.minimum(warp.walk_at(t), w1)  # (the walk's time at the frames)
     return warp
+
+
+#: s: the standing clip hands over to a start clip (held where it sets off) over this
+#: time, and takes over from a stop clip (held where it has come to rest) over as long.
+END_FADE = 0.5
+
+
+def rest_times(track: ClipTrack, speed: float = 0.05, lift: float = 0.001) -> tuple[float, float]:
+    """(the clip time s it sets off at, the clip time s it has come to rest at): the first
+    and the last sample at which its root moves faster than ``speed`` m/s, or a heel or
+    toe stands more than ``lift`` m higher than at the clip's start (at its end) or bears
+    no weight (0 and the clip's end for a clip that never stands still)."""
+    z = np.concatenate([track.heel[..., 2], track.toe[..., 2]])  # (4, n)
+    still = (np.linalg.norm(track.vel, axis=1) <= speed) & (track.contact > 0.5).all(axis=0)
+    go = np.flatnonzero(~(still & (z <= z[:, :1] + lift).all(axis=0)))
+    rest = np.flatnonzero(~(still & (z <= z[:, -1:] + lift).all(axis=0)))
+    return (float(go[0] / track.rate) if len(go) else 0.0,
+            float(min((rest[-1] + 1) / track.rate, track.duration)) if len(rest) else track.duration)
+
+
+def _clip_ends(steps: list[PlanStep], tracks: dict[str, ClipTrack], windows: dict, T: np.ndarray, st: Standing):
+    """(own_start, own_stop) of ``_standing_warp`` for a standing schedule whose first
+    (last) steps are its ``Standing.start`` (``stop``) clip's, else None: the walk time
+    at which the start clip sets off (or its first footprint's, when earlier), the walk
+    time at which the stop clip has come to rest (or its last footprint's, when later),
+    each with END_FADE s for the standing clip to hand over or take over while the clip
+    is held there."""
+    own_start = own_stop = None
+    if st.start is not None and steps[0].special == st.start:
+        go = rest_times(tracks[st.start])[0]
+        own_start = (float(T[0] + go - windows[0][0]), END_FADE)
+    if st.stop is not None and steps[-1].special == st.stop:
+        rest = rest_times(tracks[st.stop])[1]
+        own_stop = (float(T[-1] + rest - windows[len(steps) - 1][1]), END_FADE)
+    return own_start, own_stop
 
 
 def standing_track(walk: ClipTrack, name: str) -> ClipTrack:
@@ -640,9 +715,9 @@ def _step_durations(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyc: li
     windows = {}
     for j, step in enumerate(steps):
         if step.special:
-            a, b = special_window(tracks[step.special], step.foot)
+            a, b = step.window or special_window(tracks[step.special], step.foot)
             windows[j] = (a, b)
-            dur[j] = b - a
+            dur[j] = (b - a) * step.stretch
     if step_durations is not None:
         loco = np.array([step.special is None for step in steps])
         dur[loco] = np.asarray(step_durations, float)[loco]
@@ -711,6 +786,22 @@ def _play_specials(steps: list[PlanStep], tracks: dict[str, ClipTrack], windows:
         duration = tracks[step.special].duration
         ct, rate, ramp = _special_timing(t, u, j, windows[j], footprint_times[j], footprint_times[j + 1],
                                          dur[j], transition)
+        # a start clip plays from the first frame (the standing clip hands over to it), a
+        # stop clip to the last (``Standing``): no ramp before the one, after the other;
+        # it ramps out (in) over the step after (before) its steps, played in step there
+        kind, T = tracks[step.special].kind, footprint_times
+        first = j == 0 or steps[j - 1].special != step.special
+        last = j + 1 == len(steps) or steps[j + 1].special != step.special
+        if kind == "start" and first:
+            ramp[t < T[j]] = 1.0
+        if kind == "start" and last and j + 2 < len(T):
+            late = t > T[j + 1]
+            ramp[late] = 1.0 - _smoothstep(np.clip((t[late] - T[j + 1]) / (T[j + 2] - T[j + 1]), 0.0, 1.0))
+        if kind == "stop" and last:
+            ramp[t > T[j + 1]] = 1.0
+        if kind == "stop" and first and j >= 1:
+            early = t < T[j]
+            ramp[early] = _smoothstep(np.clip((t[early] - T[j - 1]) / (T[j] - T[j - 1]), 0.0, 1.0))
         _register_special(ct, rate, t, u, j, windows[j], special_neighbours(tracks[step.special], windows[j]),
                           footprint_times, dur)
         mine = ramp > lam[:, k]

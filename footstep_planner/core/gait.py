@@ -199,6 +199,11 @@ START_STANDS = 0.45
 #: Cycles before halting (stop clip) after which each foot's first stance centred is its
 #: standing stance, held to the clip's end.
 STOP_STANDS = 0.55
+#: m the ankle lifts at mid swing in a start clip's first step of each foot (mannequin
+#: scale): a step off standing, at walking pace only later, that lifts the foot no more
+#: than the walk does is slow and low enough to read as a foot shuffled along the ground
+#: (the analysis, as a viewer, tells a step from it by its lift).
+FIRST_STEP_CLEARANCE = 0.1
 #: s an idle clip lasts.
 IDLE_DURATION = 2.4
 #: A jump clip lasts this many cycles ...
@@ -243,6 +248,8 @@ def _timeline(spec: ClipSpec, fps: float, size: float = 1.0):
         go = STAND_TIME  # standing until then, then SPEED_RAMP s to full speed
         v = spec.v * smoothstep((t - go) / SPEED_RAMP)
         stances = _stand_ends(stances, go + START_STANDS * T, start=True)
+        for st in stances[2:4]:  # each foot's first step off its standing stance lifts clear
+            st.clearance = max(st.clearance, FIRST_STEP_CLEARANCE * size)
     elif spec.kind == "stop":
         halt = dur - STAND_TIME  # full speed until SPEED_RAMP s before, standing after
         v = spec.v * (1.0 - smoothstep((t - (halt - SPEED_RAMP)) / SPEED_RAMP))

@@ -296,17 +296,40 @@ def take_off_foot(a: ClipAnalysis) -> int | None:
     return before[-1].foot if before else None
 
 
-def mirrored_jumps(analyses: list[ClipAnalysis], rig: Rig) -> list[ClipAnalysis]:
-    """The mirror images the planner needs to jump from either foot: of every jump clip
-    of ``analyses`` that takes off from a foot from which no jump of the same entry and
-    exit gaits takes off the other way (a library that already jumps from both feet gets
-    none). Mirrors of mirrors and clips whose mirror name is taken are left out."""
-    jumps = [a for a in analyses if a.kind == "jump" and take_off_foot(a) is not None]
-    feet: dict[tuple[str, str], set[int]] = {}
+#: The special clips' kinds whose mirror images the planner may need: a jump takes off
+#: from one foot, a start clip sets off with one, a stop clip arrives with one.
+MIRRORED_KINDS = ("jump", "start", "stop")
+
+
+def lead_foot(a: ClipAnalysis) -> int | None:
+    """The foot a special clip leads with (0 left, 1 right): a jump's take-off foot
+    (``take_off_foot``), a start clip's first to move (the foot whose stance from the
+    clip's start lifts first), a stop clip's last to arrive (the foot whose stance to the
+    clip's end lands last); None for any other clip or one without such stances."""
+    if a.kind == "jump":
+        return take_off_foot(a)
+    if a.kind == "start":
+        st = [x for x in a.stances if x.open_start]
+        return min(st, key=lambda x: x.liftoff).foot if st else None
+    if a.kind == "stop":
+        st = [x for x in a.stances if x.open_end]
+        return max(st, key=lambda x: x.strike).foot if st else None
+    return None
+
+
+def mirrored_jumps(analyses: list[ClipAnalysis], rig: Rig, kinds=("jump",)) -> list[ClipAnalysis]:
+    """The mirror images the planner needs to jump from either foot (with ``kinds``
+    MIRRORED_KINDS: also to set off and to arrive with either foot): of every clip of
+    those kinds in ``analyses`` that leads with a foot (``lead_foot``) from which no clip
+    of the same kind, entry and exit gaits leads the other way (a library that already
+    jumps from both feet gets none). Mirrors of mirrors and clips whose mirror name is
+    taken are left out."""
+    jumps = [a for a in analyses if a.kind in kinds and lead_foot(a) is not None]
+    feet: dict[tuple[str, str, str], set[int]] = {}
     for a in jumps:
-        feet.setdefault((a.entry_gait, a.exit_gait), set()).add(take_off_foot(a))
+        feet.setdefault((a.kind, a.entry_gait, a.exit_gait), set()).add(lead_foot(a))
     names = {a.name for a in analyses}
-    todo = [a for a in jumps if len(feet[(a.entry_gait, a.exit_gait)]) == 1
+    todo = [a for a in jumps if len(feet[(a.kind, a.entry_gait, a.exit_gait)]) == 1
             and not is_mirror(a.name) and mirrored_name(a.name) not in names]
     if not todo:
         return []
