@@ -30,6 +30,9 @@ from .surface import FootShape
 
 #: The label of a pivot step (a footprint a turn in place sets down).
 PIVOT = "pivot"
+#: A pivot step is played this much quicker than the walk's step (its clip's time over
+#: it): a turn on the spot takes short, quick steps.
+PIVOT_PACE = 1.5
 #: rad: how far a closing (outside) foot may turn past the opening one (toes in).
 TOE_IN = np.radians(20.0)
 #: m: the least room left between the two feet's rectangles.
@@ -439,7 +442,7 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         if len(steps) == len(head) - 1:
             head = [head[0]] + [replace(f, time=g.time) for f, g in zip(steps, head[1:])]
     if head:
-        turn0 = _turned(synth(head, other, None, None, lead, 0.0, None), "start")
+        turn0 = _turned(synth(head, other, None, None, lead, 0.0, PIVOT_PACE), "start")
         pos, hd = turn0.footprints
         walk_path[0] = replace(walk_path[0], position=pos[-1].copy(), heading=float(hd[-1]))
         other = replace(turn0.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]), label="walk")
@@ -454,7 +457,7 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         first = replace(moving.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]))
         steps = pivot_footprints(stands, first, tail[-1].heading, forward, step_angle, foot, body=body)
         if steps:
-            turn1 = _turned(synth([stands] + steps, first, None, None, 0.0, hold, None), "end")
+            turn1 = _turned(synth([stands] + steps, first, None, None, 0.0, hold, PIVOT_PACE), "end")
             parts.append(turn1)
             turns.append(("end", turn1))
     out = join(parts)
