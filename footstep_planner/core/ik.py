@@ -778,10 +778,11 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
     towards the nearer planted frame's, by the least share of ``HOME_SHARES`` that lets
     the lift keep to the cone and keeps the ankle (so lifted) within ``reach`` of the
     ``hip`` (F, 3) (else the largest that keeps it in reach: a foot held back while the
-    body climbs on would straighten its knee); the draw eases out at ``HOME_RATE`` per frame and is gone
-    by the swing's middle (where the footprint it is drawn to changes). The foot rises
-    off (comes down onto) its footprint before it goes on. Its height is kept (the lift
-    does the rest). Unchanged elsewhere, and without ``ground_z``."""
+    body climbs on would straighten its knee); the draw eases out at ``HOME_RATE`` per
+    frame and is gone by the swing's middle (where the footprint it is drawn to
+    changes). The foot rises off (comes down onto) its footprint before it goes on. Its
+    height is kept (the lift does the rest). Unchanged elsewhere, and without
+    ``ground_z``."""
     free = np.flatnonzero(~planted)
     if ground_z is None or planes is None or not len(free) or not planted.any():
         return ankle, rot
