@@ -353,3 +353,26 @@ def test_a_roll_for_reach_comes_and_goes_no_faster_than_its_rate(pull, rate_deg)
     assert np.abs(np.diff(turn)).max() <= rate + 1e-9
     np.testing.assert_allclose(a1 + np.einsum("fij,j->fi", r1, toe_l), pin, atol=1e-9)
     assert (np.linalg.norm(a1 - hip, axis=1) <= np.linalg.norm(a0 - hip, axis=1) + 1e-9).all()
+
+
+@settings(**HYP)
+@given(rise=st.floats(0.0, 0.2), dz=st.floats(-0.2, 0.2), still=st.floats(0.0, 1.0))
+def test_a_pivot_step_barely_lifts_the_foot(rise, dz, still):
+    """``_low_swing``: turning in place (``still`` 1), a swing's rise over the way between
+    its footprints' heights is at most PIVOT_LIFT; walking (0) it is the clip's; in
+    between, in between; the planted frames and the way across the ground never move."""
+    from footstep_planner.core.ik import PIVOT_LIFT, _low_swing
+
+    F = 30
+    planted = np.ones(F, bool)
+    planted[10:20] = False
+    x = np.clip((np.arange(F) - 9) / 11.0, 0.0, 1.0)
+    ankle = np.c_[0.4 * x, np.zeros(F), 0.08 + dz * x + rise * np.sin(np.pi * x)]
+    out = _low_swing(ankle, planted, np.full(F, still))
+    np.testing.assert_allclose(out[:, :2], ankle[:, :2])
+    np.testing.assert_allclose(out[planted], ankle[planted])
+    over = out[:, 2] - (0.08 + dz * x)
+    allowed = (1 - still) * rise + still * min(rise, PIVOT_LIFT)
+    assert over.max() <= allowed + 1e-9
+    assert over.max() >= min(rise, PIVOT_LIFT) * np.sin(np.pi * 5 / 11) - 1e-9
+    np.testing.assert_allclose(_low_swing(ankle, planted, np.zeros(F)), ankle)

@@ -79,6 +79,9 @@ LIFT_RATE = 0.02
 #: s after a liftoff (and before a strike) over which every point of a swinging foot comes
 #: to keep ``GROUND_MARGIN`` over the ground (near a footprint: its clearance over its plane).
 LIFT_RAMP = 0.15
+#: m the most a pivot step (a turn in place) lifts the foot over the way between its
+#: footprints (``_low_swing``).
+PIVOT_LIFT = 0.04
 #: Shares of the way to its footprint a swinging foot is drawn where the ground would
 #: lift it too fast next to one (``_kept_over_footprints``), tried in turn ...
 HOME_SHARES = (0.25, 0.5, 0.75, 1.0)
@@ -452,6 +455,8 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
         planes = [_swing_planes(tg.footprint[k], np.asarray(fp_pos, float), np.asarray(fp_normal, float))
                   for k in range(2)]
         ankle_t, rot_t = _all_frame_targets(world, legs, tg, ground_z)
+        if still is not None:
+            ankle_t = np.stack([_low_swing(ankle_t[k], tg.weight[k] >= 1.0, still) for k in range(2)])
         for k in range(2):
             ankle_t[k], rot_t[k] = _kept_over_footprints(
                 ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t),
@@ -713,6 +718,30 @@ def _plane_z(point: np.ndarray, normal: np.ndarray, xy: np.ndarray) -> np.ndarra
     nz = np.maximum(normal[..., 2], 0.3)
     return point[..., 2] - (normal[..., 0] * (xy[..., 0] - point[..., 0])
                             + normal[..., 1] * (xy[..., 1] - point[..., 1])) / nz
+
+
+def _low_swing(ankle: np.ndarray, planted: np.ndarray, still: np.ndarray) -> np.ndarray:
+    """One foot's ankle targets (F, 3) with each swing's rise over the straight way
+    between its footprints' heights scaled down so that it rises at most PIVOT_LIFT, as
+    far as ``still`` (F,) 0..1 (a turn in place: a pivot step barely lifts the foot; the
+    walk's swing, played on the spot, marches). Unchanged where ``still`` is 0."""
+    F = len(planted)
+    f = np.arange(F)
+    prev = np.maximum.accumulate(np.where(planted, f, -1))
+    nxt = np.minimum.accumulate(np.where(planted, f, F)[::-1])[::-1]
+    swing = ~planted & (prev >= 0) & (nxt < F)
+    w = np.clip(np.asarray(still, float), 0.0, 1.0) * swing
+    if not w.any():
+        return ankle
+    a, b = np.where(swing, prev, 0), np.where(swing, nxt, 0)
+    x = (f - a) / np.maximum(b - a, 1)
+    rise = ankle[:, 2] - ((1 - x) * ankle[a, 2] + x * ankle[b, 2])
+    top = np.zeros(F)
+    np.maximum.at(top, a, np.where(swing, rise, 0.0))  # each swing's highest rise, at its liftoff frame
+    scale = np.minimum(1.0, PIVOT_LIFT / np.maximum(top[a], 1e-9))
+    out = ankle.copy()
+    out[:, 2] -= np.where(swing, w * (1.0 - scale) * np.maximum(rise, 0.0), 0.0)
+    return out
 
 
 def _lift_need(ankle: np.ndarray, rot: np.ndarray, free: np.ndarray, sole: list, planes, ground_z,
