@@ -94,6 +94,34 @@ def test_moving_one_footprint_rebakes_only_its_span(fp, turns):
     assert bpy.data.actions[doc2["action"]]["footstep_planted_frames"]
 
 
+def test_an_edited_plan_that_turns_in_place_rebakes_with_its_turn(fp, empty_scene):
+    """Turns with the Start turned round: the bake turns in place at the start. Move a
+    footprint of the walk after it in the viewport and re-bake from the handles: the
+    turn is played again, on the spot, the moved footprint stands where it was put and
+    the goal is reached without a sliding foot."""
+    import math
+
+    handles = import_module(fp.__name__ + ".blender.handles")
+    directing = import_module(fp.__name__ + ".blender.directing")
+    scene, ob, planning, goal, heading = _turns_scene(fp)
+    start = scene.objects["Start"]
+    start.rotation_euler.z += math.pi
+    ob.rotation_euler.z = start.rotation_euler.z
+    scene.view_layers[0].update()
+    planned = planning.plan_and_synthesize(scene, ob, goal, heading, start)
+    doc = planning.run(scene, ob, goal, heading, start, name="turned", frame_start=1)
+    assert [t["where"] for t in doc["turns_in_place"]] == ["start"]
+    handles.make_handles(scene, ob, planned.result.footprints, planned.setup.forward, goal, planned.goal_heading)
+    k, target = _move_middle_footprint(fp, ob, 0.1)
+    doc2, route, _ = directing.rebake_handles(scene, ob)
+    assert [t["where"] for t in doc2["turns_in_place"]] == ["start"]
+    assert abs(doc2["turns_in_place"][0]["degrees"]) >= 150
+    assert sum(np.allclose(f.position, target, atol=1e-6) for f in route.edited.result.footprints) == 1
+    q = doc2["quality"]
+    assert q["foot_skate"]["max_mm"] < 1.0 and q["goal"]["distance_m"] < 0.05
+    assert q["pops"]["introduced"]["count"] <= 5 and q["pops"]["introduced"]["max_excess_deg"] <= 5.0
+
+
 def test_an_edit_too_big_to_splice_without_a_slide_is_baked_whole(fp, turns):
     """Moved 25 cm, the kept footprints' neighbours walk so differently that mixing the
     two bakes' keys slides the planted foot: the re-bake keys the whole path, says so,
