@@ -87,7 +87,9 @@ def _check_start_turn(fp, out, doc, skate_mm: float):
     # the body stays over the start while it turns round, by at least 150 degrees ...
     assert np.linalg.norm(body[a:b + 1, :2] - start, axis=1).max() < 0.03
     assert abs(yaw[b] - yaw[a]) >= math.radians(150)
-    assert turns[0]["seconds"] < 4.5  # quick short steps (PIVOT_PACE): a person turns round in 2 to 3 s
+    # the turn's length in animation frames (the motion's, not the machine's time): quick
+    # short steps (PIVOT_PACE), as a person turns round in 2 to 3 s of motion
+    assert b - a < 4.5 * FPS
     # ... then walks away: never behind the start (a walking U-turn swings 0.9 m behind it)
     ahead = np.array([math.cos(yaw[b] + math.pi / 2), math.sin(yaw[b] + math.pi / 2)])  # (the rig faces -Y)
     assert ((body[b:, :2] - start) @ -ahead).min() > -0.1

@@ -187,6 +187,15 @@ def smoothstep(u: np.ndarray) -> np.ndarray:
     return u * u * (3.0 - 2.0 * u)
 
 
+def planted_either_side(planted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(prev, nxt) (F,) each frame's last planted frame at or before it (-1 before the
+    first) and first at or after it (F after the last), of a foot ``planted`` (F,)."""
+    F = len(planted)
+    f = np.arange(F)
+    return (np.maximum.accumulate(np.where(planted, f, -1)),
+            np.minimum.accumulate(np.where(planted, f, F)[::-1])[::-1])
+
+
 def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np.ndarray,
                   rot: np.ndarray, ground_z=None) -> tuple[np.ndarray, np.ndarray]:
     """Ankle positions (F, 3) and foot rotations (F, 3, 3) for every frame of one foot:
@@ -202,8 +211,7 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     off[idx] = ankle[idx] - A0[idx]
     turn[idx] = Rotation.from_matrix(rot[idx] @ np.transpose(R0[idx], (0, 2, 1))).as_rotvec()
     f = np.arange(F)
-    prev = np.maximum.accumulate(np.where(planted, f, -1))
-    nxt = np.minimum.accumulate(np.where(planted, f, F)[::-1])[::-1]
+    prev, nxt = planted_either_side(planted)
     prev_c = np.where(prev < 0, nxt, prev)
     nxt_c = np.where(nxt >= F, prev, nxt)
     span = np.maximum(nxt_c - prev_c, 1)
@@ -519,13 +527,12 @@ def _on_steps(tg: FootTargets, fps: float) -> np.ndarray:
     """(F,) 0..1: how far each frame lies where the two feet's last footprints differ in
     height by more than CLIMB_MIN (on stairs, at a kerb), eased over BODY_RISE_FINE."""
     F = tg.weight.shape[1]
-    f = np.arange(F)
     z = np.zeros((2, F))
     for k in range(2):
         on = tg.weight[k] >= 1.0 - 1e-9
         if not on.any():
             return np.zeros(F)
-        last = np.maximum.accumulate(np.where(on, f, -1))
+        last = planted_either_side(on)[0]
         last = np.where(last < 0, np.flatnonzero(on)[0], last)
         z[k] = tg.pin[k, last, 2]
     win = max(1, int(round(BODY_RISE_FINE * fps)))
@@ -704,8 +711,7 @@ def _swing_planes(index: np.ndarray, fp_pos: np.ndarray, fp_normal: np.ndarray):
     if not on.any():
         return None
     f = np.arange(F)
-    prev = np.maximum.accumulate(np.where(on, f, -1))
-    nxt = np.minimum.accumulate(np.where(on, f, F)[::-1])[::-1]
+    prev, nxt = planted_either_side(on)
     gap = np.minimum(np.where(prev < 0, F, f - prev), np.where(nxt >= F, F, nxt - f))
     prev, nxt = np.where(prev < 0, nxt, prev), np.where(nxt >= F, prev, nxt)
     j = index[np.stack([prev, nxt])]
@@ -727,8 +733,7 @@ def _low_swing(ankle: np.ndarray, planted: np.ndarray, still: np.ndarray) -> np.
     walk's swing, played on the spot, marches). Unchanged where ``still`` is 0."""
     F = len(planted)
     f = np.arange(F)
-    prev = np.maximum.accumulate(np.where(planted, f, -1))
-    nxt = np.minimum.accumulate(np.where(planted, f, F)[::-1])[::-1]
+    prev, nxt = planted_either_side(planted)
     swing = ~planted & (prev >= 0) & (nxt < F)
     w = np.clip(np.asarray(still, float), 0.0, 1.0) * swing
     if not w.any():
@@ -768,8 +773,8 @@ def _lift_cone(planted: np.ndarray) -> np.ndarray:
     frame from its last liftoff and to its next strike."""
     F = len(planted)
     f = np.arange(F)
-    last = np.maximum.accumulate(np.where(planted, f, -F))
-    first = np.minimum.accumulate(np.where(planted, f, 2 * F)[::-1])[::-1]
+    last, first = planted_either_side(planted)
+    last, first = np.where(last < 0, -F, last), np.where(first >= F, 2 * F, first)  # (none: far)
     return LIFT_RATE * np.minimum(f - last, first - f)
 
 
@@ -817,8 +822,7 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
         return ankle, rot
     F = len(planted)
     f = np.arange(F)
-    prev = np.maximum.accumulate(np.where(planted, f, -1))
-    nxt = np.minimum.accumulate(np.where(planted, f, F)[::-1])[::-1]
+    prev, nxt = planted_either_side(planted)
     x = (f - prev) / np.maximum(nxt - prev, 1)
     home = np.where((prev >= 0) & ((x <= 0.5) | (nxt >= F)), prev, nxt)
     # the draw is gone by the middle of a swing between two footprints

@@ -238,24 +238,27 @@ class FootShape:
         corners and the reference point (``corners``), the rectangle's sides level with
         the reference point, and TIP_ROOM ahead of the toe tip (ahead of the reference,
         at ``tip`` or ``front``)."""
-        ang = np.asarray(heading) + np.arctan2(forward[1], forward[0])
-        f = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
-        left = np.stack([-f[..., 1], f[..., 0]], axis=-1)
-        more = np.array([[0.0, -self.half_width], [0.0, self.half_width],
-                         [max(self.tip, self.front) + TIP_ROOM, 0.0]])
-        extra = (np.asarray(pos)[..., None, :2] + more[:, 0, None] * f[..., None, :]
-                 + more[:, 1, None] * left[..., None, :])
-        return np.concatenate([self.corners(pos, heading, forward), extra], axis=-2)
+        return self._placed(np.r_[self._corners_local(), [[0.0, -self.half_width], [0.0, self.half_width],
+                                                          [max(self.tip, self.front) + TIP_ROOM, 0.0]]],
+                            pos, heading, forward)
 
     def corners(self, pos: np.ndarray, heading: np.ndarray, forward: np.ndarray) -> np.ndarray:
         """(N, 5, 2) ground points of each footprint: the four corners, then the
         footprint's reference point itself."""
+        return self._placed(self._corners_local(), pos, heading, forward)
+
+    def _corners_local(self) -> np.ndarray:
+        """(5, 2) the corners and the reference point, (along the heading, to the left)."""
+        return np.array([[-self.back, -self.half_width], [-self.back, self.half_width],
+                         [self.front, -self.half_width], [self.front, self.half_width], [0.0, 0.0]])
+
+    @staticmethod
+    def _placed(local: np.ndarray, pos: np.ndarray, heading: np.ndarray, forward: np.ndarray) -> np.ndarray:
+        """(N, K, 2) the points ``local`` (K, 2) of the foot's frame on the ground at each
+        footprint (``pos`` (N, >=2), ``heading`` (N,), heading 0 along ``forward``)."""
         ang = np.asarray(heading) + np.arctan2(forward[1], forward[0])
         f = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
         left = np.stack([-f[..., 1], f[..., 0]], axis=-1)
-        local = np.array([[-self.back, -self.half_width], [-self.back, self.half_width],
-                          [self.front, -self.half_width], [self.front, self.half_width],
-                          [0.0, 0.0]])
         return (np.asarray(pos)[..., None, :2] + local[:, 0, None] * f[..., None, :]
                 + local[:, 1, None] * left[..., None, :])
 
