@@ -76,7 +76,7 @@ def add_character(kind: str, scene):
 MIXAMO_FILES: list = []
 
 
-def bake_one(kind: str, scene_name: str, out: str) -> dict:
+def bake_one(kind: str, scene_name: str, out: str, settings=None) -> dict:
     import bpy
 
     from footstep_planner.blender import planning
@@ -92,7 +92,7 @@ def bake_one(kind: str, scene_name: str, out: str) -> dict:
     ob = add_character(kind, scene)
     goal, heading = planning.goal_of(scene, "Goal")
     t0 = time.perf_counter()
-    doc = planning.run(scene, ob, goal, heading, None, name=f"{kind} {scene_name}", frame_start=1)
+    doc = planning.run(scene, ob, goal, heading, None, settings, name=f"{kind} {scene_name}", frame_start=1)
     seconds = time.perf_counter() - t0
     stem = os.path.join(out, f"{kind}_{scene_name}")
     with open(stem + ".json", "w") as fh:
@@ -109,7 +109,12 @@ def main():
     ap.add_argument("--characters", default=",".join(CHARACTERS))
     ap.add_argument("--scenes", default="turns,obstacles")
     ap.add_argument("--out", default=os.path.join(ROOT, "sample_scenes", "out", "characters"))
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="a planner setting (Settings field) other than its default; repeatable")
     args = ap.parse_args()
+    from footstep_planner.core.settings import Settings
+
+    settings = Settings.from_pairs(args.set) if args.set else None
     os.makedirs(args.out, exist_ok=True)
     from footstep_planner import register
 
@@ -129,7 +134,7 @@ def main():
     for kind in args.characters.split(","):
         for name in args.scenes.split(","):
             try:
-                r = bake_one(kind, name, args.out)
+                r = bake_one(kind, name, args.out, settings)
             except FootstepError as ex:  # (a scene the library can't do: said, and the others go on)
                 print(f"{kind:10s} {name:10s} refused: {ex}")
                 continue

@@ -122,7 +122,7 @@ def cmu_character(package: str = "footstep_planner") -> Character:
     clips = character.analyze_character(ob, settings, mirrors=True)
     steps = library_steps(character.library_for(ob, clips), clips.analyses, bend_curvature=settings.bend_curvature,
                           stride=(settings.stride_min, settings.stride_max),
-                          straighten=settings.curvature_penalty > 0)
+                          straighten=settings.straightens)
     return Character(steps, np.asarray(planning.world_forward(ob, clips.analyses)),
                      planning.foot_shape(clips.analyses, clips.rig))
 

@@ -191,3 +191,74 @@ def test_a_goal_reached_but_never_facing_its_heading_says_so():
     pl = Planner(g, None, steps(with_jump=False), FWD, settings=FASTEST.replace(max_expansions=400))
     with pytest.raises(PlanError, match="reached the goal's place .* but never facing the goal's heading"):
         pl.plan(start(0, 0), np.array([2.5, 0.0, 0.0]), goal_heading=-EAST)  # facing back, on a narrow strip
+
+
+def _long_and_short():
+    """A straight walk of 0.6 m steps and a straight stride of 0.9 m in the same time (the
+    search's cheapest on the level)."""
+    rows = []
+    for lab, fwd in (("walk", 0.6), ("long", 0.9)):
+        for foot, side in ((0, -0.2), (1, 0.2)):
+            rows.append((foot, fwd, side, 0.0, 0.6, "walk", False, lab))
+    c = list(zip(*rows))
+    return StepSet(np.array(c[1]), np.array(c[2]), np.array(c[3]), np.array(c[4]), np.array(c[0]),
+                   np.array(c[5], object), np.array(c[6], bool), np.array(c[7], object))
+
+
+@pytest.mark.parametrize("rise", [0.12, -0.12])
+def test_a_step_up_or_down_goes_no_further_than_the_walks_straight_step(rise, monkeypatch):
+    """Onto a platform 12 cm up (or off one, down): on the level the search strides 0.9 m,
+    but the step that climbs (descends) goes no further over the ground than the straight
+    walk's step (``climb_reach``: a running stride up a flight leaps its treads, and the
+    legs snap straight landing). Without the limit the search takes the long stride there
+    too."""
+    from dataclasses import replace
+
+    from footstep_planner.core import navgraph
+
+    lo, hi = (0.0, rise) if rise > 0 else (-rise, 0.0)
+    g = MeshGround(TriMesh.concat([plane(-2, 4.0, -3, 3, z=lo, name="near"), plane(4.0, 10, -3, 3, z=hi, name="far")]))
+    steps = _long_and_short()
+    reach = navgraph.climb_reach(steps)
+    assert np.allclose(reach, np.hypot(0.6, 0.2))  # (the walk's: 0.6 m on, 0.2 m across)
+    feet = [replace(f, position=f.position + [0.0, 0.0, lo]) for f in start(0, 0)]
+
+    def climb(limit: bool) -> float:
+        if not limit:
+            monkeypatch.setattr(navgraph, "CLIMB_DZ", np.inf)
+        pl = Planner(g, None, steps, FWD, settings=FASTEST.replace(stride_min=1.0, stride_max=1.0))
+        p = np.array([f.position for f in pl.plan(feet, np.array([8.0, 0.0, hi])).footprints])
+        d = np.diff(p, axis=0)
+        up = np.abs(d[:, 2]) > 0.03
+        assert up.sum() == 1
+        return float(np.hypot(*d[up][0, :2]))
+
+    assert climb(True) <= reach[0] + 1e-9
+    assert climb(False) > reach[0]
+
+
+def test_a_step_edge_is_explained_with_its_height():
+    """The "uneven" refusal (a step edge under the foot) says where and how high the
+    edge is (it named a helper that did not exist: the message raised NameError)."""
+    from footstep_planner.core.navgraph import _explain
+
+    g = MeshGround(TriMesh.concat([plane(-2, 4.0, -3, 3, name="near"), plane(4.0, 10, -3, 3, z=0.15, name="far")]))
+    pl = Planner(g, None, steps(), FWD)
+    words = _explain(pl, "uneven", np.array([4.0, 0.0, 0.0]), np.array([3.0, 0.0, 0.0]), np.array([8.0, 0.0, 0.15]))
+    assert "(4.00, 0.00), 0.15 m high" in words, words
+
+
+def test_a_search_that_runs_dry_tries_again_without_the_weave_penalty(monkeypatch):
+    """Where every way on ran dry with the weave penalty (it orders the search, and the
+    footprint reached first closes its merge key), the search is tried once more without
+    it: the straight-walk preference never refuses a path a plain search finds."""
+    g = MeshGround(plane(-2, 12, -6, 6))
+    goal = np.array([6.0, 0.0, 0.0])
+    expand = Planner._expand
+    monkeypatch.setattr(Planner, "_expand", lambda self, search, idx: (
+        expand(self, search, idx) if self.settings.weave_penalty == 0 else None))  # (weaving: runs dry)
+    res = Planner(g, None, steps(), FWD, settings=FASTEST).plan(start(0, 0), goal)
+    assert np.linalg.norm(res.footprints[-1].position[:2] - goal[:2]) <= FASTEST.goal_radius
+    monkeypatch.setattr(Planner, "_expand", lambda self, search, idx: None)  # (dry either way: refused)
+    with pytest.raises(PlanError):
+        Planner(g, None, steps(), FWD, settings=FASTEST).plan(start(0, 0), goal)

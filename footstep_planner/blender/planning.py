@@ -110,7 +110,7 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
     library = library_for(ob, clips)
     steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature,
                           stride=(settings.stride_min, settings.stride_max),
-                          straighten=settings.curvature_penalty > 0)
+                          straighten=settings.straightens)
     forward = world_forward(ob, clips.analyses)
     foot = foot_shape(clips.analyses, clips.rig)
     cache = _CACHES.setdefault((scene.name, foot), FootprintCache())  # (a foot's answers are its own)
@@ -150,7 +150,7 @@ def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
     ang = heading + np.arctan2(setup.forward[1], setup.forward[0])
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
     p = np.asarray(position, float)[:3]
-    straight = setup.planner.settings.curvature_penalty > 0
+    straight = setup.planner.settings.straightens
     toe = setup.planner.steps.toe_out() if straight else 0.0
     if width is None:
         width = STAND_HALF_WIDTH

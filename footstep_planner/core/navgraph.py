@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import heapq
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -84,6 +84,34 @@ MIN_STEP = 0.2
 #: m: the ground between two footprints may rise this much above the higher of them
 #: (a swinging foot steps over a bump, not up a stair and down again).
 MAX_BUMP = 0.1
+
+
+#: m: a step up or down more than this is a climb, held to ``climb_reach``.
+CLIMB_DZ = 0.03
+
+
+def climb_reach(steps: StepSet) -> np.ndarray:
+    """(S,) m: how far over the ground (from footprint to footprint, across included) a
+    step may go where it climbs or descends: the longer step of the walk's straightest
+    cycle at its clip's own stride (the cycle whose steps veer least; of several, the
+    shortest), whatever the gait
+    (a run's steps, over a metre, would leap a flight's treads; without a walk, each
+    gait's own). Longer steps are for level ground."""
+    out = np.full(steps.n, np.inf)
+    veer = np.abs(steps.cycle_mean(steps.veer()))
+    length = np.hypot(steps.fwd, steps.left)
+    gaits = sorted(set(steps.gait.tolist()), key=lambda g: g != "walk")
+    for gait in gaits:
+        own = (steps.gait == gait) & ~steps.jump & (steps.stride == 1.0)
+        if not own.any():
+            continue
+        straight = own & (veer <= veer[own].min() + 1e-9)
+        walk = min(set(steps.label[straight].tolist()), key=lambda lab: length[straight & (steps.label == lab)].mean())
+        limit = float(length[straight & (steps.label == walk)].max())  # (of straight walks, the shortest)
+        if gait == "walk":
+            return np.full(steps.n, limit)
+        out[steps.gait == gait] = limit
+    return out
 
 
 class PlanError(FootstepError):
@@ -227,6 +255,7 @@ class _Search:
     goal_heading: float | None
     heuristic: Callable[[np.ndarray], np.ndarray]
     base_cost: np.ndarray  # (S,) each step's cost before a gait change
+    veer: np.ndarray  # (S,) rad each step's veer (``StepSet.veer``), for the weave penalty
     nodes: list[SearchNode] = field(default_factory=list)
     heap: list = field(default_factory=list)
     best_g: dict = field(default_factory=dict)
@@ -238,6 +267,7 @@ class _Search:
     best_h: tuple = (np.inf, 0, None)  # (least heuristic popped, when, where)
     reroutes: int = 0  # times the heuristic was rebuilt without jumps where the search stalled
     field_seconds: float = 0.0
+    climb_reach: np.ndarray | None = None  # (S,) m, ``climb_reach`` of the steps, once per search
 
     batches: list = field(default_factory=list)  # unchecked successors, one _Batch per expansion
     weight: float = 1.0  # the heuristic's weight now (``Planner._weigh``)
@@ -381,7 +411,7 @@ class Planner:
         dist = self.distance_field(goal, cells=cells)
         field_seconds = time.perf_counter() - t_field
         self._refuse_unreachable(dist, start, goal)
-        search = _Search(goal, goal_heading, self._heuristic(dist, goal), self._base_costs())
+        search = _Search(goal, goal_heading, self._heuristic(dist, goal), self._base_costs(), self.steps.veer())
         search.cells = cells
         search.field_seconds = field_seconds
         search.weight = 1.0 + START_WEIGHT * (self.settings.heuristic_weight - 1.0)
@@ -403,6 +433,15 @@ class Planner:
             if search.expanded > self.settings.max_expansions:
                 break
             self._expand(search, idx)
+        if not search.heap and self.settings.weave_penalty > 0:
+            # (every way on ran dry: the weave penalty orders the search, and the footprint
+            # reached first closes its merge key, so a search without it may still find one)
+            try:
+                plain = replace(self, settings=self.settings.replace(weave_penalty=0.0)).plan(start, goal, goal_heading)
+            except PlanError:
+                pass
+            else:
+                return replace(plain, seconds=time.perf_counter() - t0, expanded=plain.expanded + search.expanded)
         raise self._dead_end(search)
 
     def distance_field(self, goal: np.ndarray, avoid: tuple | None = None,
@@ -532,8 +571,9 @@ class Planner:
             self._rerank(search)
 
     def _heuristic(self, dist: "DistanceField", goal: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-        """Remaining time (s) for points (N, >=2): the walking distance over the
-        cheapest step's speed; off the grid's reach, three times the straight distance."""
+        """Remaining time (s) for points (N, >=2): the walking distance (less the goal
+        radius) over the cheapest step's speed; off the grid's reach, three times the
+        straight distance."""
         vmax, slack = self._cost_speed()
         radius = self.settings.goal_radius
         per_rad = AHEAD_TURN_COST if self.settings.heuristic_weight > 1.0 else 0.0
@@ -543,7 +583,7 @@ class Planner:
             p = np.atleast_2d(p)
             d, ahead = dist.at_and_ahead(p)
             straight = np.hypot(goal[0] - p[:, 0], goal[1] - p[:, 1])
-            d = np.where(np.isfinite(d), np.maximum(d, straight - radius), 3.0 * straight)
+            d = np.where(np.isfinite(d), np.maximum(d, straight) - radius, 3.0 * straight)  # (any footprint within the radius ends it)
             h = np.maximum(d - slack, 0.0) / vmax
             if psi is not None and per_rad > 0:
                 off = np.abs(_wrap(np.asarray(psi, float) + yaw - ahead))
@@ -558,7 +598,7 @@ class Planner:
         veer = np.abs(st.veer())
         length = np.maximum(np.hypot(st.fwd / st.stride, st.left), MIN_STEP)  # (a shortened step: its clip's)
         kappa = (veer + np.abs(st.sidestep()) / length) / length  # 1/m: the way's heading change and a crab's
-        return (st.time_cost(cfg.stride_penalty) + cfg.turn_penalty * np.abs(st.turn)
+        return (st.time_cost(cfg.stride_penalty) + cfg.turn_penalty * veer
                 + cfg.curvature_penalty * kappa
                 + np.where(st.jump, cfg.jump_penalty, 0.0)
                 + np.where(st.gait == "run", cfg.run_penalty, 0.0))
@@ -607,6 +647,7 @@ class Planner:
         nxt, psi = batch.nxt[todo], batch.psi[todo]
         ok, z = self._supported(node, nxt, psi)
         ok &= np.abs(z - node.position[2]) <= self.max_step_height
+        ok &= self._within_climb_reach(search, node, batch.sel[todo], nxt, z)
         if ok.any():
             ok[ok] &= self._way_clear(node, batch.sel[todo][ok], np.c_[nxt[ok], z[ok]],
                                       fine_keys(nxt[ok], psi[ok]))
@@ -615,6 +656,21 @@ class Planner:
             ok[walk] &= self._no_bump(search.nodes[node.parent].position, np.c_[nxt[walk], z[walk]])
         batch.state[todo] = np.where(ok, 1, 2)
         batch.z[todo] = z
+
+    def _within_climb_reach(self, search: _Search, node: SearchNode, steps: np.ndarray, nxt: np.ndarray,
+                            z: np.ndarray) -> np.ndarray:
+        """(K,) whether each walking or running step from ``node`` to (``nxt``, ``z``) that
+        climbs or descends more than CLIMB_DZ goes no further over the ground than the
+        walk's straight step (``climb_reach``): a running stride of a metre up or down a
+        flight leaps its treads (the planner ran onto the sample Stairs and off them, and
+        the legs snapped straight landing), and a stride lengthened for the level has no
+        place on a stair; a person takes the walk's steps there, or shorter. Jumps are
+        not held to it."""
+        dz = np.abs(z - node.position[2])
+        if search.climb_reach is None:
+            search.climb_reach = climb_reach(self.steps)
+        length = np.hypot(nxt[:, 0] - node.position[0], nxt[:, 1] - node.position[1])
+        return (dz <= CLIMB_DZ) | self.steps.jump[steps] | (length <= search.climb_reach[steps] + 1e-9)
 
     def _arrived(self, search: _Search, idx: int) -> bool:
         """Whether node ``idx`` ends the path (within the goal radius, heading within
@@ -638,7 +694,7 @@ class Planner:
             return
         st = self.steps
         change = np.where(st.gait[sel] != node.gait, self.settings.gait_change_penalty, 0.0)
-        cost = node.cost + (search.base_cost[sel] + change)
+        cost = node.cost + (search.base_cost[sel] + change + self._weave(search, node, sel))
         fine = fine_keys(nxt, npsi)
         keep = []
         for j, (g, k, f) in enumerate(zip(cost.tolist(), keys, fine)):
@@ -652,6 +708,18 @@ class Planner:
         h = search.heuristic(np.c_[nxt[keep], np.full(len(keep), node.position[2])], npsi[keep])
         search.push_batch(_Batch(idx, sel[keep], nxt[keep], npsi[keep], cost[keep], [keys[j] for j in keep],
                                  np.zeros(len(keep), np.int8), np.zeros(len(keep)), h))
+
+    def _weave(self, search: _Search, node: SearchNode, sel: np.ndarray) -> np.ndarray | float:
+        """(K,) s: the weave penalty of steps ``sel`` after the step that reached ``node``:
+        ``Settings.weave_penalty`` per radian of veer the step undoes (the lesser of the
+        two veers, where they turn opposite ways), but where both are steps of one clip
+        (a captured clip's own steps may veer left and right in turn)."""
+        w = self.settings.weave_penalty
+        if w <= 0 or node.step < 0:
+            return 0.0
+        v0, v = search.veer[node.step], search.veer[sel]
+        undo = (v * v0 < 0) & (self.steps.label[sel] != self.steps.label[node.step])
+        return np.where(undo, w * np.minimum(np.abs(v), abs(v0)), 0.0)
 
     def _successors(self, search: _Search, node: SearchNode):
         """The steps that may follow ``node`` (indices (K,)), where they land (K, 2) and
@@ -879,9 +947,9 @@ def _explain(planner: "Planner", reason: str, at: np.ndarray, near: np.ndarray, 
         return _gap_words(planner, at, near, goal, shortest, sharpest)
     if reason == "uneven":
         rise = _rise_ahead(planner, near, goal)
-        return (f"a step edge under the foot at ({at[0]:.2f}, {at[1]:.2f}): the steps there rise {rise:.2f} m "
-                f"and no step of the library lands the whole foot ({planner.foot.back + planner.foot.front:.2f} m "
-                "long) on one tread (the treads are too shallow for the library's step lengths)")
+        return (f"a step edge under the foot at ({at[0]:.2f}, {at[1]:.2f}), {rise:.2f} m high: no step of the "
+                f"library lands the whole foot ({planner.foot.back + planner.foot.front:.2f} m long) on one side "
+                "of it")
     if reason == "step height":
         return (f"a step up or down at ({at[0]:.2f}, {at[1]:.2f}) higher than the "
                 f"{planner.max_step_height:.2f} m a step may climb")
@@ -932,6 +1000,17 @@ def _steps_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> tupl
     if len(at) < 2:
         return None
     return float(z[at[0] + 1] - z[at[0]]), float(np.diff(t[at]).min())
+
+
+def _rise_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> float:
+    """m: the highest step up or down of the ground within 2 m of ``near`` towards the
+    goal (0 where it is level)."""
+    d = goal[:2] - near[:2]
+    d = d / max(np.linalg.norm(d), 1e-9)
+    t = np.arange(0.0, 2.0, 0.01)
+    z = planner.ground.ray_down(np.c_[near[:2] + t[:, None] * d, np.full(len(t), near[2] + 2.0)], 4.0).z
+    z = z[np.isfinite(z)]
+    return float(np.abs(np.diff(z)).max()) if len(z) > 1 else 0.0
 
 
 def _wrap(a):

@@ -80,9 +80,18 @@ class Settings:
         sideways crab, over its clip's step length), and above 0 the standing feet turned
         out as the walk turns them: a straight way is walked with straight steps rather
         than left and right turning steps in turn, and the library's straightest walk is
-        offered straightened (a captured walk's steps need not cancel over a stride). 0.5
-        walks the sample character and CMU's library 10 m within 3 cm of the line; off by
-        default (it changes many paths, see the README).""")
+        offered straightened (a captured walk's steps need not cancel over a stride). The
+        weave penalty already walks a straight way straight; this one also makes every turn
+        dearer the sharper it is (wide turns rather than sharp ones), so it is off by
+        default.""")
+    weave_penalty: float = setting(2.0, "s/rad", 0.0, 100.0, """Seconds per radian of a step's
+        veer (its heading change of the way walked) that undoes the step before it: a left
+        turn right after a right turn (or the reverse) pays for the smaller of the two veers.
+        A straight way is then walked in straight steps, not in left and right turning
+        steps in turn (a turning step's outer foot reaches further, and alternating them
+        weaves the body at more than the walk's speed); a turn, held or not, pays
+        nothing more, and an S-bend only once. Above 0 the library's straightest walk is
+        also offered straightened, and the standing feet turn out as the walk turns them.""")
     jump_penalty: float = setting(0.5, "s", 0.0, 100.0, """Seconds added to the cost of each jump.""")
     run_penalty: float = setting(1.0, "s", 0.0, 100.0, """Seconds added to the cost of each running
         step: the path walks, and runs only where a clip needs it (a jump is entered running); 0
@@ -241,6 +250,13 @@ class Settings:
             if _TYPES[f.type] is float and isinstance(v, int) and not isinstance(v, bool):
                 object.__setattr__(self, f.name, float(v))
             self.coerce(f.name, getattr(self, f.name))
+
+    @property
+    def straightens(self) -> bool:
+        """Whether the search prices a way that is not straight (``weave_penalty`` or
+        ``curvature_penalty`` above 0): then the library's straightest walk is offered
+        straightened, and the standing feet stand as that walk puts them."""
+        return self.weave_penalty > 0 or self.curvature_penalty > 0
 
     def replace(self, **changes) -> "Settings":
         """A copy with some fields changed; unknown names raise SettingsError naming them."""

@@ -61,9 +61,22 @@ class StepSet:
             object.__setattr__(self, "stride", np.ones(len(self.fwd)))
 
     def time_cost(self, stride_penalty: float) -> np.ndarray:
-        """(N,) s: each step's duration, an adapted stride's made dearer by
-        ``stride_penalty`` per unit of |ln stride| (see ``Settings.stride_penalty``)."""
-        return self.duration * (1.0 + stride_penalty * np.abs(np.log(self.stride)))
+        """(N,) s: each step's duration (its cycle's mean, ``cycle_mean``), an adapted
+        stride's made dearer by ``stride_penalty`` per unit of |ln stride| (see
+        ``Settings.stride_penalty``)."""
+        return self.cycle_mean(self.duration) * (1.0 + stride_penalty * np.abs(np.log(self.stride)))
+
+    def cycle_mean(self, x: np.ndarray) -> np.ndarray:
+        """(N,) ``x`` (N,) averaged over each step's cycle: the steps of its clip (or blend)
+        at its stride, one from each foot (a jump: its own). A step's cost is priced from
+        these, so a path cannot take the quicker (or straighter) half of one clip's cycle
+        after the quicker half of another's."""
+        x = np.asarray(x, float)
+        keys = [f"{lab}|{g}|{float(s)!r}|{bool(j)}" for lab, g, s, j in zip(self.label, self.gait, self.stride, self.jump)]
+        _, inv = np.unique(np.array(keys, dtype=object), return_inverse=True)
+        total = np.bincount(inv, weights=x)
+        count = np.bincount(inv)
+        return np.where(self.jump, x, (total / count)[inv])
 
     @property
     def n(self) -> int:
@@ -271,7 +284,7 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
                   jump_tolerance: float = 0.1,
                   bend_curvature: float = Settings.bend_curvature,
                   stride: tuple[float, float] = (Settings.stride_min, Settings.stride_max),
-                  straighten: bool = Settings.curvature_penalty > 0) -> StepSet:
+                  straighten: bool = Settings().straightens) -> StepSet:
     """Steps of every cyclic clip of the library's turning groups, of blends between
     neighbouring clips of a group, of its outermost clips bent beyond the group's range
     out to +-``bend_curvature`` on a side where no clip of the library turns that
