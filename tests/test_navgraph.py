@@ -262,3 +262,18 @@ def test_a_search_that_runs_dry_tries_again_without_the_weave_penalty(monkeypatc
     monkeypatch.setattr(Planner, "_expand", lambda self, search, idx: None)  # (dry either way: refused)
     with pytest.raises(PlanError):
         Planner(g, None, steps(), FWD, settings=FASTEST).plan(start(0, 0), goal)
+
+
+def test_from_standing_the_first_step_walks():
+    """A standing start (or a turn's last pivot step) walks off: the first step is a
+    walk's even where running is free (``run_penalty`` 0); a footprint a run reached (a
+    waypoint passed through running) may run on at once."""
+    from dataclasses import replace
+
+    g = MeshGround(plane(-2, 20, -6, 6))
+    goal = np.array([15.0, 0.0, 0.0])
+    pl = Planner(g, None, steps(with_jump=False), FWD, settings=FASTEST)
+    fs = pl.plan(start(0, 0), goal).footprints
+    assert fs[1].gait == "walk" and any(f.gait == "run" for f in fs[2:])  # (then runs: it is free)
+    running = [replace(f, label="run+0", gait="run") for f in start(0, 0)][:1]
+    assert pl.plan(running, goal).footprints[1].gait == "run"

@@ -185,3 +185,38 @@ def test_a_start_facing_a_narrow_corridors_wall_turns_to_walk_along_it(bench_cha
     assert tail == [] and loops(walk) == 0
     assert [f.foot for f in res.footprints[1:]] == [1 - f.foot for f in res.footprints[:-1]]
     assert np.linalg.norm(res.footprints[-1].position[:2] - goal[:2]) <= pl.settings.goal_radius
+
+
+def _walk_round(radius: float, turn: float = math.pi, step: float = 0.6):
+    """Footprints ``step`` m apart along a way that goes 3 m east, round a left turn of
+    ``turn`` rad on ``radius`` m, and 3 m on: feet 0.1 m either side of the way, turned
+    along it."""
+    arc = radius * turn
+    out = []
+    for i, s in enumerate(np.arange(0.0, 6.0 + arc, step)):
+        if s <= 3.0:
+            p, h = np.array([s, 0.0]), 0.0
+        elif s <= 3.0 + arc:
+            h = (s - 3.0) / radius
+            p = np.array([3.0 + radius * np.sin(h), radius * (1 - np.cos(h))])
+        else:
+            h = turn
+            p = np.array([3.0 + radius * np.sin(h), radius * (1 - np.cos(h))]) + (s - 3.0 - arc) * np.array(
+                [np.cos(h), np.sin(h)])
+        q = p + (0.1 if i % 2 == 0 else -0.1) * np.array([-np.sin(h), np.cos(h)])
+        out.append(PathFootprint(i % 2, np.array([q[0], q[1], 0.0]), float(h), 0.0, "walk", "walk"))
+    return out
+
+
+@pytest.mark.parametrize("radius, turn, found", [(0.45, math.pi, True), (0.8, math.pi, True),
+                                                 (1.5, math.pi, False), (0.45, math.radians(90), False),
+                                                 (0.6, math.radians(150), True)])
+def test_a_hairpin_is_a_sharp_turn_back(radius, turn, found):
+    """``hairpin``: a walk that turns back further than 135 degrees on a turn of under
+    0.9 m radius is a hairpin (stop and turn on the spot there); a wide U-turn or a
+    sharp right angle is walked."""
+    got = tip.hairpin(_walk_round(radius, turn))
+    assert (got is not None) == found, got
+    if got:
+        i, j = got
+        assert 3 <= i and j > i

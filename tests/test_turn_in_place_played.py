@@ -225,3 +225,70 @@ def test_a_pause_where_the_way_turns_back_turns_in_place_there(fp, empty_scene, 
     a, b = (f - doc["frame_start"] for f in turns[0]["frames"])
     assert np.linalg.norm(body[a:b + 1, :2] - body[a, :2], axis=1).max() < 0.03
     assert skate["max_mm"] < 1.0
+
+
+def _hairpin_saved(fp, tmp_path, char: str = "mannequin"):
+    """A hairpin bend nobody tuned the planner for: two walkways 0.8 m wide side by side,
+    a wall between them, joined at their far end by a landing 1 m deep; Start at the
+    near end of one, Goal at the near end of the other, facing back. Saved: (path,
+    character name)."""
+    import bpy
+
+    ss = import_module(fp.__name__ + ".blender.sample_scenes")
+    if char == "mannequin":
+        bpy.ops.wm.read_homefile(use_empty=True)
+        scene = bpy.context.scene
+    else:
+        scene, ob = scene_with_cmu(fp, "turns", FPS)
+        for o in [o for o in scene.objects if o is not ob and o.type != "ARMATURE"]:
+            bpy.data.objects.remove(o)
+    scene.name, scene.render.fps, scene.render.fps_base = "Hairpin", FPS, 1.0
+    t = ss._collection(scene, "Hairpin Traversable", "TRAVERSABLE")
+    o = ss._collection(scene, "Hairpin Obstacles", "OBSTACLE")
+    ss._box(t, "Walk A", -1.0, 6.0, -0.4, 0.4, -0.3, 0.0)
+    ss._box(t, "Walk B", -1.0, 6.0, 0.6, 1.4, -0.3, 0.0)
+    ss._box(t, "Landing", 6.0, 7.0, -0.4, 1.4, -0.3, 0.0)
+    ss._box(o, "Wall", -1.0, 6.0, 0.4, 0.6, 0.0, 1.2)
+    ss._marker(scene, "Start", (0.0, 0.0, 0.0), ss.EAST)
+    ss._marker(scene, "Goal", (0.0, 1.0, 0.0), ss.WEST)
+    if char == "mannequin":
+        ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    else:
+        ob.location, ob.rotation_euler.z = (0.0, 0.0, 0.0), ss.EAST
+    bpy.context.view_layer.update()
+    path = str(tmp_path / "hairpin.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    return path, ob.name
+
+
+@pytest.mark.parametrize("char", ["mannequin", pytest.param("cmu", marks=needs_cmu)])
+def test_a_hairpin_bend_is_turned_in_place(fp, empty_scene, tmp_path, char):
+    """Where the way turns back on a landing too small to walk round comfortably, the walk
+    goes onto the landing, stops, turns on the spot (what the walk in has not turned
+    already) and walks back along the other walkway: the report says it turned in place
+    at the hairpin, the body stays over its spot while it turns, no planted foot slides,
+    and the goal is reached with its heading. With turning in place off, the same scene
+    is walked round in a U-turn (or refused)."""
+    path, name = _hairpin_saved(fp, tmp_path, char)
+    out, doc = _bake(fp, path, name, tmp_path)
+    turns = doc["turns_in_place"]
+    assert [t["where"] for t in turns] == ["hairpin"] and abs(turns[0]["degrees"]) >= 45, turns
+    body, yaw, stances, skate = _played(fp, out, doc)
+    a, b = (f - doc["frame_start"] for f in turns[0]["frames"])
+    assert body[a, 0] > 6.0  # (on the landing, past the wall's end)
+    assert np.linalg.norm(body[a:b + 1, :2] - body[a, :2], axis=1).max() < 0.1  # (on the spot)
+    assert abs(yaw[b] - yaw[a]) >= math.radians(45)
+    assert abs(yaw[-1] - yaw[0]) >= math.radians(170)  # (turned back, by walking in and turning on the spot)
+    assert skate["max_mm"] < (1.0 if char == "mannequin" else 5.0)
+    q = doc["quality"]
+    assert q["goal"]["distance_m"] < 0.05 and abs(q["goal"]["heading_deg"]) < 5.0
+    intro = q["pops"]["introduced"]
+    assert intro["count"] <= 5 and intro["max_excess_deg"] <= 5.0
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    rep = str(tmp_path / "walked.json")
+    rc = cli(["bake", path, "--character", name, "--start", "Start", "--goal", "Goal", "--out",
+              str(tmp_path / "walked.blend"), "--report", rep, "--set", "turn_in_place_angle=0"])
+    if rc == 0:  # (walked round: a U-turn on the landing; or no room for one at all)
+        with open(rep) as fh:
+            assert not json.load(fh)["turns_in_place"]
+    print(char, "turning in place off:", "walked round" if rc == 0 else "refused")

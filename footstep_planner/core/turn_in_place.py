@@ -1,7 +1,8 @@
 """Turning on the spot (issue 14): pivot steps instead of a walking loop. Pure numpy.
 
-When the way ahead at the start lies behind or beside the character, or the goal's
-heading far from the way the walk arrives, a person turns on the spot: the foot on the
+When the way ahead at the start lies behind or beside the character, the goal's
+heading far from the way the walk arrives, or the way turns back on a hairpin bend
+mid-path (``hairpin``), a person turns on the spot: the foot on the
 turning side opens (turns out and steps), the other closes beside it, and so on until
 both stand side by side facing the new way. ``pivot_footprints`` makes those steps;
 ``plan`` decides where a path turns in place and plans the walk from the turned feet;
@@ -12,7 +13,8 @@ A path that turns in place carries the turns in its footprints: the pivot steps 
 labelled ``PIVOT``. A turn at the start is the start footprint the walk does not leave
 from, then the pivot steps, the last of which is the footprint the walk leaves from; a
 turn at the end is the foot set down beside the walk's last footprint, then the pivot
-steps (``split`` takes such a path apart).
+steps (``split`` takes such a path apart); a turn at a hairpin is an end turn's
+footprints between two walks, the next leaving from its last pivot step (``hairpins``).
 
 Conventions: headings are yaws (rad) from ``forward`` (the world direction of heading
 0), positive turning left; feet 0 left, 1 right; metres.
@@ -176,7 +178,7 @@ def _beside(other: np.ndarray, other_heading: float, heading: float, f: int, for
 
 @dataclass
 class Turn:
-    """Where a path turns in place ("start" or "end"), from which heading to which (rad,
+    """Where a path turns in place ("start", "hairpin" or "end"), from which heading to which (rad,
     the turned way, not wrapped), and the footprint indices of its pivot steps in the
     path."""
 
@@ -209,9 +211,34 @@ def turns_of(path: list[PathFootprint]) -> list[Turn]:
     if head:
         a, b = head[0], head[-1]
         out.append(Turn("start", a.heading, b.heading, 1, len(head) - 1))
+    for a, b in hairpins(path):
+        out.append(Turn("hairpin", _mean_heading(path[a - 1], path[a]), path[b].heading, a + 1, b))
     if tail:
         n = len(path)
         out.append(Turn("end", _mean_heading(walk[-1], tail[0]), tail[-1].heading, n - len(tail) + 1, n - 1))
+    return out
+
+
+def hairpins(path: list[PathFootprint]) -> list[tuple[int, int]]:
+    """(first, last) indices of each run of pivot footprints between two walks (a turn in
+    place at a hairpin, ``hairpin_turn``: the foot set down beside the walk's last, the
+    pivot steps, the last of which the next walk leaves from); not the start's turn nor
+    the end's."""
+    piv = np.array([f.label == PIVOT for f in path], bool)
+    k = 1
+    while k < len(path) and piv[k]:  # (the start's turn)
+        k += 1
+    out, i = [], k
+    while i < len(path):
+        if piv[i]:
+            j = i
+            while j + 1 < len(path) and piv[j + 1]:
+                j += 1
+            if j + 1 < len(path):
+                out.append((i, j))
+            i = j + 1
+        else:
+            i += 1
     return out
 
 
@@ -312,7 +339,7 @@ LOOPED = np.radians(120.0)
 
 
 def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float | None = None,
-         body=(0.0, 0.0)) -> PlanResult:
+         body=(0.0, 0.0), turns_left: int = 3) -> PlanResult:
     """``Planner.plan`` that turns in place where that beats a walking loop: at the start
     when the way ahead lies more than ``turn_in_place_angle`` from the way the character
     faces (the walk then leaves from the turned feet), and at the end when, with a goal
@@ -326,8 +353,10 @@ def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float
     within LOOP_REACH of the start, or is refused; with one, the walking-distance map is
     built once more to weigh both. A walk to the goal's heading that still faces further
     than LOOPED from it within LOOP_REACH of the goal is weighed against one arriving
-    facing its way. The
-    result's footprints hold the turns (``split``); ``body``: see ``pivot_footprints``."""
+    facing its way. Where the walk's way then turns back (``hairpin``), it stops and turns
+    in place there (``hairpin_turn``; at most ``turns_left`` times). The result's
+    footprints hold the turns (``split``, ``hairpins``); ``body``: see
+    ``pivot_footprints``."""
     cfg = planner.settings
     angle = cfg.turn_in_place_angle
     if angle <= 0:
@@ -360,10 +389,120 @@ def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float
             refused = refused or err
     if res is None:
         raise refused
+    if turns_left > 0:
+        res = hairpin_turn(planner, [head[-1]] if head else start, res, goal, goal_heading, body, turns_left)
     if head:
         fps = head[:-1] + [replace(res.footprints[0], label=PIVOT)] + list(res.footprints[1:])
         res = replace(res, footprints=fps)
     return replace(res, seconds=time.perf_counter() - t0)
+
+
+#: rad and m: a walk whose way (each two footprints' mean heading) turns further than
+#: HAIRPIN_TURN on a walking turn of under HAIRPIN_RADIUS (its path over the angle)
+#: turns back as on a hairpin bend: a person stops and turns on the spot there (a
+#: walking U-turn of 0.45 m radius read as a loop).
+HAIRPIN_TURN = np.radians(135.0)
+HAIRPIN_RADIUS = 0.9
+
+
+#: m: how near the hairpin's spot the walk there stops (the turn on the spot needs the
+#: room the walking turn found, not the goal radius's slack)
+SPOT_RADIUS = 0.15
+#: (share of the way across from the way in to the way out, m further along the way in
+#: than the hairpin's far end) of each spot tried for the turn, in order
+SPOT_TRIES = tuple((share, deeper) for share in (1.0, 0.75, 0.5) for deeper in (0.0, 0.15, 0.3))
+#: rad: a hairpin that leaves less than this to turn once the walk stands at its spot is
+#: walked round after all
+HAIRPIN_LEFT = np.radians(45.0)
+
+
+def hairpin(fps: list[PathFootprint]) -> tuple[int, int] | None:
+    """(i, j): the first stretch of the walk ``fps`` (footprints in walking order) whose
+    way turns further than HAIRPIN_TURN on a turn of under HAIRPIN_RADIUS: its first
+    footprint and its last; None where it never turns back so sharply."""
+    if len(fps) < 4:
+        return None
+    pos = np.array([f.position for f in fps], float)[:, :2]
+    head = np.unwrap(np.array([f.heading for f in fps], float))
+    way = 0.5 * (head[1:] + head[:-1])  # (two footprints' mean: the feet's turn out cancels)
+    mid = 0.5 * (pos[1:] + pos[:-1])  # (the way: between the feet)
+    along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(mid, axis=0), axis=1))]
+    ends = np.searchsorted(along, along + np.pi * HAIRPIN_RADIUS, side="right")
+    for i in range(len(way)):
+        turned = np.abs(way[i:ends[i]] - way[i])
+        over = np.flatnonzero((turned > HAIRPIN_TURN) & (along[i:ends[i]] - along[i] <= HAIRPIN_RADIUS * turned))
+        if len(over):
+            return i, i + int(over[0]) + 1
+    return None
+
+
+def hairpin_turn(planner: Planner, origin: list[PathFootprint], res: PlanResult, goal, goal_heading,
+                 body=(0.0, 0.0), turns_left: int = 3) -> PlanResult:
+    """``res`` (a walk from ``origin``) with its first hairpin (``hairpin``) turned in
+    place: the walk goes to the hairpin's far end (as far along the way in as the middle
+    of its two footprints furthest along it, and as far across as the way out: a turn on
+    the spot then leaves straight down the way out; failing that, further in and nearer
+    the way in, SPOT_TRIES), stopping within SPOT_RADIUS of it, turns on the spot to the
+    way on (``facing_way``)
+    and walks on to the goal (``plan``, ``turns_left`` - 1 more hairpins). The pivot
+    footprints go between the two walks, as an end turn's (``split``, ``hairpins``).
+    ``res`` unchanged where no spot gives both walks and the turn, or the walk arrives
+    with less than HAIRPIN_LEFT left to turn."""
+    _, walk, _ = split(list(res.footprints))
+    found = hairpin(walk)
+    if found is None:
+        return res
+    i, j = found
+    before = walk[max(0, i - 3):i + 2]  # (the way in, before it turns)
+    way_in = float(np.mean([_mean_heading(a, b) for a, b in zip(before[:-1], before[1:])]))
+    ang = way_in + _yaw(planner.forward)
+    ahead = np.array([np.cos(ang), np.sin(ang), 0.0])
+    side = np.array([-ahead[1], ahead[0], 0.0])
+    loop = np.array([f.position for f in walk[i:j + 1]], float)
+    along = loop @ ahead
+    k = int(np.argmax(along[:-1] + along[1:]))  # (the two furthest in, one after the other)
+    far = 0.5 * (loop[k] + loop[k + 1])
+    out = np.array([f.position for f in walk[j:j + 4]], float).mean(axis=0)  # (the way out, beside the way in)
+    sides = (loop - far) @ side
+    across = float(np.clip((out - far) @ side, sides.min(), sides.max()))
+    field = planner.distance_field(np.asarray(goal, float))
+    for share, deeper in SPOT_TRIES:  # (where the turn's feet can't stand: nearer the way in, further in)
+        spot = far + share * across * side + deeper * ahead
+        got = _turned_at(planner, origin, spot, field, goal, goal_heading, body, turns_left)
+        if got is not None:
+            break
+    else:
+        return res
+    first, turn, rest = got
+    shift = first.footprints[-1].time
+    out = list(first.footprints) + [replace(f, time=shift) for f in turn] + [
+        replace(f, time=f.time + shift) for f in rest.footprints[1:]]
+    return replace(res, footprints=out, expanded=res.expanded + first.expanded + rest.expanded,
+                   generated=res.generated + first.generated + rest.generated, cost=first.cost + rest.cost)
+
+
+def _turned_at(planner: Planner, origin, spot, field, goal, goal_heading, body, turns_left):
+    """(walk to ``spot``, the turn there, the walk on) of ``hairpin_turn``; None where one
+    of them can't be had, or the walk arrives with less than HAIRPIN_LEFT left to turn."""
+    cfg = planner.settings
+    first, _ = _try(replace(planner, settings=cfg.replace(goal_radius=min(cfg.goal_radius, SPOT_RADIUS))),
+                    origin, spot, None)
+    if first is None:
+        return None
+    last = first.footprints[-1]
+    from .waypoints import beside
+
+    way_on = facing_way(planner, [last, beside(planner, last)], goal, field)
+    if way_on is None or abs(float(_wrap(way_on - last.heading))) <= HAIRPIN_LEFT:
+        return None
+    turn = end_turn(planner, last, way_on, body)
+    if not turn:
+        return None
+    try:
+        rest = plan(planner, [turn[-1]], goal, goal_heading, body, turns_left - 1)
+    except PlanError:
+        return None
+    return first, turn, rest
 
 
 #: m from the goal at which ``arrival_way`` reads the way in
@@ -432,6 +571,19 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         other, path = path[0], list(path[1:])
         if not any(f.label == PIVOT for f in path[-2:]):
             path = path[:-1]
+    runs = hairpins(path)
+    if runs:  # (the walk to the first hairpin and its turn, then the rest from the turned feet)
+        k = runs[0][1]
+        pace1 = pace2 = pace
+        if pace is not None and np.ndim(pace):
+            pace1, pace2 = np.asarray(pace, float)[:k], np.asarray(pace, float)[k:]
+        first = synthesize(path[:k + 1], synth, other, None, None, lead, 0.0, pace1, forward, foot, step_angle, body)
+        first.turns[-1]["where"] = "hairpin"
+        pos, hd = first.footprints
+        stood = replace(first.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]), label="walk")
+        rest = [replace(path[k], position=pos[-1].copy(), heading=float(hd[-1]), label="start")] + list(path[k + 1:])
+        return join([first, synthesize(rest, synth, stood, goal, goal_heading, 0.0, hold, pace2, forward, foot,
+                                       step_angle, body)])
     head, walk_path, tail = split(path)
     if pace is not None and np.ndim(pace):
         k = max(len(head) - 1, 0)
@@ -490,5 +642,5 @@ def _labelled(plan: list, parts, turns) -> list:
     return plan
 
 
-__all__ = ["PIVOT", "Turn", "end_turn", "facing_way", "pivot_footprints", "plan", "split",
-           "start_turn", "turns_of"]
+__all__ = ["PIVOT", "Turn", "end_turn", "facing_way", "hairpin", "hairpin_turn", "hairpins", "pivot_footprints",
+           "plan", "split", "start_turn", "turns_of"]
