@@ -60,7 +60,7 @@ CLIMB_MIN = EDGE_STEP
 STAIR_RISE = 0.12
 #: How far ahead (behind) of the swing's time its early (late) motion runs, at most 1
 #: (monotone): see ``_stair_swing``.
-STAIR_LEAD = 0.6
+STAIR_LEAD = 1.0
 #: m a swinging foot keeps above the surface.
 GROUND_MARGIN = 0.002
 #: The leg is never stretched past this share of its length (a straight knee pops).
@@ -257,10 +257,12 @@ def _stair_swing(A: np.ndarray, swing: np.ndarray, a: np.ndarray, b: np.ndarray,
         return A
     # the shares of the swing done by the horizontal and the vertical motion: up, the
     # rise ahead (at the liftoff's own pace) and the way forward behind; down, the way
-    # forward ahead and the drop behind (at the strike's own pace)
+    # forward ahead and the drop behind (at the strike's own pace). Each leaves or
+    # arrives at the clip's own pace: the way forward lagging to the strike (1.6 times
+    # the clip's speed there) snapped CMU's knee straight stepping up onto a platform.
     up = dz > 0
     k, mid = STAIR_LEAD, x * (1.0 - x)
-    h = np.where(up, x - k * mid, x + k * mid)
+    h = np.where(up, x - k * (1.0 - x) * mid, x + k * x * mid)  # (at the strike's (up) or liftoff's (down) own pace)
     v = np.where(up, x + k * x * mid, x - k * (1.0 - x) * mid)
     span = b - a
 
