@@ -217,7 +217,8 @@ def test_a_step_up_or_down_goes_no_further_than_the_walks_straight_step(rise, mo
     from footstep_planner.core import navgraph
 
     lo, hi = (0.0, rise) if rise > 0 else (-rise, 0.0)
-    g = MeshGround(TriMesh.concat([plane(-2, 4.0, -3, 3, z=lo, name="near"), plane(4.0, 10, -3, 3, z=hi, name="far")]))
+    g = MeshGround(TriMesh.concat([plane(-2, 4.0, -3, 3, z=lo, name="near"),
+                                   plane(4.0, 10, -3, 3, z=hi, name="far")]))
     steps = _long_and_short()
     reach = navgraph.climb_reach(steps)
     assert np.allclose(reach, np.hypot(0.6, 0.2))  # (the walk's: 0.6 m on, 0.2 m across)

@@ -130,7 +130,8 @@ def test_a_walk_that_veers_gets_a_straightened_step_when_straightness_is_asked()
     assert abs(plain.veer()[plain.label == "walk"]).min() > 0.02  # the clip's own steps veer
     level = analyze_clip(synthetic_gait(name="walk", cycles=4, **walk)[0])
     lib = propose_library([level])
-    assert set(library_steps(lib, [level], straighten=True).label) == set(library_steps(lib, [level], straighten=False).label)
+    straightened = library_steps(lib, [level], straighten=True)
+    assert set(straightened.label) == set(library_steps(lib, [level], straighten=False).label)
 
 
 def _sharp_library(quick=0.0):
@@ -175,8 +176,8 @@ def test_a_straight_way_is_not_walked_in_sharp_turns_left_and_right(quick):
     toed_out = [replace(f, heading=np.radians(6.0) * (1 - 2 * f.foot)) for f in standing(0.0, 0.0, 0.0, fwd)]
     labels = {}
     for weave in (2.0, 0.0):
-        pl = Planner(ground, None, _sharp_library(quick), fwd, settings=Settings(weave_penalty=weave, stride_min=1.0,
-                                                                                  stride_max=1.0))
+        own = Settings(weave_penalty=weave, stride_min=1.0, stride_max=1.0)
+        pl = Planner(ground, None, _sharp_library(quick), fwd, settings=own)
         res = pl.plan(toed_out, goal)
         labels[weave] = [f.label for f in res.footprints[1:]]
     assert labels[2.0].count("walk") >= len(labels[2.0]) - 1, labels[2.0]

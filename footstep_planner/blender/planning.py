@@ -133,7 +133,8 @@ def character_footprints(ob, setup: PlanSetup) -> list[PathFootprint]:
 
 
 #: m: the standing feet's distance either side of the body, and with
-#: ``Settings.curvature_penalty`` the least and most of it as the walk's stance width sets it.
+#: ``Settings.straightens`` (the default) the least and most of it as the walk's stance
+#: width sets it.
 STAND_HALF_WIDTH = 0.1
 STAND_HALF_WIDTH_RANGE = (0.05, 0.15)
 
@@ -142,8 +143,8 @@ def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
                         width: float | None = None) -> list[PathFootprint]:
     """Both feet side by side, ``width`` either side of ``position`` (3,), turned
     ``heading`` (the planner's frame), dropped onto the ground; PlanError naming ``what``
-    when there is no traversable surface under a foot. The width is by default
-    STAND_HALF_WIDTH, and with ``Settings.curvature_penalty`` half the walk's stance width
+    when there is no traversable surface under a foot. The width is STAND_HALF_WIDTH,
+    or with ``Settings.straightens`` (the default) half the walk's stance width
     (``StepSet.stance_width``, within STAND_HALF_WIDTH_RANGE) and each foot turned out as
     the walk turns it out (``StepSet.toe_out``): the first step then leaves straight, not
     askew, along the line through ``position``, not beside it."""

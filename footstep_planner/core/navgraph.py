@@ -96,7 +96,8 @@ def _start_gaits(fp: "PathFootprint") -> tuple[str, ...]:
     off from standing, arms popping as the idle pose handed over to the run); a footprint
     a walk or run reached (a waypoint passed through) goes on in its gait (and changes
     it at the gait change's cost)."""
-    if fp.label in ("start", "pivot", "stand") or fp.gait not in ("walk", "run"):
+    standing = ("start", "pivot", "stand")  # (a start's; turn_in_place.PIVOT; pipeline.STAND_LABEL)
+    if fp.label in standing or fp.gait not in ("walk", "run"):
         return ("walk",)
     return (fp.gait,)
 
@@ -105,9 +106,8 @@ def climb_reach(steps: StepSet) -> np.ndarray:
     """(S,) m: how far over the ground (from footprint to footprint, across included) a
     step may go where it climbs or descends: the longer step of the walk's straightest
     cycle at its clip's own stride (the cycle whose steps veer least; of several, the
-    shortest), whatever the gait
-    (a run's steps, over a metre, would leap a flight's treads; without a walk, each
-    gait's own). Longer steps are for level ground."""
+    shortest), whatever the gait (a run's steps, over a metre, would leap a flight's
+    treads; without a walk, each gait's own). Longer steps are for level ground."""
     out = np.full(steps.n, np.inf)
     veer = np.abs(steps.cycle_mean(steps.veer()))
     length = np.hypot(steps.fwd, steps.left)
@@ -594,7 +594,8 @@ class Planner:
             p = np.atleast_2d(p)
             d, ahead = dist.at_and_ahead(p)
             straight = np.hypot(goal[0] - p[:, 0], goal[1] - p[:, 1])
-            d = np.where(np.isfinite(d), np.maximum(d, straight) - radius, 3.0 * straight)  # (any footprint within the radius ends it)
+            # (any footprint within the goal radius ends the path)
+            d = np.where(np.isfinite(d), np.maximum(d, straight) - radius, 3.0 * straight)
             h = np.maximum(d - slack, 0.0) / vmax
             if psi is not None and per_rad > 0:
                 off = np.abs(_wrap(np.asarray(psi, float) + yaw - ahead))

@@ -72,7 +72,8 @@ class StepSet:
         these, so a path cannot take the quicker (or straighter) half of one clip's cycle
         after the quicker half of another's."""
         x = np.asarray(x, float)
-        keys = [f"{lab}|{g}|{float(s)!r}|{bool(j)}" for lab, g, s, j in zip(self.label, self.gait, self.stride, self.jump)]
+        keys = [f"{lab}|{g}|{float(s)!r}|{bool(j)}"
+                for lab, g, s, j in zip(self.label, self.gait, self.stride, self.jump)]
         _, inv = np.unique(np.array(keys, dtype=object), return_inverse=True)
         total = np.bincount(inv, weights=x)
         count = np.bincount(inv)
@@ -294,9 +295,10 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     their direction: the refinement stage bends the clip that far), and every walking step
     again with adapted strides (``stride_steps``, ``stride``: (least, most) share of the
     clip's forward length; a shortened bent step turns as much in less way: a library of
-    wide turns turns on a stair's landing). With ``straighten`` (a search that prices
-    curvature, ``Settings.curvature_penalty``: without it nothing prefers them, and they
-    only move paths), each group's straightest clip straightened too (``_straight_rows``)."""
+    wide turns turns on a stair's landing). With ``straighten`` (a search that prices a
+    way that is not straight, ``Settings.straightens``: without it nothing prefers them,
+    and they only move paths), each group's straightest clip straightened too
+    (``_straight_rows``)."""
     by = {a.name: a for a in analyses}
     groups = _group_steps(library, by)
     taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]

@@ -150,9 +150,10 @@ def _beside(other: np.ndarray, other_heading: float, heading: float, f: int, for
     """Where foot ``f`` turned ``heading`` steps beside the other (at ``other``, turned
     ``other_heading``): as near as it may to where it would stand, turned so, in a pair
     ``width`` apart round ``centre``, the body's spot, ``body`` (ahead, left) m from their
-    middle (the ``last``: half way from there to where it puts the pair's middle there), keeping GAP from the other foot's rectangle, set
-    across their mean heading at least half ``width`` and at most ``width`` + SLACK
-    apart and at most SLACK ahead or behind."""
+    middle (the ``last``: half way from there to where it puts the pair's middle there),
+    keeping GAP from the other foot's rectangle, set across their mean heading at least
+    half ``width`` and at most ``width`` + SLACK apart and at most SLACK ahead or
+    behind."""
     ahead, left = _axes(0.5 * (heading + other_heading), forward)
     side = left if f == 0 else -left
     own = _axes(heading, forward)[1] * (1.0 if f == 0 else -1.0)
@@ -443,11 +444,10 @@ def hairpin_turn(planner: Planner, origin: list[PathFootprint], res: PlanResult,
     of its two footprints furthest along it, and as far across as the way out: a turn on
     the spot then leaves straight down the way out; failing that, further in and nearer
     the way in, SPOT_TRIES), stopping within SPOT_RADIUS of it, turns on the spot to the
-    way on (``facing_way``)
-    and walks on to the goal (``plan``, ``turns_left`` - 1 more hairpins). The pivot
-    footprints go between the two walks, as an end turn's (``split``, ``hairpins``).
-    ``res`` unchanged where no spot gives both walks and the turn, or the walk arrives
-    with less than HAIRPIN_LEFT left to turn."""
+    way on (``facing_way``) and walks on to the goal (``plan``, ``turns_left`` - 1 more
+    hairpins). The pivot footprints go between the two walks, as an end turn's
+    (``split``, ``hairpins``). ``res`` unchanged where no spot gives both walks and the
+    turn, or the walk arrives with less than HAIRPIN_LEFT left to turn."""
     _, walk, _ = split(list(res.footprints))
     found = hairpin(walk)
     if found is None:
@@ -578,7 +578,8 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
         if pace is not None and np.ndim(pace):
             pace1, pace2 = np.asarray(pace, float)[:k], np.asarray(pace, float)[k:]
         first = synthesize(path[:k + 1], synth, other, None, None, lead, 0.0, pace1, forward, foot, step_angle, body)
-        first.turns[-1]["where"] = "hairpin"
+        if first.turns and first.turns[-1]["where"] == "end":  # (its end turn is the hairpin's)
+            first.turns[-1]["where"] = "hairpin"
         pos, hd = first.footprints
         stood = replace(first.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]), label="walk")
         rest = [replace(path[k], position=pos[-1].copy(), heading=float(hd[-1]), label="start")] + list(path[k + 1:])
