@@ -292,3 +292,23 @@ def test_a_hairpin_bend_is_turned_in_place(fp, empty_scene, tmp_path, char):
         with open(rep) as fh:
             assert not json.load(fh)["turns_in_place"]
     print(char, "turning in place off:", "walked round" if rc == 0 else "refused")
+
+
+def test_a_hairpin_on_the_way_to_a_waypoint_is_turned_in_place(fp, empty_scene, tmp_path):
+    """The hairpin scene through a waypoint on the far walkway (``--via``): the leg to it
+    turns in place at the hairpin as a plain walk does, and the route reaches the
+    waypoint and the goal."""
+    import bpy
+
+    path, name = _hairpin_saved(fp, tmp_path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    ss = import_module(fp.__name__ + ".blender.sample_scenes")
+    ss._marker(scene, "Via", (3.0, 1.0, 0.0), ss.WEST)
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    out, doc = _bake(fp, path, name, tmp_path, "--via", "Via")
+    assert [t["where"] for t in doc["turns_in_place"]] == ["hairpin"], doc["turns_in_place"]
+    q = doc["quality"]
+    assert q["goal"]["distance_m"] < 0.05 and q["foot_skate"]["max_mm"] < 1.0
+    intro = q["pops"]["introduced"]
+    assert intro["count"] <= 5 and intro["max_excess_deg"] <= 5.0

@@ -438,16 +438,17 @@ def hairpin(fps: list[PathFootprint]) -> tuple[int, int] | None:
 
 
 def hairpin_turn(planner: Planner, origin: list[PathFootprint], res: PlanResult, goal, goal_heading,
-                 body=(0.0, 0.0), turns_left: int = 3) -> PlanResult:
+                 body=(0.0, 0.0), turns_left: int = 3, walk_on=None) -> PlanResult:
     """``res`` (a walk from ``origin``) with its first hairpin (``hairpin``) turned in
     place: the walk goes to the hairpin's far end (as far along the way in as the middle
     of its two footprints furthest along it, and as far across as the way out: a turn on
     the spot then leaves straight down the way out; failing that, further in and nearer
     the way in, SPOT_TRIES), stopping within SPOT_RADIUS of it, turns on the spot to the
     way on (``facing_way``) and walks on to the goal (``plan``, ``turns_left`` - 1 more
-    hairpins). The pivot footprints go between the two walks, as an end turn's
-    (``split``, ``hairpins``). ``res`` unchanged where no spot gives both walks and the
-    turn, or the walk arrives with less than HAIRPIN_LEFT left to turn."""
+    hairpins; or ``walk_on(turned feet)``, a leg of a route). The pivot footprints go
+    between the two walks, as an end turn's (``split``, ``hairpins``). ``res`` unchanged
+    where no spot gives both walks and the turn, or the walk arrives with less than
+    HAIRPIN_LEFT left to turn."""
     _, walk, _ = split(list(res.footprints))
     found = hairpin(walk)
     if found is None:
@@ -468,7 +469,7 @@ def hairpin_turn(planner: Planner, origin: list[PathFootprint], res: PlanResult,
     field = planner.distance_field(np.asarray(goal, float))
     for share, deeper in SPOT_TRIES:  # (where the turn's feet can't stand: nearer the way in, further in)
         spot = far + share * across * side + deeper * ahead
-        got = _turned_at(planner, origin, spot, field, goal, goal_heading, body, turns_left)
+        got = _turned_at(planner, origin, spot, field, goal, goal_heading, body, turns_left, walk_on)
         if got is not None:
             break
     else:
@@ -481,7 +482,7 @@ def hairpin_turn(planner: Planner, origin: list[PathFootprint], res: PlanResult,
                    generated=res.generated + first.generated + rest.generated, cost=first.cost + rest.cost)
 
 
-def _turned_at(planner: Planner, origin, spot, field, goal, goal_heading, body, turns_left):
+def _turned_at(planner: Planner, origin, spot, field, goal, goal_heading, body, turns_left, walk_on=None):
     """(walk to ``spot``, the turn there, the walk on) of ``hairpin_turn``; None where one
     of them can't be had, or the walk arrives with less than HAIRPIN_LEFT left to turn."""
     cfg = planner.settings
@@ -499,7 +500,8 @@ def _turned_at(planner: Planner, origin, spot, field, goal, goal_heading, body, 
     if not turn:
         return None
     try:
-        rest = plan(planner, [turn[-1]], goal, goal_heading, body, turns_left - 1)
+        rest = (walk_on([turn[-1]]) if walk_on is not None
+                else plan(planner, [turn[-1]], goal, goal_heading, body, turns_left - 1))
     except PlanError:
         return None
     return first, turn, rest

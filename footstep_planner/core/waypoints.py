@@ -43,9 +43,10 @@ def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypo
     """The footprints from ``start`` through every waypoint in order (each reached within
     the goal radius, and heading tolerance when it has a heading). Where the path stops
     at a waypoint and the way on lies behind or beside it, it turns in place there
-    (``turn_in_place.start_turn``; ``body``: see ``turn_in_place.pivot_footprints``). A
-    leg that can't be found raises PlanError naming the leg."""
-    from .turn_in_place import start_turn
+    (``turn_in_place.start_turn``; ``body``: see ``turn_in_place.pivot_footprints``), and
+    at a hairpin on a leg (``turn_in_place.hairpin_turn``). A leg that can't be found
+    raises PlanError naming the leg."""
+    from .turn_in_place import hairpin_turn, start_turn
 
     if not waypoints:
         raise PlanError("no waypoint to go to")
@@ -54,10 +55,14 @@ def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypo
     arrivals, counts, cost = [], [0, 0], 0.0
     origin, here = start, "the start"
     for i, wp in enumerate(waypoints):
+        heading = _passing_heading(planner, waypoints, i)
         try:
-            leg = _leg(planner, origin, wp, _passing_heading(planner, waypoints, i))
+            leg = _leg(planner, origin, wp, heading)
         except PlanError as ex:
             raise PlanError(f"no way from {here} to waypoint {wp.name!r}: {ex}", ex.expanded, ex.explored) from None
+        if planner.settings.turn_in_place_angle > 0:  # (a hairpin on the way there: turned on the spot)
+            leg = hairpin_turn(planner, origin, leg, np.asarray(wp.position, float), heading, body,
+                               walk_on=lambda feet, wp=wp, heading=heading: _leg(planner, feet, wp, heading))
         shift = path[-1].time if path else 0.0
         fresh = leg.footprints if not path else leg.footprints[1:]
         path += [PathFootprint(f.foot, f.position, f.heading, f.time + shift, f.label, f.gait, f.jump) for f in fresh]
