@@ -96,8 +96,10 @@ def _start_gaits(fp: "PathFootprint") -> tuple[str, ...]:
     off from standing, arms popping as the idle pose handed over to the run); a footprint
     a walk or run reached (a waypoint passed through) goes on in its gait (and changes
     it at the gait change's cost)."""
-    standing = ("start", "pivot", "stand")  # (a start's; turn_in_place.PIVOT; pipeline.STAND_LABEL)
-    if fp.label in standing or fp.gait not in ("walk", "run"):
+    from .pipeline import STAND_LABEL
+    from .turn_in_place import PIVOT
+
+    if fp.label in ("start", PIVOT, STAND_LABEL) or fp.gait not in ("walk", "run"):
         return ("walk",)
     return (fp.gait,)
 
@@ -1004,27 +1006,28 @@ def _steps_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> tupl
     """(rise m, tread m) of the steps within 2 m of ``near`` towards the goal (the first
     rise, and the shortest run of level ground between two rises), or None where the
     ground ahead rises once at most."""
-    d = goal[:2] - near[:2]
-    d = d / max(np.linalg.norm(d), 1e-9)
-    t = np.arange(0.0, 2.0, 0.01)
-    pts = np.c_[near[:2] + t[:, None] * d, np.full(len(t), near[2] + 2.0)]
-    z = planner.ground.ray_down(pts, 4.0).z
-    ok = np.isfinite(z)
-    t, z = t[ok], z[ok]
+    t, z = _ground_ahead(planner, near, goal)
     at = np.flatnonzero(np.abs(np.diff(z)) > 0.02)
     if len(at) < 2:
         return None
     return float(z[at[0] + 1] - z[at[0]]), float(np.diff(t[at]).min())
 
 
-def _rise_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> float:
-    """m: the highest step up or down of the ground within 2 m of ``near`` towards the
-    goal (0 where it is level)."""
+def _ground_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(t (K,) m, z (K,) m): the ground's height every cm within 2 m of ``near`` towards
+    the goal, where there is ground."""
     d = goal[:2] - near[:2]
     d = d / max(np.linalg.norm(d), 1e-9)
     t = np.arange(0.0, 2.0, 0.01)
     z = planner.ground.ray_down(np.c_[near[:2] + t[:, None] * d, np.full(len(t), near[2] + 2.0)], 4.0).z
-    z = z[np.isfinite(z)]
+    ok = np.isfinite(z)
+    return t[ok], z[ok]
+
+
+def _rise_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> float:
+    """m: the highest step up or down of the ground within 2 m of ``near`` towards the
+    goal (0 where it is level)."""
+    _, z = _ground_ahead(planner, near, goal)
     return float(np.abs(np.diff(z)).max()) if len(z) > 1 else 0.0
 
 

@@ -428,13 +428,14 @@ def hairpin(fps: list[PathFootprint]) -> tuple[int, int] | None:
     way = 0.5 * (head[1:] + head[:-1])  # (two footprints' mean: the feet's turn out cancels)
     mid = 0.5 * (pos[1:] + pos[:-1])  # (the way: between the feet)
     along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(mid, axis=0), axis=1))]
-    ends = np.searchsorted(along, along + np.pi * HAIRPIN_RADIUS, side="right")
-    for i in range(len(way)):
-        turned = np.abs(way[i:ends[i]] - way[i])
-        over = np.flatnonzero((turned > HAIRPIN_TURN) & (along[i:ends[i]] - along[i] <= HAIRPIN_RADIUS * turned))
-        if len(over):
-            return i, i + int(over[0]) + 1
-    return None
+    turned = np.abs(way[None, :] - way[:, None])  # (from each pair of footprints to each later one)
+    run = along[None, :] - along[:, None]
+    sharp = (run >= 0.0) & (run <= np.pi * HAIRPIN_RADIUS) & (turned > HAIRPIN_TURN) & (run <= HAIRPIN_RADIUS * turned)
+    rows = np.flatnonzero(sharp.any(axis=1))
+    if not len(rows):
+        return None
+    i = int(rows[0])
+    return i, int(np.argmax(sharp[i])) + 1
 
 
 def hairpin_turn(planner: Planner, origin: list[PathFootprint], res: PlanResult, goal, goal_heading,
