@@ -90,17 +90,19 @@ MAX_BUMP = 0.1
 CLIMB_DZ = 0.03
 
 
-def _start_gaits(fp: "PathFootprint") -> tuple[str, ...]:
-    """The gaits a search may leave ``fp`` in: a standing foot (a start, a turn's pivot
-    step) walks off (a run from standing would have no run-up: the sample character ran
-    off from standing, arms popping as the idle pose handed over to the run); a footprint
-    a walk or run reached (a waypoint passed through) goes on in its gait (and changes
-    it at the gait change's cost)."""
+def _start_gaits(fp: "PathFootprint", gaits=("walk", "run")) -> tuple[str, ...]:
+    """The gaits a search may leave ``fp`` in, of the library's ``gaits``: a standing foot
+    (a start, a turn's pivot step) walks off (a run from standing would have no run-up: the
+    sample character ran off from standing, arms popping as the idle pose handed over to
+    the run), or runs off where the library has no walk (a runs-only library starts as its
+    start clip, or a start made from its standing pose, sets it running); a footprint a
+    walk or run reached (a waypoint passed through) goes on in its gait (and changes it at
+    the gait change's cost)."""
     from .pipeline import STAND_LABEL
     from .turn_in_place import PIVOT
 
     if fp.label in ("start", PIVOT, STAND_LABEL) or fp.gait not in ("walk", "run"):
-        return ("walk",)
+        return ("walk",) if "walk" in gaits or "run" not in gaits else ("run",)
     return (fp.gait,)
 
 
@@ -429,7 +431,7 @@ class Planner:
         search.field_seconds = field_seconds
         search.weight = 1.0 + START_WEIGHT * (self.settings.heuristic_weight - 1.0)
         for s in start:
-            for gait in _start_gaits(s):
+            for gait in _start_gaits(s, set(self.steps.gait[~self.steps.jump].tolist())):
                 node = SearchNode(s.foot, gait, np.asarray(s.position, float), float(s.heading), 0.0, -1, -1)
                 search.push(node, float(search.heuristic(node.position, [node.heading])[0]))
         while search.heap:
@@ -738,16 +740,16 @@ class Planner:
     def _successors(self, search: _Search, node: SearchNode):
         """The steps that may follow ``node`` (indices (K,)), where they land (K, 2) and
         turned how (K,), with their merge keys; merged-away (closed) ones dropped. No
-        jump follows a jump, a jump is entered running, and the first step from a walking
-        start (standing: ``_start_gaits``) walks."""
+        jump follows a jump, a jump is entered running, and the first step from a start
+        (standing: ``_start_gaits``) keeps its gait and does not jump."""
         st = self.steps
         sel = np.flatnonzero(st.foot == node.foot)
         if node.step >= 0 and st.jump[node.step]:
             sel = sel[~st.jump[sel]]
-        if node.gait == "walk":
+        if node.parent < 0:  # (from standing, or a walk's footprint: the first step walks, and never jumps)
+            sel = sel[~st.jump[sel] & (st.gait[sel] == node.gait)]
+        elif node.gait == "walk":
             sel = sel[~st.jump[sel]]
-            if node.parent < 0:  # (from standing, or a walk's footprint: the first step walks)
-                sel = sel[st.gait[sel] == "walk"]
         ang = node.heading + np.arctan2(self.forward[1], self.forward[0])
         f_ = np.array([np.cos(ang), np.sin(ang)])
         l_ = np.array([-f_[1], f_[0]])

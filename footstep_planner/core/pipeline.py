@@ -283,6 +283,16 @@ def label_weights(label: str, library: Library, cyclic: list[str]) -> np.ndarray
     return w
 
 
+def _clip_gait(library: Library, clip: str) -> str:
+    """The gait ("walk" or "run") of the turning group that holds ``clip`` (a clip name or
+    a "<group>@<tau>" label); "walk" for any other."""
+    group = clip.rsplit("@", 1)[0] if "@" in clip else None
+    for gait, g in library.turn_groups.items():
+        if g.name == group or any(c.clip == clip for c in g.clips):
+            return g.gait if g.gait in ("walk", "run") else "walk"
+    return "walk"
+
+
 def _clip_tau(library: Library, clip: str) -> float:
     for g in library.turn_groups.values():
         for c in g.clips:
@@ -598,7 +608,7 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
     if other is None or other.foot == first.foot:
         other = replace(first, foot=1 - first.foot, position=beside_position(first, 1 - first.foot, forward, 2 * STAND_WIDTH))
     other = replace(other, label=STAND_LABEL, time=0.0)
-    path = [other, replace(first, label=label, gait="walk")] + list(path[1:])
+    path = [other, replace(first, label=label, gait=_clip_gait(library, label))] + list(path[1:])
     if goal_heading is not None:
         n = len(path)
         dh = float(np.angle(np.exp(1j * (goal_heading - path[-1].heading))))
@@ -607,7 +617,7 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
         path = [replace(f, heading=f.heading + x * dh) if x > 0 else f for f, x in zip(path, w)]
     last = path[-1]
     end = replace(last, foot=1 - last.foot, position=beside_position(last, 1 - last.foot, forward, 2 * STAND_WIDTH, stand),
-                  label=straight, gait="walk", jump=False)
+                  label=straight, gait=_clip_gait(library, straight), jump=False)
     return path + [end]
 
 
@@ -682,9 +692,10 @@ def end_clip_steps(path, steps: list[PlanStep], library: Library, tracks: dict, 
     """The path, steps and standing of a standing path (``standing_path``) with the
     library's start clip on its first steps and its stop clip on its last
     (``end_windows``, ``Standing``). A start (stop) clip is played where its first (last)
-    foot to move (to arrive) is the path's and the path walks its steps and the one it
-    ramps over on the level (END_LEVEL), without a special clip, a run or a turn of more
-    than END_TURN, and where ``snap`` lets the footprints laid out stand; a path too short
+    foot to move (to arrive) is the path's and the path goes its steps and the one it
+    ramps over on the level (END_LEVEL) in the clip's own gait (a walk's start or stop on
+    walking steps, a run's on running ones), without a special clip, a jump or a turn of
+    more than END_TURN, and where ``snap`` lets the footprints laid out stand; a path too short
     for both keeps the start. Elsewhere the start (stop) is synthesized from the
     walk. With ``layout`` the footprints at either end are laid out as the clip steps
     (``_end_layout``; ``forward`` the world's heading 0); a synthesis's own path (a plan
@@ -692,11 +703,11 @@ def end_clip_steps(path, steps: list[PlanStep], library: Library, tracks: dict, 
     n = len(steps)
     heads = np.unwrap([f.heading for f in path])
     heads = np.r_[heads[0], 0.5 * (heads[1:] + heads[:-1])]  # (each and the one before: the feet's turn out cancels)
-    walks = [f.gait == "walk" and not f.jump for f in path] + [False]
     specials = {sp.clip for sp in library.specials}
 
-    def fits(lo: int, hi: int) -> bool:  # steps lo .. hi - 1 (footprints lo .. hi) walk straight on, on the level
-        ok = 0 <= lo and hi <= n and all(walks[i] and path[i].label not in specials for i in range(lo + 1, hi + 1))
+    def fits(lo: int, hi: int, gait: str) -> bool:  # steps lo .. hi - 1 (footprints lo .. hi) go straight on
+        on = [i < len(path) and path[i].gait == gait and not path[i].jump for i in range(lo + 1, hi + 1)]
+        ok = 0 <= lo and hi <= n and all(on) and all(path[i].label not in specials for i in range(lo + 1, hi + 1))
         z = [float(path[i].position[2]) for i in range(max(lo, 0), min(hi, n) + 1)]
         return ok and float(np.ptp(heads[lo + 1:hi + 1])) <= END_TURN and float(np.ptp(z)) <= END_LEVEL
 
@@ -718,7 +729,7 @@ def end_clip_steps(path, steps: list[PlanStep], library: Library, tracks: dict, 
             foot, win = ends
             k = len(win)
             if kind == "start":
-                if foot != path[0].foot or not fits(0, k):
+                if foot != path[0].foot or not fits(0, k, tr.exit_gait):
                     continue
                 moved = _end_layout(path, tr, win, forward) if layout else path
                 if not laid(moved, 0, min(k + END_EASE[0] + 1, len(path))):
@@ -726,7 +737,7 @@ def end_clip_steps(path, steps: list[PlanStep], library: Library, tracks: dict, 
                 out[:k - 1] = [replace(s, special=sp.clip, weights=None, window=w) for s, w in zip(steps, win[:-1])]
                 used, start, path = k, sp.clip, moved
             else:
-                if foot != path[-1].foot or not fits(n - k, n) or used + k > n:
+                if foot != path[-1].foot or not fits(n - k, n, tr.entry_gait) or used + k > n:
                     continue
                 moved = _end_layout(path, tr, win, forward) if layout else path
                 if not laid(moved, max(len(path) - k - 2 - END_EASE[1], 0), len(path)):

@@ -293,7 +293,7 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     own turns, and where it turns only walking, runs do not bend), and of the jumps
     (take-off to landing, within ``jump_tolerance`` of their length and 10 degrees of
     their direction: the refinement stage bends the clip that far), and every walking step
-    again with adapted strides (``stride_steps``, ``stride``: (least, most) share of the
+    (every running one, in a library without a walk: a jog up a flight) again with adapted strides (``stride_steps``, ``stride``: (least, most) share of the
     clip's forward length; a shortened bent step turns as much in less way: a library of
     wide turns turns on a stair's landing). With ``straighten`` (a search that prices a
     way that is not straight, ``Settings.straightens``: without it nothing prefers them,
@@ -320,7 +320,8 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
                   turn=np.array(cols[3], float), duration=np.array(cols[4], float),
                   foot=np.array(cols[0], int), gait=np.array(cols[5], object),
                   jump=np.array(cols[6], bool), label=np.array(cols[7], object))
-    cyclic = (own.gait == "walk") & ~own.jump
+    walks = "walk" in own.gait[~own.jump].tolist()
+    cyclic = (own.gait == ("walk" if walks else "run")) & ~own.jump
     return StepSet.concat([own, stride_steps(own.take(cyclic), *stride)])
 
 
