@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..core.analysis import AnalysisError, ClipAnalysis, analyze_clip
+from ..core.body import body_scale
 from ..core.library import Library, LibraryError, SpecialClip, TurnGroup, GroupClip, propose_library
 from ..core.mirror import MIRRORED_KINDS, MirrorError, is_mirror, mirrored_jumps, mirrored_name
 from ..core.clip import SIDES, ClipMotion, clip_motion
@@ -53,6 +54,7 @@ def analyze_character(ob, settings: Settings | None = None, fps: float | None = 
     is kept in ``errors`` under the mirror's name."""
     rig = rig_from_armature(ob)
     rig.require_legs()
+    settings = (settings or Settings()).for_body(body_scale(rig))  # (a human's lengths, at this rig's size)
     result = CharacterClips(rig)
     for act in (actions if actions is not None else armature_actions(ob)):
         try:

@@ -16,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from ..core import report, turn_in_place
 from ..core.analysis import ClipAnalysis
+from ..core.body import body_scale
 from ..core.directed import Performance, TimingError, arrival_frames, arrival_times, perform
 from ..core.ik import IKResult, solve_ik
 from ..core.library import Library
@@ -68,17 +69,19 @@ def world_forward(ob, analyses) -> np.ndarray:
     return w / np.linalg.norm(w)
 
 
-def foot_shape(analyses, rig: Rig | None = None) -> FootShape:
+def foot_shape(analyses, rig: Rig | None = None, scale: float = 1.0) -> FootShape:
     """The foot's rectangle from the clips' heel and toe points (ball of the foot), with
     room for the heel behind the ankle and the toes ahead of the ball; with the ``rig``,
     the toe tip where its toe bones reach further (``FootShape.tip``: a long toe that
-    must stay out of a riser)."""
+    must stay out of a riser). The room and the width are a human's times the body's
+    ``scale`` (``Settings.body_scale``)."""
     lengths = [np.linalg.norm(f.toe[:2] - f.heel[:2]) for a in analyses for f in a.footprints()]
-    half = 0.5 * float(np.median(lengths)) if lengths else 0.08
+    half = 0.5 * float(np.median(lengths)) if lengths else 0.08 * scale
     toes = [float(np.linalg.norm(rig.tails[t] - rig.rest[t, :3, 3])) for t in
             (rig.foot_chain(side)[1] for side in "lr") if t is not None] if rig is not None else []
-    tip = half + max(toes) if toes and max(toes) > TOE_ROOM else 0.0
-    return FootShape(back=half + 0.04, front=half + TOE_ROOM, half_width=0.05, tip=tip)
+    room = TOE_ROOM * scale
+    tip = half + max(toes) if toes and max(toes) > room else 0.0
+    return FootShape(back=half + 0.04 * scale, front=half + room, half_width=0.05 * scale, tip=tip, scale=scale)
 
 
 def object_geometry(ground, obstacles) -> dict:
@@ -107,13 +110,14 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
     if not clips.analyses:
         why = "; ".join(clips.errors.values()) or "it has no actions"
         raise PlanError(f"character {ob.name!r} has no usable clips ({why})")
+    settings = settings.for_body(body_scale(clips.rig))  # (a human's lengths, for this character's size)
     library = library_for(ob, clips)
     steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature,
                           stride=(settings.stride_min, settings.stride_max),
-                          straighten=settings.straightens)
+                          straighten=settings.straightens, scale=settings.body_scale)
     forward = world_forward(ob, clips.analyses)
-    foot = foot_shape(clips.analyses, clips.rig)
-    cache = _CACHES.setdefault((scene.name, foot), FootprintCache())  # (a foot's answers are its own)
+    foot = foot_shape(clips.analyses, clips.rig, settings.body_scale)
+    cache = _CACHES.setdefault((scene.name, foot), FootprintCache(margin=settings.length(0.6)))  # (a foot's own)
     cache.update(object_geometry(ground, obst))
     planner = Planner(ground, obst, steps, forward, foot=foot,
                       settings=settings, cache=cache)
@@ -151,16 +155,18 @@ def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
     ang = heading + np.arctan2(setup.forward[1], setup.forward[0])
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
     p = np.asarray(position, float)[:3]
-    straight = setup.planner.settings.straightens
+    cfg = setup.planner.settings
+    straight = cfg.straightens
     toe = setup.planner.steps.toe_out() if straight else 0.0
     if width is None:
-        width = STAND_HALF_WIDTH
+        width = cfg.length(STAND_HALF_WIDTH)
         if straight and setup.planner.steps.stance_width() > 0:
-            width = float(np.clip(0.5 * setup.planner.steps.stance_width(), *STAND_HALF_WIDTH_RANGE))
+            lo, hi = (cfg.length(w) for w in STAND_HALF_WIDTH_RANGE)
+            width = float(np.clip(0.5 * setup.planner.steps.stance_width(), lo, hi))
     out = []
     for k, sign in ((0, 1), (1, -1)):
         q = p + sign * width * left
-        hit = setup.planner.ground.ray_down(np.array([[q[0], q[1], q[2] + 0.5]]), 3.0)
+        hit = setup.planner.ground.ray_down(np.array([[q[0], q[1], q[2] + cfg.length(0.5)]]), cfg.length(3.0))
         if not hit.hit[0]:
             raise PlanError(f"{what} stands at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}), not above a traversable "
                             "surface: move it onto a traversable mesh, or pick a Start")
@@ -241,6 +247,7 @@ def legs_of(scene, setup: PlanSetup, settings: Settings):
     """``core.directed.SynthFn`` on this scene: a leg from standing to standing (a path
     that turns in place: its turns and walk, ``core.turn_in_place.synthesize``)."""
     pl = setup.planner
+    settings = settings.for_body(pl.settings.body_scale)  # (a human's lengths, for this character)
     snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
     fps = scene_fps(scene)
@@ -423,14 +430,16 @@ def solve(planned: Planned, settings: Settings) -> Solved:
     normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
     spin = body_spin(setup.forward, setup.analyses)
 
+    look = pl.settings.length(0.3)
+
     def ground_z(points):
-        hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, 0.3], 0.6)
+        hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, look], 2 * look)
         return np.where(hit.hit, hit.z, np.nan)
 
     with timer("ik"):
         ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
                       walk.heel_local, walk.toe_local, syn.final.schedule.feet, syn.planted(), pos, head, normal,
-                      setup.forward, settings, ground_z=ground_z, still=syn.flat)
+                      setup.forward, settings.for_body(pl.settings.body_scale), ground_z=ground_z, still=syn.flat)
     return Solved(ik, spin, timer.seconds["pose_blend"], timer.seconds["ik"])
 
 

@@ -288,7 +288,8 @@ def arrival_times(syn: Synthesis, parts: list[Synthesis], marks: list[Mark], bod
     positions or ``body`` (F, 3)."""
     windows = mark_windows(syn, parts, marks)
     t = syn.final.schedule.t
-    frames = arrival_frames(syn.body_position if body is None else body, marks, windows)
+    frames = arrival_frames(syn.body_position if body is None else body, marks, windows,
+                            syn.settings.length(ARRIVE_BAND))
     return np.interp(frames, np.arange(len(t)), t), windows
 
 
@@ -314,22 +315,23 @@ def mark_windows(syn: Synthesis, parts: list[Synthesis], marks: list[Mark]) -> l
     return out
 
 
-def arrival_frames(body, marks: list[Mark], windows: list[tuple[int, int]]) -> np.ndarray:
+def arrival_frames(body, marks: list[Mark], windows: list[tuple[int, int]], band: float = ARRIVE_BAND) -> np.ndarray:
     """(M,) the frame (from the first, fractional) at which the body (F, 3) reaches each
-    mark within its window: a stop's when it comes within ARRIVE_BAND of where it stands
-    at the window's end, a mark passed through when it goes past it (``_passing``)."""
+    mark within its window: a stop's when it comes within ``band`` m (ARRIVE_BAND, a
+    human's) of where it stands at the window's end, a mark passed through when it goes
+    past it (``_passing``)."""
     xy = np.asarray(body, float)[:, :2]
     out = np.zeros(len(marks))
     for k, (m, (a, b)) in enumerate(zip(marks, windows)):
         seg = xy[a:b + 1]
         if m.stop or k + 1 == len(marks):
             d = np.linalg.norm(seg - seg[-1], axis=1)
-            far = np.flatnonzero(d > ARRIVE_BAND)
+            far = np.flatnonzero(d > band)
             if not len(far):
                 out[k] = a
                 continue
             j = int(far[-1])  # the last frame still further: it crosses the band after it
-            f = (d[j] - ARRIVE_BAND) / max(d[j] - d[j + 1], 1e-12)
+            f = (d[j] - band) / max(d[j] - d[j + 1], 1e-12)
             out[k] = a + j + float(np.clip(f, 0.0, 1.0))
         else:
             out[k] = a + _passing(seg, np.asarray(m.position, float)[:2])

@@ -46,6 +46,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 from scipy.spatial.transform import Rotation
 
+from .body import scaled_bases, scaled_points, scaled_rig
 from .offsets import body_offsets, smooth_offsets
 from .rig import Rig, forward_kinematics
 from .settings import Settings
@@ -440,8 +441,16 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     (F,) 0..1: how far the body keeps its place over the ground where the synthesis put
     it, the body offset moving it only up and down there (a turn in place: the legs
     reach the pivot steps, the body stays over its spot).
-    Returns the adjusted body and pose bases."""
+    Returns the adjusted body and pose bases.
+
+    A character of another size than a human's (``Settings.body_scale``) is solved at a
+    human's size (every length it is given divided by its scale, this module's own
+    lengths as they are) and the result scaled back."""
     settings = settings or Settings()
+    k = settings.body_scale
+    if abs(k - 1.0) > 1e-12:
+        return _solved_at_human_size(k, rig, basis, t, body_pos, body_heading, spin, heel_local, toe_local, feet,
+                                     planted, fp_pos, fp_heading, fp_normal, forward, settings, ground_z, still)
     sec = {}
     t0 = time.perf_counter()
     with _timed(sec, "targets"):
@@ -479,6 +488,23 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
                             (bend, toe_local[:, :3] - heel_local[:, :3]))
     sec["total"] = time.perf_counter() - t0
     return IKResult(body_pos, yaw - spin, basis, tg, drop, offset, sec)
+
+
+def _solved_at_human_size(k: float, rig: Rig, basis, t, body_pos, body_heading, spin, heel_local, toe_local, feet,
+                          planted, fp_pos, fp_heading, fp_normal, forward, settings: Settings, ground_z,
+                          still) -> IKResult:
+    """``solve_ik`` of a character ``k`` times a human's size: solved on everything divided
+    by ``k`` (the settings at a human's size), its lengths multiplied back."""
+    inv = 1.0 / k
+    gz = None if ground_z is None else (lambda p: np.asarray(ground_z(np.asarray(p, float) * k), float) * inv)
+    r = solve_ik(scaled_rig(rig, inv), scaled_bases(basis, inv), t, np.asarray(body_pos, float) * inv, body_heading,
+                 spin, scaled_points(heel_local, inv), scaled_points(toe_local, inv), feet, planted,
+                 np.asarray(fp_pos, float) * inv, fp_heading, fp_normal, forward, settings.for_body(1.0), gz, still)
+    tg = r.targets
+    targets = FootTargets(tg.weight, tg.footprint, tg.pin * k, tg.pin_local * k, tg.foot_rot, tg.ankle * k)
+    dp, dpsi = r.body_offset
+    return IKResult(r.body_pos * k, r.body_heading, scaled_bases(r.basis, k), targets, r.hips_drop * k,
+                    (dp * k, dpsi), r.seconds)
 
 
 def _legs_in_world(pose: np.ndarray, legs: _Legs, pos: np.ndarray, yaw: np.ndarray) -> np.ndarray:

@@ -64,15 +64,16 @@ LEVEL_TOL = 0.05
 FINE_HEADING_BINS = 180
 
 
-def fine_xy(xy: np.ndarray) -> np.ndarray:
-    """(N, 2) int64 fine-grid cells of positions (N, >=2) in metres."""
-    return np.rint(np.asarray(xy, float)[..., :2] / FINE_CELL).astype(np.int64)
+def fine_xy(xy: np.ndarray, cell: float = FINE_CELL) -> np.ndarray:
+    """(N, 2) int64 fine-grid cells (``cell`` m: FINE_CELL, a human's, or the body's
+    ``Planner.fine_cell``) of positions (N, >=2) in metres."""
+    return np.rint(np.asarray(xy, float)[..., :2] / cell).astype(np.int64)
 
 
-def fine_keys(xy: np.ndarray, heading: np.ndarray) -> list[tuple[int, int, int]]:
+def fine_keys(xy: np.ndarray, heading: np.ndarray, cell: float = FINE_CELL) -> list[tuple[int, int, int]]:
     """Fine keys (cell x, cell y, heading bin) of footprints at ``xy`` (N, 2) m turned
-    ``heading`` (N,) rad: the keys of ``FootprintCache.table``."""
-    c = fine_xy(xy)
+    ``heading`` (N,) rad: the keys of ``FootprintCache.table`` (cells ``cell`` m)."""
+    c = fine_xy(xy, cell)
     b = np.rint(np.asarray(heading, float) / (2 * np.pi / FINE_HEADING_BINS)).astype(np.int64) % FINE_HEADING_BINS
     return list(zip(c[:, 0].tolist(), c[:, 1].tolist(), b.tolist()))
 
@@ -207,6 +208,7 @@ class FootprintCache:
     table: dict = field(default_factory=dict)  # fine key (ix, iy, heading bin) -> (ok, z)
     between: dict = field(default_factory=dict)  # (from fine cell, to fine key) -> (ground, clear)
     margin: float = 0.6  # m around a changed object whose answers are dropped
+    cell: float = FINE_CELL  # m: the fine grid of the keys (the planner's ``fine_cell``)
 
     def update(self, objects: dict) -> int:
         """Bring the cache to ``objects`` (name -> (hash, lo, hi)); returns how many
@@ -221,12 +223,12 @@ class FootprintCache:
             return 0
         # a step's answer goes with either end's region (a step is shorter than 2 m)
         for k in [k for k in self.between
-                  if any(lo[0] - self.margin - 2 <= k[0][0] * FINE_CELL <= hi[0] + self.margin + 2
-                         and lo[1] - self.margin - 2 <= k[0][1] * FINE_CELL <= hi[1] + self.margin + 2
+                  if any(lo[0] - self.margin - 2 <= k[0][0] * self.cell <= hi[0] + self.margin + 2
+                         and lo[1] - self.margin - 2 <= k[0][1] * self.cell <= hi[1] + self.margin + 2
                          for _, lo, hi in changed)]:
             del self.between[k]
         keys = list(self.table)
-        xy = np.array([k[:2] for k in keys], dtype=np.float64) * FINE_CELL
+        xy = np.array([k[:2] for k in keys], dtype=np.float64) * self.cell
         drop = np.zeros(len(keys), bool)
         for _, lo, hi in changed:
             drop |= ((xy[:, 0] >= lo[0] - self.margin) & (xy[:, 0] <= hi[0] + self.margin)
@@ -319,6 +321,16 @@ class _Search:
 #: m: a step longer than this (a jump) is checked for obstacles all along its way
 LONG_WAY = 0.9
 
+#: m: the merge grid of footprints and the distance field's grid (a human's: scaled to
+#: the character, as every length of this module is, by ``Settings.length``).
+MERGE_CELL = 0.15
+FIELD_CELL = 0.25
+
+#: m above a footprint's ground: a standing body's head and hips (``Planner._between``),
+#: and the hips of a body in the air along a jump (``Planner._clear_along``).
+HEAD_HEIGHT = 1.6
+HIPS_HEIGHT = 1.0
+
 
 @dataclass
 class Planner:
@@ -334,11 +346,41 @@ class Planner:
     foot: FootShape = FootShape()
     settings: Settings = field(default_factory=Settings)
     cache: FootprintCache = field(default_factory=FootprintCache)
-    cell: float = 0.15  # m: footprints closer than this (same foot, gait, heading bin) merge
     heading_bins: int = 36
-    max_step_height: float = 0.3  # m up or down between two footprints
-    clearance: float = 0.25  # m from obstacles
-    field_cell: float = 0.25  # m: the distance field's grid
+
+    # The search's geometry, a human's (``Settings``: sizes) scaled to the character.
+    @property
+    def cell(self) -> float:
+        """m: footprints closer than this (same foot, gait, heading bin) merge."""
+        return self.settings.length(MERGE_CELL)
+
+    @property
+    def fine_cell(self) -> float:
+        """m: the fine grid of support answers (``FootprintCache``) and of the open list's
+        best costs."""
+        return self.settings.length(FINE_CELL)
+
+    def __post_init__(self):
+        self.cache.cell = self.fine_cell  # (a cache is kept per foot, so per body: its keys are this planner's)
+
+    @property
+    def field_cell(self) -> float:
+        """m: the distance field's grid."""
+        return self.settings.length(FIELD_CELL)
+
+    @property
+    def max_step_height(self) -> float:
+        """m up or down between two footprints (``Settings.max_step_height``)."""
+        return self.settings.max_step_height
+
+    @property
+    def clearance(self) -> float:
+        """m from obstacles (``Settings.clearance``)."""
+        return self.settings.clearance
+
+    def _len(self, metres: float) -> float:
+        """A human's ``metres`` (this module's constants) for the character."""
+        return self.settings.length(metres)
 
     def _support(self, pos, heading):
         return footprint_support(self.ground, self.obstacles, pos, heading, self.forward, self.foot,
@@ -363,14 +405,14 @@ class Planner:
         clear = self._under_bump(a, b, z)
         if self.obstacles is not None and self.obstacles.mesh.n:
             base = np.minimum(a[:, None, 2], b[:, None, 2]) + np.zeros((1, 3))
-            head = np.concatenate([pts[..., :2], (base + 1.6)[..., None]], axis=2).reshape(-1, 3)
-            inside = self.obstacles.ray_down(head, 1.55).hit.reshape(len(a), 3).any(axis=1)
+            head = np.concatenate([pts[..., :2], (base + self._len(HEAD_HEIGHT))[..., None]], axis=2).reshape(-1, 3)
+            inside = self.obstacles.ray_down(head, self._len(HEAD_HEIGHT - 0.05)).hit.reshape(len(a), 3).any(axis=1)
             hips = head.copy()
-            hips[:, 2] -= 0.6
+            hips[:, 2] -= self._len(HEAD_HEIGHT - HIPS_HEIGHT)
             _, d = self.obstacles.nearest(hips, max_dist=0.5 * self.clearance)
             near = (d < 0.5 * self.clearance).reshape(len(a), 3).any(axis=1)
             clear &= ~inside & ~near
-            long = np.flatnonzero(clear & (np.linalg.norm((b - a)[:, :2], axis=1) > LONG_WAY))
+            long = np.flatnonzero(clear & (np.linalg.norm((b - a)[:, :2], axis=1) > self._len(LONG_WAY)))
             if len(long):  # (a jump's three points may all fall inside a thick wall: look all along)
                 clear[long] = self._clear_along(a[long], b[long])
         return ground, clear
@@ -383,14 +425,13 @@ class Planner:
         pts = a[:, None] + (b - a)[:, None] * t[None, :, None]
         top = pts.copy()
         top[..., 2] = np.maximum(a[:, None, 2], b[:, None, 2]) + self.max_step_height
-        hit = self.ground.ray_down(top.reshape(-1, 3), 2 * self.max_step_height + 0.2)
+        hit = self.ground.ray_down(top.reshape(-1, 3), 2 * self.max_step_height + self._len(0.2))
         return pts, np.where(hit.hit, hit.z, np.nan).reshape(len(a), 3)
 
-    @staticmethod
-    def _under_bump(a: np.ndarray, b: np.ndarray, z: np.ndarray) -> np.ndarray:
+    def _under_bump(self, a: np.ndarray, b: np.ndarray, z: np.ndarray) -> np.ndarray:
         """(N,) whether the ground ``z`` (N, 3) between each ``a`` and ``b`` (N, 3) stays
         within MAX_BUMP of the higher end."""
-        return np.nan_to_num(z, nan=-np.inf).max(axis=1) <= np.maximum(a[:, 2], b[:, 2]) + MAX_BUMP
+        return np.nan_to_num(z, nan=-np.inf).max(axis=1) <= np.maximum(a[:, 2], b[:, 2]) + self._len(MAX_BUMP)
 
     def _no_bump(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(K,) whether the ground from ``a`` (3,) to each of ``b`` (K, 3) (a foot's swing,
@@ -408,7 +449,7 @@ class Planner:
         t = np.linspace(0.0, 1.0, n + 1)[1:-1]
         pts = a[:, None] + (b - a)[:, None] * t[None, :, None]
         hips = pts.copy()
-        hips[..., 2] = np.minimum(a[:, None, 2], b[:, None, 2]) + 1.0
+        hips[..., 2] = np.minimum(a[:, None, 2], b[:, None, 2]) + self._len(HIPS_HEIGHT)
         _, d = self.obstacles.nearest(hips.reshape(-1, 3), max_dist=0.5 * self.clearance)
         return ~(d < 0.5 * self.clearance).reshape(len(a), -1).any(axis=1)
 
@@ -471,7 +512,8 @@ class Planner:
         """The distance field's cells and edges over this planner's ground (any goal)."""
         edge_cost = EDGE_COST if self.settings.heuristic_weight > 1.0 else 1.0
         return FieldCells.build(self.ground, self.obstacles, self.field_cell, self.clearance, self._jump_reach(),
-                                self.max_step_height, self._jump_extra(), edge_cost, self._stands)
+                                self.max_step_height, self._jump_extra(), edge_cost, self._stands,
+                                scale=self.settings.body_scale)
 
     def _stands(self, pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
         """(N,) whether a foot may stand on the ground at footprints ``pos`` (N, 3) turned
@@ -479,7 +521,7 @@ class Planner:
         heel hanging over this one), obstacles aside (the distance field's own test of them)."""
         sup = footprint_support(self.ground, None, pos, heading, self.forward, self.foot,
                                 step_height=self.max_step_height)
-        return sup.ok & (np.abs(sup.z - np.asarray(pos, float)[:, 2]) <= LEVEL_TOL)
+        return sup.ok & (np.abs(sup.z - np.asarray(pos, float)[:, 2]) <= self._len(LEVEL_TOL))
 
     def _reroute(self, search: _Search) -> None:
         """The search floods round where it is stuck: the heuristic promised a jump there
@@ -491,7 +533,7 @@ class Planner:
         search.reroutes += 1
         t = time.perf_counter()
         where = search.best_h[2]
-        dist = self.distance_field(search.goal, (where, REROUTE_RADIUS), search.cells)
+        dist = self.distance_field(search.goal, (where, self._len(REROUTE_RADIUS)), search.cells)
         search.field_seconds += time.perf_counter() - t
         if not np.isfinite(dist.at_many(np.atleast_2d(where))[0]):
             search.best_h = (search.best_h[0], search.expanded, where)
@@ -510,7 +552,7 @@ class Planner:
         parent = np.array([n.parent for n in search.nodes])
         step = np.array([n.step for n in search.nodes])
         pos = np.array([n.position[:2] for n in search.nodes])
-        near = np.linalg.norm(pos - where[:2], axis=1) <= REROUTE_RADIUS
+        near = np.linalg.norm(pos - where[:2], axis=1) <= self._len(REROUTE_RADIUS)
         flag = (step >= 0) & jump[np.maximum(step, 0)] & near
         while True:  # and everything reached from them (parents come before children)
             more = flag | ((parent >= 0) & flag[np.maximum(parent, 0)])
@@ -522,7 +564,7 @@ class Planner:
         out = []
         for b in search.batches:
             bad = np.full(len(b.g), bool(flag[b.parent]))
-            bad |= jump[b.sel] & (np.linalg.norm(b.nxt - where[:2], axis=1) <= REROUTE_RADIUS)
+            bad |= jump[b.sel] & (np.linalg.norm(b.nxt - where[:2], axis=1) <= self._len(REROUTE_RADIUS))
             out.append(bad.tolist())
         search.heap = [e for e in search.heap if not (flag[e[3]] if e[2] < 0 else out[e[2]][e[3]])]
 
@@ -530,7 +572,7 @@ class Planner:
         """PlanError when no traversable surface lies under (or near above) the goal."""
         gsup = self._support(goal[None], np.array([goal_heading or 0.0]))
         if not gsup.ok[0] and gsup.reason[0] in ("off surface", "uneven", "steep"):
-            hit = self.ground.ray_down(np.array([[goal[0], goal[1], goal[2] + 2.0]]), 10.0)
+            hit = self.ground.ray_down(np.array([[goal[0], goal[1], goal[2] + self._len(2.0)]]), self._len(10.0))
             if not hit.hit[0]:
                 raise PlanError(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}, {goal[2]:.2f}) is off every "
                                 "traversable surface")
@@ -612,7 +654,7 @@ class Planner:
         (a gait change is added per successor)."""
         st, cfg = self.steps, self.settings
         veer = np.abs(st.veer())
-        length = np.maximum(np.hypot(st.fwd / st.stride, st.left), MIN_STEP)  # (a shortened step: its clip's)
+        length = np.maximum(np.hypot(st.fwd / st.stride, st.left), self._len(MIN_STEP))  # (shortened: its clip's)
         kappa = (veer + np.abs(st.sidestep()) / length) / length  # 1/m: the way's heading change and a crab's
         return (st.time_cost(cfg.stride_penalty) + cfg.turn_penalty * veer
                 + cfg.curvature_penalty * kappa
@@ -666,7 +708,7 @@ class Planner:
         ok &= self._within_climb_reach(search, node, batch.sel[todo], nxt, z)
         if ok.any():
             ok[ok] &= self._way_clear(node, batch.sel[todo][ok], np.c_[nxt[ok], z[ok]],
-                                      fine_keys(nxt[ok], psi[ok]))
+                                      fine_keys(nxt[ok], psi[ok], self.fine_cell))
         walk = ok & ~self.steps.jump[batch.sel[todo]]
         if walk.any() and node.parent >= 0:  # the stepping foot swings from the footprint before
             ok[walk] &= self._no_bump(search.nodes[node.parent].position, np.c_[nxt[walk], z[walk]])
@@ -686,7 +728,7 @@ class Planner:
         if search.climb_reach is None:
             search.climb_reach = climb_reach(self.steps)
         length = np.hypot(nxt[:, 0] - node.position[0], nxt[:, 1] - node.position[1])
-        return (dz <= CLIMB_DZ) | self.steps.jump[steps] | (length <= search.climb_reach[steps] + 1e-9)
+        return (dz <= self._len(CLIMB_DZ)) | self.steps.jump[steps] | (length <= search.climb_reach[steps] + 1e-9)
 
     def _arrived(self, search: _Search, idx: int) -> bool:
         """Whether node ``idx`` ends the path (within the goal radius, heading within
@@ -711,7 +753,7 @@ class Planner:
         st = self.steps
         change = np.where(st.gait[sel] != node.gait, self.settings.gait_change_penalty, 0.0)
         cost = node.cost + (search.base_cost[sel] + change + self._weave(search, node, sel))
-        fine = fine_keys(nxt, npsi)
+        fine = fine_keys(nxt, npsi, self.fine_cell)
         keep = []
         for j, (g, k, f) in enumerate(zip(cost.tolist(), keys, fine)):
             kk = (k[0], k[1], f)
@@ -763,7 +805,7 @@ class Planner:
         """(ok (K,), z (K,)): whether a foot may stand at each successor and the surface
         height there, from the cache where the fine key was seen before."""
         table = self.cache.table
-        fine = fine_keys(nxt, npsi)
+        fine = fine_keys(nxt, npsi, self.fine_cell)
         ask = [j for j, k in enumerate(fine) if k not in table]
         if ask:
             sup = self._support(np.c_[nxt[ask], np.full(len(ask), node.position[2])], npsi[ask])
@@ -777,7 +819,7 @@ class Planner:
         step on continuous ground, a jump only across a gap, neither through an obstacle
         (cached per fine cell pair)."""
         between = self.cache.between
-        here = tuple(fine_xy(node.position[:2]).tolist())
+        here = tuple(fine_xy(node.position[:2], self.fine_cell).tolist())
         pairs = [(here, k) for k in fine]
         ask = [n for n, k in enumerate(pairs) if k not in between]
         if ask:
@@ -815,7 +857,7 @@ class Planner:
         refused (``Rejections``)."""
         goal = search.goal
         d0 = np.linalg.norm(goal[:2] - near[:2])
-        frontier = [n for n in search.nodes if np.linalg.norm(n.position[:2] - near[:2]) < 0.6]
+        frontier = [n for n in search.nodes if np.linalg.norm(n.position[:2] - near[:2]) < self._len(0.6)]
         rej = Rejections.of(self, frontier[:64], goal, d0)
         return rej.words(self, near, goal)
 
@@ -956,8 +998,8 @@ def _explain(planner: "Planner", reason: str, at: np.ndarray, near: np.ndarray, 
     shortest = float(np.hypot(st.fwd[walk], st.left[walk]).min())
     sharpest = float(np.degrees(np.abs(st.turn[walk]).max()))
     if reason == "obstacle":
-        _, d = planner.obstacles.nearest(np.array([[near[0], near[1], near[2] + 0.9]]))
-        p, _ = planner.obstacles.nearest(np.array([[at[0], at[1], at[2] + 0.9]]))
+        _, d = planner.obstacles.nearest(np.array([[near[0], near[1], near[2] + planner._len(0.9)]]))
+        p, _ = planner.obstacles.nearest(np.array([[at[0], at[1], at[2] + planner._len(0.9)]]))
         return (f"an obstacle (a wall or an object) at ({p[0, 0]:.2f}, {p[0, 1]:.2f}), {d[0]:.2f} m away: "
                 f"every step of the library towards the goal (the shortest goes {shortest:.2f} m, the "
                 f"sharpest turns {sharpest:.0f} degrees) brings the body within its clearance "
@@ -984,11 +1026,12 @@ def _gap_words(planner: "Planner", at: np.ndarray, near: np.ndarray, goal: np.nd
     way (at ``at``) that the library's steps cannot keep on."""
     d = goal[:2] - near[:2]
     d = d / max(np.linalg.norm(d), 1e-9)
-    t = np.arange(0.0, 6.0, 0.05)
+    far_off, spacing = planner._len(6.0), planner._len(0.05)
+    t = np.arange(0.0, far_off, spacing)
     pts = np.c_[near[:2] + t[:, None] * d, np.full(len(t), near[2] + planner.max_step_height)]
     hit = planner.ground.ray_down(pts, 2 * planner.max_step_height).hit
     hit[1:-1] |= hit[:-2] & hit[2:]  # a ray lost between two triangles is no gap
-    t = t[:int(np.ceil(np.linalg.norm(goal[:2] - near[:2]) / 0.05))]
+    t = t[:int(np.ceil(np.linalg.norm(goal[:2] - near[:2]) / spacing))]
     hit = hit[:len(t)]
     if hit.all():
         return (f"the edge of the surface at ({at[0]:.2f}, {at[1]:.2f}): every step of the library towards "
@@ -997,7 +1040,7 @@ def _gap_words(planner: "Planner", at: np.ndarray, near: np.ndarray, goal: np.nd
     edge = int(np.argmin(hit))
     far = edge + int(np.argmax(hit[edge:])) if hit[edge:].any() else -1
     where = f"the surface ends at ({pts[edge, 0]:.2f}, {pts[edge, 1]:.2f})"
-    gap = "no ground beyond it within 6 m" if far < 0 else f"the gap beyond is {t[far] - t[edge]:.2f} m wide"
+    gap = f"no ground beyond it within {far_off:.0f} m" if far < 0 else f"the gap beyond is {t[far] - t[edge]:.2f} m wide"
     reach = planner._jump_reach()
     jump = (f"the library's jump reaches {reach:.2f} m from take-off to landing, and needs a running step "
             "before it" if reach > 0 else "the library has no jump clip to cross it")
@@ -1009,7 +1052,7 @@ def _steps_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> tupl
     rise, and the shortest run of level ground between two rises), or None where the
     ground ahead rises once at most."""
     t, z = _ground_ahead(planner, near, goal)
-    at = np.flatnonzero(np.abs(np.diff(z)) > 0.02)
+    at = np.flatnonzero(np.abs(np.diff(z)) > planner._len(0.02))
     if len(at) < 2:
         return None
     return float(z[at[0] + 1] - z[at[0]]), float(np.diff(t[at]).min())
@@ -1020,8 +1063,9 @@ def _ground_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> tup
     the goal, where there is ground."""
     d = goal[:2] - near[:2]
     d = d / max(np.linalg.norm(d), 1e-9)
-    t = np.arange(0.0, 2.0, 0.01)
-    z = planner.ground.ray_down(np.c_[near[:2] + t[:, None] * d, np.full(len(t), near[2] + 2.0)], 4.0).z
+    t = np.arange(0.0, planner._len(2.0), planner._len(0.01))
+    z = planner.ground.ray_down(np.c_[near[:2] + t[:, None] * d, np.full(len(t), near[2] + planner._len(2.0))],
+                                planner._len(4.0)).z
     ok = np.isfinite(z)
     return t[ok], z[ok]
 
@@ -1115,7 +1159,7 @@ class DistanceField:
     @staticmethod
     def build(ground, obstacles, goal, cell, clearance, jump_reach, step_height,
               jump_extra: float = 0.0, avoid: tuple | None = None, edge_cost: float = 1.0,
-              support: Callable | None = None) -> "DistanceField":
+              support: Callable | None = None, scale: float = 1.0) -> "DistanceField":
         """The walking distance (m) to ``goal`` from every cell level of a grid of ``cell``
         metres over the ground's bounds: walkable levels (ground, body clear of obstacles
         by ``clearance``), joined 8-connected within ``step_height`` and, across gaps, by
@@ -1124,9 +1168,10 @@ class DistanceField:
         beside unwalkable ones counts ``edge_cost`` times its length; Dijkstra from the
         goal's cell. With ``support`` (footprints (N, 3), headings (N,) -> whether a foot
         may stand there (N,)), a cell where the ground's slope changes (a step's edge) is
-        walkable only where a foot fits in it (``_Grid.foot_room``)."""
+        walkable only where a foot fits in it (``_Grid.foot_room``). ``scale``: the body's
+        (``Settings.body_scale``), for the grid's own lengths (``HEADROOM``, ...)."""
         cells = FieldCells.build(ground, obstacles, cell, clearance, jump_reach, step_height, jump_extra,
-                                 edge_cost, support)
+                                 edge_cost, support, scale)
         return DistanceField.solve(cells, goal, avoid)
 
     @staticmethod
@@ -1172,9 +1217,9 @@ class FieldCells:
 
     @staticmethod
     def build(ground, obstacles, cell, clearance, jump_reach, step_height, jump_extra: float = 0.0,
-              edge_cost: float = 1.0, support: Callable | None = None) -> "FieldCells":
+              edge_cost: float = 1.0, support: Callable | None = None, scale: float = 1.0) -> "FieldCells":
         """The cells of ``DistanceField.build`` (same arguments, less the goal and ``avoid``)."""
-        grid = _Grid.over(ground, cell, step_height)
+        grid = _Grid.over(ground, cell, step_height, scale)
         has_ground, blocked = grid.ground_and_blocked(obstacles, clearance)
         walk = has_ground & ~blocked
         if support is not None:
@@ -1236,9 +1281,10 @@ class _Grid:
     ids: np.ndarray
     z: np.ndarray
     xy: np.ndarray  # (nx * ny, 2) the cells' centres
+    scale: float = 1.0  # the body's (``Settings.body_scale``): this grid's own lengths are a human's times it
 
     @staticmethod
-    def over(ground, cell: float, step_height: float) -> "_Grid":
+    def over(ground, cell: float, step_height: float, scale: float = 1.0) -> "_Grid":
         lo, hi = ground.mesh.bounds()
         zlo = lo[2]
         lo = lo[:2] - cell
@@ -1251,7 +1297,7 @@ class _Grid:
         hit = ground.ray_down(np.c_[xy, np.full(len(xy), hi[2] + step_height)], hi[2] - zlo + 2 * step_height)
         z[0] = hit.z
         for k in range(1, LAYERS):  # the levels below, where there is room for one
-            top = z[k - 1] - HEADROOM
+            top = z[k - 1] - HEADROOM * scale
             ask = np.flatnonzero(np.isfinite(top) & (top > zlo - 1e-6))
             if not len(ask):
                 break
@@ -1259,7 +1305,7 @@ class _Grid:
             z[k, ask] = below.z
         used = max(1, int(np.isfinite(z).any(axis=1).sum()))
         z = z[:used].reshape(used, nx, ny)
-        return _Grid(lo, cell, int(nx), int(ny), np.arange(z.size).reshape(z.shape), z, xy)
+        return _Grid(lo, cell, int(nx), int(ny), np.arange(z.size).reshape(z.shape), z, xy, scale)
 
     def foot_room(self, support: Callable, walk: np.ndarray) -> np.ndarray:
         """``walk`` without the cell levels where the ground's slope changes (a step's edge,
@@ -1270,14 +1316,15 @@ class _Grid:
         z = np.where(np.isfinite(self.z), self.z, np.nan)
         zp = np.pad(z, ((0, 0), (1, 1), (1, 1)), mode="edge")
         d2 = np.stack([zp[:, 2:, 1:-1] - 2 * z + zp[:, :-2, 1:-1], zp[:, 1:-1, 2:] - 2 * z + zp[:, 1:-1, :-2]])
-        kink = walk & (np.nan_to_num(np.abs(d2), nan=0.0).max(axis=0) > 0.02)
+        kink = walk & (np.nan_to_num(np.abs(d2), nan=0.0).max(axis=0) > 0.02 * self.scale)
         cand = np.flatnonzero(kink.ravel())
         if not len(cand):
             return walk
         n = self.nx * self.ny
         heads = np.radians([0.0, 45.0, 90.0, 135.0])
         fits = np.zeros(len(cand), bool)
-        for off in ([(0.0, 0.0)], [(a, b) for a in (-0.08, 0.0, 0.08) for b in (-0.08, 0.0, 0.08) if a or b]):
+        r = 0.08 * self.scale
+        for off in ([(0.0, 0.0)], [(a, b) for a in (-r, 0.0, r) for b in (-r, 0.0, r) if a or b]):
             todo = np.flatnonzero(~fits)
             if not len(todo):
                 break
@@ -1310,7 +1357,7 @@ class _Grid:
             cxy = self.xy[idx % (self.nx * self.ny)]
             zz = self.z.ravel()[idx]
             for level in (0.5, 1.3):
-                _, d = obstacles.nearest(np.c_[cxy, zz + level], max_dist=clearance)
+                _, d = obstacles.nearest(np.c_[cxy, zz + level * self.scale], max_dist=clearance)
                 blocked.ravel()[idx[d < clearance * 0.9]] = True
         return has_ground, blocked
 
@@ -1334,7 +1381,7 @@ class _Grid:
             near = np.zeros(walk.shape, bool)
             for lb in range(walk.shape[0]):
                 dz = np.abs(z[(slice(None),) + here] - z[lb][there][None])
-                near[(slice(None),) + here] |= (dz > CLIMB_STEP) & (dz <= step_height)
+                near[(slice(None),) + here] |= (dz > CLIMB_STEP * self.scale) & (dz <= step_height)
             count += near
         return walk & (count >= 2)
 
@@ -1359,7 +1406,7 @@ class _Grid:
                     length = np.full(m.sum(), np.hypot(di, dj) * self.cell)
                     if edge is not None and edge_cost != 1.0:
                         length *= np.where(edge[la][sa][m] | edge[lb][sb][m], edge_cost, 1.0)
-                        riser = (np.abs(self.z[la][sa][m] - self.z[lb][sb][m]) > CLIMB_STEP) \
+                        riser = (np.abs(self.z[la][sa][m] - self.z[lb][sb][m]) > CLIMB_STEP * self.scale) \
                             & flight[la][sa][m] & flight[lb][sb][m]
                         length *= np.where(riser, CLIMB_COST, 1.0)
                     out.append((self.ids[la][sa][m], self.ids[lb][sb][m], length))

@@ -204,10 +204,15 @@ def stage_row(footprints: int, search_seconds: float, syn: "Synthesis", **later)
 
 
 def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, foot: FootShape,
-                 clearance: float = 0.25, step_height: float = 0.3) -> SnapFn:
+                 clearance: float | None = None, step_height: float | None = None) -> SnapFn:
     """A snap for the smoothing and refinement stages: the footprint dropped onto the
     traversable surface under it (or pulled to the nearest surface point when there is
-    none under it), and whether a foot may stand there (supported, clear of obstacles)."""
+    none under it), and whether a foot may stand there (supported, clear of obstacles).
+    Lengths not given are a human's (0.25 and 0.3 m) times the foot's ``scale``; so are
+    this function's own (how far a footprint is pulled, a step's edge)."""
+    k = foot.scale
+    clearance = 0.25 * k if clearance is None else clearance
+    step_height = 0.3 * k if step_height is None else step_height
 
     def snap(pos: np.ndarray, heading: np.ndarray):
         pos = np.array(pos, float, copy=True)
@@ -215,7 +220,7 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
                                 step_height=step_height, clearance=clearance)
         off = ~sup.ok & (sup.reason == "off surface")
         if off.any():
-            near, _ = ground.nearest(pos[off], max_dist=0.5)
+            near, _ = ground.nearest(pos[off], max_dist=0.5 * k)
             pos[off] = np.where(np.isfinite(near), near, pos[off])
             again = footprint_support(ground, obstacles, pos[off], heading[off], forward, foot,
                                       step_height=step_height, clearance=clearance)
@@ -241,11 +246,11 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
             return np.zeros(0, bool)
 
         def under(p):
-            hit = ground.ray_down(p, 2 * step_height + 0.2)
+            hit = ground.ray_down(p, 2 * step_height + 0.2 * k)
             return np.where(hit.hit, hit.z, np.nan)
 
-        jump = steps_along(under, a, b, np.maximum(a[:, 2], b[:, 2]) + step_height)
-        return (np.nan_to_num(jump, nan=np.inf) > EDGE_STEP).any(axis=1)
+        jump = steps_along(under, a, b, np.maximum(a[:, 2], b[:, 2]) + step_height, k)
+        return (np.nan_to_num(jump, nan=np.inf) > EDGE_STEP * k).any(axis=1)
 
     snap.height = height
     snap.crosses_edge = crosses_edge
@@ -539,12 +544,14 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
             stand = _standing(library, tracks, cyc, settings, lead, hold)
             n_plan = len(path)
             given = len(path) > 2 and path[0].label == STAND_LABEL  # (a synthesis's own path: laid out already)
-            path = standing_path(path, library, cyc, fwd, start_other, goal_heading, tracks[stand.clip])
+            path = standing_path(path, library, cyc, fwd, start_other, goal_heading, tracks[stand.clip],
+                                 settings.body_scale)
             if pace is not None and np.ndim(pace):  # the standing steps at either end: their neighbours'
                 pace = np.r_[pace[0], np.asarray(pace, float)[:n_plan - 1], pace[-1]]
         steps = plan_steps(path, library, cyc)
         if stand is not None and shown is None:  # the library's start and stop clips, where they fit
-            path, steps, stand = end_clip_steps(path, steps, library, tracks, stand, fwd, layout=not given, snap=snap)
+            path, steps, stand = end_clip_steps(path, steps, library, tracks, stand, fwd, layout=not given, snap=snap,
+                                                level=settings.length(END_LEVEL))
         rate = _climb_pace(_step_pace(pace, len(steps)), path, settings.climb_time)
         bends = np.array([library.bend_of(f.label) for f in path[1:]])  # steps bent beyond the clips
         with timer("smoothing"):  # 3.3
@@ -593,11 +600,11 @@ def beside_position(fp, foot: int, forward, width: float, stand: ClipTrack | Non
 
 
 def standing_path(path, library: Library, cyc: list[str], forward, other=None, goal_heading=None,
-                  stand: ClipTrack | None = None) -> list:
+                  stand: ClipTrack | None = None, scale: float = 1.0) -> list:
     """The path with both standing feet at its ends: ``other`` (the standing foot the path
     does not hold; default beside its first footprint) before it, and after its last
     footprint the other foot beside it, where the standing clip ``stand`` puts it (a
-    straight walk's step); with ``goal_heading`` the last footprints turn to it, the
+    straight walk's step; without one STAND_WIDTH, a human's, times the body's ``scale``); with ``goal_heading`` the last footprints turn to it, the
     last two all the way, the GOAL_STEPS before them less and less. A path that already
     begins with a standing foot (STAND_LABEL) is returned as it is."""
     if len(path) > 2 and path[0].label == STAND_LABEL:  # already standing at both ends
@@ -606,7 +613,8 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
     straight = _straight(library, cyc)
     label = loco[0] if loco else straight
     if other is None or other.foot == first.foot:
-        other = replace(first, foot=1 - first.foot, position=beside_position(first, 1 - first.foot, forward, 2 * STAND_WIDTH))
+        other = replace(first, foot=1 - first.foot, position=beside_position(first, 1 - first.foot, forward,
+                                                                                   2 * STAND_WIDTH * scale))
     other = replace(other, label=STAND_LABEL, time=0.0)
     path = [other, replace(first, label=label, gait=_clip_gait(library, label))] + list(path[1:])
     if goal_heading is not None:
@@ -616,7 +624,8 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
         w[:2] = 0.0
         path = [replace(f, heading=f.heading + x * dh) if x > 0 else f for f, x in zip(path, w)]
     last = path[-1]
-    end = replace(last, foot=1 - last.foot, position=beside_position(last, 1 - last.foot, forward, 2 * STAND_WIDTH, stand),
+    end = replace(last, foot=1 - last.foot,
+                  position=beside_position(last, 1 - last.foot, forward, 2 * STAND_WIDTH * scale, stand),
                   label=straight, gait=_clip_gait(library, straight), jump=False)
     return path + [end]
 
@@ -688,12 +697,13 @@ def end_windows(track: ClipTrack) -> tuple[int, list[tuple[float, float]]] | Non
 
 
 def end_clip_steps(path, steps: list[PlanStep], library: Library, tracks: dict, stand: Standing, forward,
-                   layout: bool = True, snap: SnapFn | None = None) -> tuple[list, list[PlanStep], Standing]:
+                   layout: bool = True, snap: SnapFn | None = None, level: float = END_LEVEL
+                   ) -> tuple[list, list[PlanStep], Standing]:
     """The path, steps and standing of a standing path (``standing_path``) with the
     library's start clip on its first steps and its stop clip on its last
     (``end_windows``, ``Standing``). A start (stop) clip is played where its first (last)
     foot to move (to arrive) is the path's and the path goes its steps and the one it
-    ramps over on the level (END_LEVEL) in the clip's own gait (a walk's start or stop on
+    ramps over on the level (within ``level`` m: END_LEVEL, a human's) in the clip's own gait (a walk's start or stop on
     walking steps, a run's on running ones), without a special clip, a jump or a turn of
     more than END_TURN, and where ``snap`` lets the footprints laid out stand; a path too short
     for both keeps the start. Elsewhere the start (stop) is synthesized from the
@@ -709,7 +719,7 @@ def end_clip_steps(path, steps: list[PlanStep], library: Library, tracks: dict, 
         on = [i < len(path) and path[i].gait == gait and not path[i].jump for i in range(lo + 1, hi + 1)]
         ok = 0 <= lo and hi <= n and all(on) and all(path[i].label not in specials for i in range(lo + 1, hi + 1))
         z = [float(path[i].position[2]) for i in range(max(lo, 0), min(hi, n) + 1)]
-        return ok and float(np.ptp(heads[lo + 1:hi + 1])) <= END_TURN and float(np.ptp(z)) <= END_LEVEL
+        return ok and float(np.ptp(heads[lo + 1:hi + 1])) <= END_TURN and float(np.ptp(z)) <= level
 
     def laid(new_path, lo: int, hi: int) -> bool:  # the footprints moved there may stand where they are
         if snap is None:
@@ -1067,7 +1077,7 @@ def _final_pass(sch2: Schedule, tracks, first: Pass, forward, settings: Settings
     final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand, pinned)
     if goal is not None:
         miss = np.asarray(goal, float)[:2] - final.body_pos[-1, :2]
-        if np.linalg.norm(miss) > GOAL_TOLERANCE:
+        if np.linalg.norm(miss) > settings.length(GOAL_TOLERANCE):
             desired = ease_end(desired, heading, miss, snap)
             final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand)
     return final

@@ -71,7 +71,8 @@ def problems_of(planner: Planner, fps: list[PathFootprint]) -> list[str]:
     out = [f"it is {r}" if not ok else "" for ok, r in zip(sup.ok, sup.reason)]
     st = planner.steps
     for i, (fwd, left, turn) in enumerate(step_offsets(fps, planner.forward), 1):
-        if abs(fwd) <= SIDE_FWD and abs(left) <= SIDE_WIDTH and abs(turn) <= SIDE_TURN and not fps[i].jump:
+        side = planner.settings.length
+        if abs(fwd) <= side(SIDE_FWD) and abs(left) <= side(SIDE_WIDTH) and abs(turn) <= SIDE_TURN and not fps[i].jump:
             continue  # (the feet side by side)
         if fps[i].label == PIVOT:
             continue  # (a turn in place's pivot step: no clip's)
@@ -82,7 +83,7 @@ def problems_of(planner: Planner, fps: list[PathFootprint]) -> list[str]:
             continue
         gap = np.hypot(st.fwd[rows] - fwd, st.left[rows] - left)
         dturn = np.abs((st.turn[rows] - turn + np.pi) % (2 * np.pi) - np.pi)
-        if not ((gap <= REACH_SLACK) & (dturn <= TURN_SLACK)).any():
+        if not ((gap <= planner.settings.length(REACH_SLACK)) & (dturn <= TURN_SLACK)).any():
             out[i] = out[i] or (f"no step of the library reaches it from footprint {i - 1} "
                                 f"({np.hypot(fwd, left):.2f} m, turning {np.degrees(turn):.0f}°; the nearest "
                                 f"step is {gap.min():.2f} m off)")

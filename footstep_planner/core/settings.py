@@ -5,6 +5,13 @@ what it does (``setting(...)``): the panel builds its properties from that, the 
 line's ``--set NAME=VALUE`` and the job file convert and check through ``Settings.parse``
 and ``Settings.check``, and the tests build the same object. Units: metres, seconds,
 radians unless the unit says otherwise.
+
+Sizes are a human's. Every length (m) and speed (m/s) here, and every length a stage
+names beside its code, is for a human of the size the defaults were tuned on (legs of
+``REFERENCE_LEG``); a character of another size is planned with them scaled by its
+``body_scale`` (``Settings.for_body``: its leg length over REFERENCE_LEG, read from its
+rig), curvatures (1/m) the other way, so a 4.85 m giant or a 1 m child is planned as a
+human is on a scene scaled to it. ``Settings.length`` scales a stage's own constants.
 """
 
 from __future__ import annotations
@@ -20,13 +27,22 @@ class SettingsError(FootstepError):
 
 
 def setting(default, unit: str, lo: float | None = None, hi: float | None = None, doc: str = "",
-            lo_open: bool = False):
+            lo_open: bool = False, derived: bool = False):
     """A Settings field: its default, unit (``"m"``, ``"s"``, ``"1"`` for a plain number...),
     valid range ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``; None: unbounded) and what it
-    does."""
+    does; ``derived``: set by the planner, not a user's tunable (no panel property, no
+    ``--set``)."""
     return field(default=default, metadata={"unit": unit, "min": lo, "max": hi, "min_open": lo_open,
-                                            "doc": " ".join(doc.split())})
+                                            "doc": " ".join(doc.split()), "derived": derived})
 
+
+#: m: the leg length (thigh head to ankle, the longer leg) of the human the defaults are
+#: for: CMU subject 16 and the sample character (0.84 m; hips about 0.95 m high).
+REFERENCE_LEG = 0.84
+
+#: How each unit scales with the body: a length or a speed by ``body_scale`` (times
+#: unchanged), a curvature by its inverse, a cost per curvature (s m) by it.
+_SIZE_POWER = {"m": 1, "m/s": 1, "m/s^2": 1, "s m": 1, "1/m": -1, "1/m^2": -2}
 
 _TRUE = ("1", "true", "yes", "on")
 _FALSE = ("0", "false", "no", "off")
@@ -119,6 +135,11 @@ class Settings:
         ground dearer than the clip's own, so open ground keeps the clip's stride.""")
     max_expansions: int = setting(20000, "footprints", 1, 10_000_000, """The search gives up after
         expanding this many footprints (a bound on work, the same on every machine).""")
+    clearance: float = setting(0.25, "m", 0.0, 10.0, """The body keeps this far from obstacles
+        (at the ankle, knee, hips, chest and head of a standing footprint, and at the hips
+        along a step's way).""", lo_open=True)
+    max_step_height: float = setting(0.3, "m", 0.0, 10.0, """A step goes up or down at most this
+        much from one footprint to the next.""", lo_open=True)
 
     # --- smoothing (thesis 3.3) -----------------------------------------------------
     smoothing_iterations: int = setting(4, "passes", 0, 100, """Passes of the binomial kernel over
@@ -180,18 +201,25 @@ class Settings:
         pivot step of a turn in place turns a foot at most this far, and opens the feet at most
         this far apart.""")
 
+    # --- the character's size ------------------------------------------------------
+    body_scale: float = setting(1.0, "1", 0.01, 100.0, """The character's size over the human's the
+        other settings are for (its leg length over 0.84 m): set from the rig by the planner
+        (``Settings.for_body``), so every length and speed above is a human's, scaled by it.""",
+        lo_open=True, derived=True)
+
     def __post_init__(self):
         self.check()
 
     # ------------------------------------------------------------------ the table
     @classmethod
     def names(cls) -> list[str]:
-        return [f.name for f in fields(cls)]
+        """The user's tunables (not the derived ``body_scale``)."""
+        return [f.name for f in fields(cls) if not f.metadata.get("derived")]
 
     @classmethod
     def spec(cls, name: str) -> dict:
         """``{"type", "default", "unit", "min", "max", "min_open", "doc"}`` of a setting;
-        SettingsError for an unknown name."""
+        SettingsError for an unknown name (or a derived one, which no one sets)."""
         for f in fields(cls):
             if f.name == name:
                 return {"type": _TYPES[f.type], "default": f.default, **f.metadata}
@@ -219,6 +247,8 @@ class Settings:
     def parse(cls, name: str, text: str):
         """The string ``text`` (from ``--set NAME=VALUE``) as the setting's value."""
         spec = cls.spec(name.strip())
+        if spec["derived"]:
+            raise SettingsError(f"setting {name.strip()!r} is set by the planner from the character's rig")
         low = text.strip().lower()
         if spec["type"] is bool:
             if low not in _TRUE + _FALSE:
@@ -244,12 +274,38 @@ class Settings:
         return cls().replace(**changes)
 
     def check(self) -> None:
-        """SettingsError naming the first setting of the wrong type or out of its range."""
+        """SettingsError naming the first setting of the wrong type or out of its range (a
+        length's or speed's range is a human's: checked at ``body_scale`` 1)."""
+        self.coerce("body_scale", self.body_scale)
         for f in fields(self):
             v = getattr(self, f.name)
             if _TYPES[f.type] is float and isinstance(v, int) and not isinstance(v, bool):
                 object.__setattr__(self, f.name, float(v))
-            self.coerce(f.name, getattr(self, f.name))
+            power = _SIZE_POWER.get(f.metadata["unit"], 0) if f.name != "body_scale" else 0
+            value = getattr(self, f.name)
+            self.coerce(f.name, value / self.body_scale ** power if power else value)
+
+    def for_body(self, scale: float) -> "Settings":
+        """These settings for a character ``scale`` times the human's size (``body_scale``;
+        a rig's own: ``core.body.body_scale``): every length and speed scaled by ``scale``
+        over the present body scale, curvatures the other way (idempotent: the human's
+        values are kept underneath)."""
+        scale = float(scale)
+        ratio = scale / self.body_scale
+        if abs(ratio - 1.0) < 1e-12:
+            return self
+        data = asdict(self)
+        for f in fields(self):
+            power = _SIZE_POWER.get(f.metadata["unit"], 0)
+            if power and f.name != "body_scale":
+                data[f.name] = getattr(self, f.name) * ratio ** power
+        data["body_scale"] = scale
+        return Settings(**data)
+
+    def length(self, metres: float) -> float:
+        """``metres`` of a human (a stage's own constant) for this character: times
+        ``body_scale``."""
+        return metres * self.body_scale
 
     @property
     def straightens(self) -> bool:

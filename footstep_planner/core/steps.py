@@ -265,18 +265,18 @@ def bend_chain(position: np.ndarray, heading: np.ndarray, bends: np.ndarray | No
     return out_p, out_h
 
 
-def bend_curvatures(lo: float, hi: float, limit: float, reach: tuple[float, float] | None = None
-                    ) -> list[float]:
+def bend_curvatures(lo: float, hi: float, limit: float, reach: tuple[float, float] | None = None,
+                    spacing: float = BEND_SPACING) -> list[float]:
     """Curvatures (1/m) of the bent steps of a turning group whose clips turn from ``lo``
-    to ``hi``: from beyond each end of that range out to +-``limit``, at most
-    BEND_SPACING apart; none on a side that ``reach`` (the curvatures the whole library's
-    clips turn, default the group's own) already covers to ``limit``."""
+    to ``hi``: from beyond each end of that range out to +-``limit``, at most ``spacing``
+    (BEND_SPACING, a human's) apart; none on a side that ``reach`` (the curvatures the
+    whole library's clips turn, default the group's own) already covers to ``limit``."""
     rlo, rhi = reach or (lo, hi)
     out = []
     for end, far, covered in ((hi, limit, rhi), (lo, -limit, rlo)):
         span = far - end
         if (far - covered) * np.sign(far) >= 1e-3 and span * np.sign(far) >= 1e-3:  # labels: tau to 1e-3
-            n = int(np.ceil(abs(span) / BEND_SPACING - 1e-6))
+            n = int(np.ceil(abs(span) / spacing - 1e-6))
             out += [end + span * i / n for i in range(1, n + 1)]
     return out
 
@@ -285,7 +285,7 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
                   jump_tolerance: float = 0.1,
                   bend_curvature: float = Settings.bend_curvature,
                   stride: tuple[float, float] = (Settings.stride_min, Settings.stride_max),
-                  straighten: bool = Settings().straightens) -> StepSet:
+                  straighten: bool = Settings().straightens, scale: float = 1.0) -> StepSet:
     """Steps of every cyclic clip of the library's turning groups, of blends between
     neighbouring clips of a group, of its outermost clips bent beyond the group's range
     out to +-``bend_curvature`` on a side where no clip of the library turns that
@@ -298,7 +298,8 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     wide turns turns on a stair's landing). With ``straighten`` (a search that prices a
     way that is not straight, ``Settings.straightens``: without it nothing prefers them,
     and they only move paths), each group's straightest clip straightened too
-    (``_straight_rows``)."""
+    (``_straight_rows``). ``scale``: the body's (``Settings.body_scale``): bent steps'
+    curvatures are spaced BEND_SPACING over it."""
     by = {a.name: a for a in analyses}
     groups = _group_steps(library, by)
     taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]
@@ -309,7 +310,7 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
         if straighten:
             rows += _straight_rows(gait, group, per_clip, rows)
         if bend_curvature > 0:
-            rows += _bent_rows(gait, group, per_clip, bend_curvature, reach)
+            rows += _bent_rows(gait, group, per_clip, bend_curvature, reach, BEND_SPACING / scale)
     for sp in library.specials:
         rows += _jump_rows(sp, by.get(sp.clip), jump_tolerance)
     if not rows:
@@ -430,10 +431,11 @@ def straight_steps(m: dict) -> tuple[np.ndarray, np.ndarray]:
     return tuple(out)
 
 
-def _bent_rows(gait: str, group, per_clip: list[tuple], bend_curvature: float, reach) -> list[tuple]:
+def _bent_rows(gait: str, group, per_clip: list[tuple], bend_curvature: float, reach,
+               spacing: float = BEND_SPACING) -> list[tuple]:
     """Step rows of the group's outermost clips bent beyond its range (``bent_step``)."""
     rows = []
-    for k in bend_curvatures(per_clip[0][1], per_clip[-1][1], bend_curvature, reach):
+    for k in bend_curvatures(per_clip[0][1], per_clip[-1][1], bend_curvature, reach, spacing):
         _, _, m = per_clip[-1] if k > per_clip[-1][1] else per_clip[0]
         for foot in (0, 1):
             rows.append((foot, *bent_step(m, foot, k), gait, False, f"{group.name}@{k:+.3f}"))

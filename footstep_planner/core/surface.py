@@ -226,12 +226,15 @@ class FootShape:
     """A foot's rectangle on the ground, in the foot's frame: ``back`` and ``front`` (m)
     behind and ahead of the footprint's reference point along the heading, and
     ``half_width`` (m) to either side; ``tip`` (m ahead, when beyond ``front``) where a
-    long toe's tip reaches (0: at ``front``)."""
+    long toe's tip reaches (0: at ``front``). ``scale``: the body's size over a human's
+    (``Settings.body_scale``): the lengths this module names (``TIP_ROOM``, the body's
+    heights over a footprint, the ground's unevenness under it) are a human's times it."""
 
     back: float = 0.1
     front: float = 0.16
     half_width: float = 0.05
     tip: float = 0.0
+    scale: float = 1.0
 
     def probes(self, pos: np.ndarray, heading: np.ndarray, forward: np.ndarray) -> np.ndarray:
         """(N, 8, 2) the ground points ``footprint_support`` looks under: the four
@@ -239,7 +242,8 @@ class FootShape:
         the reference point, and TIP_ROOM ahead of the toe tip (ahead of the reference,
         at ``tip`` or ``front``)."""
         return self._placed(np.r_[self._corners_local(), [[0.0, -self.half_width], [0.0, self.half_width],
-                                                          [max(self.tip, self.front) + TIP_ROOM, 0.0]]],
+                                                          [max(self.tip, self.front) + TIP_ROOM * self.scale,
+                                                           0.0]]],
                             pos, heading, forward)
 
     def corners(self, pos: np.ndarray, heading: np.ndarray, forward: np.ndarray) -> np.ndarray:
@@ -270,13 +274,15 @@ EDGE_STEP = 0.04
 EDGE_SPACING = 0.03
 
 
-def steps_along(height, a: np.ndarray, b: np.ndarray, z: np.ndarray) -> np.ndarray:
+def steps_along(height, a: np.ndarray, b: np.ndarray, z: np.ndarray, scale: float = 1.0) -> np.ndarray:
     """(N, K) m how much the ground steps between consecutive samples at most
-    EDGE_SPACING apart along each way from ``a`` to ``b`` (N, 3): ``height(points (M, 3))
-    -> (M,)`` the surface's height under each point (nan where none), the points at the
-    heights ``z`` (N,) it looks from; nan where a sample has no ground."""
+    EDGE_SPACING (times the body's ``scale``) apart along each way from ``a`` to ``b`` (N,
+    3): ``height(points (M, 3)) -> (M,)`` the surface's height under each point (nan where
+    none), the points at the heights ``z`` (N,) it looks from; nan where a sample has no
+    ground."""
     a, b = np.asarray(a, float), np.asarray(b, float)
-    k = max(int(np.ceil(np.max(np.linalg.norm(b[:, :2] - a[:, :2], axis=1), initial=0.0) / EDGE_SPACING)), 1)
+    spacing = EDGE_SPACING * scale
+    k = max(int(np.ceil(np.max(np.linalg.norm(b[:, :2] - a[:, :2], axis=1), initial=0.0) / spacing)), 1)
     u = np.linspace(0.0, 1.0, k + 1)
     pts = a[:, None] + u[None, :, None] * (b - a)[:, None]
     pts[..., 2] = np.asarray(z, float)[:, None]
@@ -299,9 +305,9 @@ class Support:
 
 def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
                       heading: np.ndarray, forward: np.ndarray, foot: FootShape,
-                      step_height: float = 0.3, unevenness: float = 0.05,
-                      max_slope: float = np.radians(30), clearance: float = 0.25,
-                      body_height: float = 1.6) -> Support:
+                      step_height: float | None = None, unevenness: float | None = None,
+                      max_slope: float = np.radians(30), clearance: float | None = None,
+                      body_height: float | None = None) -> Support:
     """Whether each footprint (positions (N, 3), headings (N,)) stands on the traversable
     surface and clear of obstacles.
 
@@ -313,8 +319,14 @@ def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
     nothing. The toe tip (``FootShape.tip``) is never inside higher ground (a riser);
     it may hang over lower ground (a nosing, going down). The body above the footprint
     must keep ``clearance`` from every obstacle at the ankle, knee, hip, chest and head
-    (up to ``body_height``).
+    (up to ``body_height``). Lengths not given are a human's (0.3, 0.05, 0.25 and 1.6 m)
+    times the foot's ``scale``.
     """
+    k = foot.scale
+    step_height = 0.3 * k if step_height is None else step_height
+    unevenness = 0.05 * k if unevenness is None else unevenness
+    clearance = 0.25 * k if clearance is None else clearance
+    body_height = 1.6 * k if body_height is None else body_height
     pos = np.atleast_2d(np.asarray(pos, dtype=np.float64))
     pts = foot.probes(pos, np.broadcast_to(heading, (len(pos),)), forward)  # (N, 8, 2)
     got, z, nor = _drop_onto(ground, pos, pts, step_height)
@@ -339,7 +351,7 @@ def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
     ok = all_hit & ~uneven & ~steep
     if obstacles is not None and obstacles.mesh.n and ok.any():
         idx = np.flatnonzero(ok)
-        blocked = _blocked(obstacles, pos[idx], pts[idx, :5], zc[idx], clearance, body_height)
+        blocked = _blocked(obstacles, pos[idx], pts[idx, :5], zc[idx], clearance, body_height, k)
         ok[idx[blocked]] = False
         reason[idx[blocked]] = "obstacle"
     return Support(ok, zc, plane_n, reason)
@@ -399,24 +411,25 @@ def _reasons(all_hit: np.ndarray, uneven: np.ndarray, steep: np.ndarray) -> np.n
 
 
 def _blocked(obstacles: Ground, pos: np.ndarray, pts: np.ndarray, zc: np.ndarray,
-             clearance: float, body_height: float) -> np.ndarray:
+             clearance: float, body_height: float, scale: float = 1.0) -> np.ndarray:
     """(M,) bool: the body standing on each of M footprints (positions ``pos`` (M, 3),
     ground points ``pts`` (M, 5, 2), surface heights ``zc`` (M,) m) meets an obstacle:
     within ``clearance`` of one at the ankle, knee, hip, chest or head (0.1, 0.5, 0.9,
-    1.3 m and ``body_height`` above ``zc``), under or inside one (an obstacle surface
-    between the foot and the head), or the foot's ground points, 0.02 m up, within
-    0.02 m of one."""
+    1.3 m, a human's times the body's ``scale``, and ``body_height`` above ``zc``), under
+    or inside one (an obstacle surface between the foot and the head), or the foot's
+    ground points, 0.02 m up (times ``scale``), within that of one."""
     m = len(pos)
-    levels = np.array([0.1, 0.5, 0.9, 1.3, body_height])
+    levels = np.r_[np.array([0.1, 0.5, 0.9, 1.3]) * scale, body_height]
     probe = np.repeat(np.c_[pos[:, :2], zc], len(levels), axis=0)
     probe[:, 2] += np.tile(levels, m)
     _, d = obstacles.nearest(probe, max_dist=clearance)
     blocked = (d < clearance).reshape(m, len(levels)).any(axis=1)
     # inside or under an obstacle (a thick wall's inside is far from all its faces)
     head = np.c_[pos[:, :2], zc + body_height]
-    blocked |= obstacles.ray_down(head, body_height - 0.05).hit
+    blocked |= obstacles.ray_down(head, body_height - 0.05 * scale).hit
     # the foot itself must not stand in an obstacle either
-    foot_pts = np.concatenate([pts, zc[:, None, None] + np.zeros((m, 5, 1)) + 0.02], axis=2)
-    _, df = obstacles.nearest(foot_pts.reshape(-1, 3), max_dist=0.02)
-    blocked |= (df < 0.02).reshape(m, 5).any(axis=1)
+    near = 0.02 * scale
+    foot_pts = np.concatenate([pts, zc[:, None, None] + np.zeros((m, 5, 1)) + near], axis=2)
+    _, df = obstacles.nearest(foot_pts.reshape(-1, 3), max_dist=near)
+    blocked |= (df < near).reshape(m, 5).any(axis=1)
     return blocked

@@ -160,15 +160,16 @@ def _beside(other: np.ndarray, other_heading: float, heading: float, f: int, for
     want = centre - _offset(body, heading, forward) + 0.5 * width * own
     if last:  # (the last step halves what the other foot is off: the pair ends nearer over the centre)
         want = 0.5 * (want + 2.0 * (centre - _offset(body, 0.5 * (heading + other_heading), forward)) - other)
-    d = np.arange(0.5 * width, width + SLACK + 1e-9, PLACE_STEP)
-    a = np.arange(-SLACK, SLACK + 1e-9, PLACE_STEP)
+    k = foot.scale  # (GAP, SLACK and PLACE_STEP are a human's)
+    d = np.arange(0.5 * width, width + SLACK * k + 1e-9, PLACE_STEP * k)
+    a = np.arange(-SLACK * k, SLACK * k + 1e-9, PLACE_STEP * k)
     dd, aa = np.meshgrid(d, a, indexing="ij")
     cand = other[None, :2] + dd.reshape(-1, 1) * side[:2] + aa.reshape(-1, 1) * ahead[:2]
     ok = _clear(_corners(cand, np.full(len(cand), heading), forward, foot),
-                _corners(other[None], np.array([other_heading]), forward, foot)[0]) >= GAP
+                _corners(other[None], np.array([other_heading]), forward, foot)[0]) >= GAP * k
     cost = np.linalg.norm(cand - want[:2], axis=1) + np.where(ok, 0.0, np.inf)
     if not np.isfinite(cost).any():  # (a foot too big for the slack: straight out beside it)
-        far = other[:2] + (width + SLACK) * side[:2] + 2 * max(foot.back, foot.front) * side[:2]
+        far = other[:2] + (width + SLACK * k) * side[:2] + 2 * max(foot.back, foot.front) * side[:2]
         cand, cost = far[None], np.zeros(1)
     p = other.copy()
     p[:2] = cand[int(np.argmin(cost))]
@@ -366,7 +367,7 @@ def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float
     if goal_heading is None:
         res, refused = _try(planner, start, goal, None)
         head = []
-        if res is None or _loops(res.footprints, _mean_heading(start[0], start[-1]), angle):
+        if res is None or _loops(res.footprints, _mean_heading(start[0], start[-1]), angle, cfg.length(LOOP_REACH)):
             head = start_turn(planner, start, goal, body)
             if head:
                 res, refused = _try(planner, [head[-1]], goal, None)
@@ -379,7 +380,8 @@ def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float
         looping = way is not None and abs(float(_wrap(goal_heading - way))) > angle
         if not looping:
             res, refused = _try(planner, origin, goal, goal_heading)
-        if looping or res is None or _loops(res.footprints[::-1], goal_heading, max(angle, LOOPED)):
+        if looping or res is None or _loops(res.footprints[::-1], goal_heading, max(angle, LOOPED),
+                                            cfg.length(LOOP_REACH)):
             free, err = _try(planner, origin, goal, None)
             if free is not None and abs(float(_wrap(goal_heading - free.footprints[-1].heading))) > angle:
                 tail = end_turn(planner, free.footprints[-1], goal_heading, body)
@@ -417,10 +419,11 @@ SPOT_TRIES = tuple((share, deeper) for share in (1.0, 0.75, 0.5) for deeper in (
 HAIRPIN_LEFT = np.radians(45.0)
 
 
-def hairpin(fps: list[PathFootprint]) -> tuple[int, int] | None:
+def hairpin(fps: list[PathFootprint], scale: float = 1.0) -> tuple[int, int] | None:
     """(i, j): the first stretch of the walk ``fps`` (footprints in walking order) whose
-    way turns further than HAIRPIN_TURN on a turn of under HAIRPIN_RADIUS: its first
-    footprint and its last; None where it never turns back so sharply."""
+    way turns further than HAIRPIN_TURN on a turn of under HAIRPIN_RADIUS (a human's,
+    times the body's ``scale``): its first footprint and its last; None where it never
+    turns back so sharply."""
     if len(fps) < 4:
         return None
     pos = np.array([f.position for f in fps], float)[:, :2]
@@ -430,7 +433,8 @@ def hairpin(fps: list[PathFootprint]) -> tuple[int, int] | None:
     along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(mid, axis=0), axis=1))]
     turned = np.abs(way[None, :] - way[:, None])  # (from each pair of footprints to each later one)
     run = along[None, :] - along[:, None]
-    sharp = (run >= 0.0) & (run <= np.pi * HAIRPIN_RADIUS) & (turned > HAIRPIN_TURN) & (run <= HAIRPIN_RADIUS * turned)
+    radius = HAIRPIN_RADIUS * scale
+    sharp = (run >= 0.0) & (run <= np.pi * radius) & (turned > HAIRPIN_TURN) & (run <= radius * turned)
     rows = np.flatnonzero(sharp.any(axis=1))
     if not len(rows):
         return None
@@ -451,7 +455,7 @@ def hairpin_turn(planner: Planner, origin: list[PathFootprint], res: PlanResult,
     where no spot gives both walks and the turn, or the walk arrives with less than
     HAIRPIN_LEFT left to turn."""
     _, walk, _ = split(list(res.footprints))
-    found = hairpin(walk)
+    found = hairpin(walk, planner.settings.body_scale)
     if found is None:
         return res
     i, j = found
@@ -469,7 +473,7 @@ def hairpin_turn(planner: Planner, origin: list[PathFootprint], res: PlanResult,
     across = float(np.clip((out - far) @ side, sides.min(), sides.max()))
     field = planner.distance_field(np.asarray(goal, float))
     for share, deeper in SPOT_TRIES:  # (where the turn's feet can't stand: nearer the way in, further in)
-        spot = far + share * across * side + deeper * ahead
+        spot = far + share * across * side + planner.settings.length(deeper) * ahead
         got = _turned_at(planner, origin, spot, field, goal, goal_heading, body, turns_left, walk_on)
         if got is not None:
             break
@@ -487,7 +491,7 @@ def _turned_at(planner: Planner, origin, spot, field, goal, goal_heading, body, 
     """(walk to ``spot``, the turn there, the walk on) of ``hairpin_turn``; None where one
     of them can't be had, or the walk arrives with less than HAIRPIN_LEFT left to turn."""
     cfg = planner.settings
-    first, _ = _try(replace(planner, settings=cfg.replace(goal_radius=min(cfg.goal_radius, SPOT_RADIUS))),
+    first, _ = _try(replace(planner, settings=cfg.replace(goal_radius=min(cfg.goal_radius, cfg.length(SPOT_RADIUS)))),
                     origin, spot, None)
     if first is None:
         return None
@@ -525,7 +529,7 @@ def arrival_way(planner: Planner, field, start: list[PathFootprint], goal) -> fl
         return None
     for _ in range(int(d0[0] / step) * 2 + 20):
         d, ahead = field.at_and_ahead(p[None])
-        if np.hypot(*(goal[:2] - p)) <= ARRIVAL_REACH or not np.isfinite(ahead[0]):
+        if np.hypot(*(goal[:2] - p)) <= planner.settings.length(ARRIVAL_REACH) or not np.isfinite(ahead[0]):
             break
         p = p + step * np.array([np.cos(ahead[0]), np.sin(ahead[0])])
     v = goal[:2] - p
@@ -541,12 +545,12 @@ def _try(planner: Planner, start, goal, heading) -> tuple[PlanResult | None, Pla
         return None, ex
 
 
-def _loops(fps: list[PathFootprint], facing: float, angle: float) -> bool:
+def _loops(fps: list[PathFootprint], facing: float, angle: float, reach: float = LOOP_REACH) -> bool:
     """Whether the footprints (from the end they are walked from) turn more than ``angle``
-    from ``facing`` within LOOP_REACH of path."""
+    from ``facing`` within ``reach`` m (LOOP_REACH, a human's) of path."""
     pos = np.array([f.position for f in fps], float)[:, :2]
     along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))]
-    near = along <= LOOP_REACH
+    near = along <= reach
     off = np.abs(_wrap(np.array([f.heading for f in fps], float)[near] - facing))
     return bool((off > angle).any())
 

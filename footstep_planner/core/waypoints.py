@@ -85,7 +85,7 @@ def beside(planner: Planner, fp: PathFootprint) -> PathFootprint:
     on the ground under it."""
     from .pipeline import STAND_WIDTH, beside_position
 
-    p = beside_position(fp, 1 - fp.foot, planner.forward, 2 * STAND_WIDTH)
+    p = beside_position(fp, 1 - fp.foot, planner.forward, 2 * planner.settings.length(STAND_WIDTH))
     hit = planner.ground.ray_down(np.array([[p[0], p[1], p[2] + 0.5]]), 3.0)
     if hit.hit[0]:
         p[2] = hit.z[0]
