@@ -86,6 +86,20 @@ class ClipMotion:
         )
 
 
+#: m: a body whose hips stand up to this high over the ground is human-sized or smaller
+#: (``body_scale`` 1); the mannequin's and CMU's stand at 0.9 to 1 m.
+HUMAN_HIPS = 1.1
+
+
+def body_scale(m: ClipMotion) -> float:
+    """How many times a human's size the clip's body is, for a body larger than a human's:
+    its hips' median height over the ground over ``HUMAN_HIPS``, at least 1 (a character
+    imported at its file's own unit scale, 4.85 m tall, is read as a human in its units).
+    Never below 1: a smaller body is read with a human's figures, as before."""
+    h = float(np.median(m.hips_in_root[:, 2, 3])) if m.n else 0.0
+    return max(1.0, h / HUMAN_HIPS)
+
+
 def _turn_shift(p: np.ndarray, yaw: np.ndarray, shift: np.ndarray) -> np.ndarray:
     """Points (..., N, 3) turned by ``yaw`` (N,) about Z, then moved by ``shift`` (N, 2)."""
     c, s = np.cos(yaw), np.sin(yaw)
