@@ -201,7 +201,8 @@ def test_an_idle_loop_stays_idle():
     _, m, a0 = generated("idle", 30)
     a = analyze_clip(m)
     assert a.kind == a0.kind == "idle" and a.gait == "stand"
-    still = replace(m, local_rot=np.repeat(m.local_rot[:1], m.n, 0), hips_in_root=np.repeat(m.hips_in_root[:1], m.n, 0),
+    still = replace(m, local_rot=np.repeat(m.local_rot[:1], m.n, 0),
+                    hips_in_root=np.repeat(m.hips_in_root[:1], m.n, 0),
                     heel=np.repeat(m.heel[:, :1], m.n, 1), toe=np.repeat(m.toe[:, :1], m.n, 1))
     assert loops.find_loop(still) is not None
     assert analyze_clip(still).kind == "idle"

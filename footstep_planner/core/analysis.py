@@ -352,7 +352,8 @@ MIN_LOOP_FRAMES = 8
 def _analyze_loop(motion: ClipMotion, loop: loops.Loop, s: Settings) -> ClipAnalysis:
     """The analysis of loop ``motion``: as it is when that holds a gait cycle of each foot
     (a loop of several cycles, ``_steps_twice``) or the loop rests at its seam (at rest at both ends: nothing moves
-    across it, an idle, a jump from standing to standing), else read on ``LOOP_COPIES`` periods tiled (``loops.tile``): a stance
+    across it, an idle, a jump from standing to standing), else read on ``LOOP_COPIES``
+    periods tiled (``loops.tile``): a stance
     that crosses the seam is one stance, each foot's step is read across it, an in-place
     loop's root motion comes from its feet planted across it. The figures are the tiled
     clip's, its times the tiled clip's (``ClipAnalysis.loop``); its name, rate, frames and
