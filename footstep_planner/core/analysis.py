@@ -19,13 +19,13 @@ The foot bears weight ("contact") from strike to liftoff.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from . import inplace
+from . import inplace, loops
 from .clip import FOOT_NAMES, ClipMotion
 from .settings import Settings
 from .errors import FootstepError
@@ -33,6 +33,14 @@ from .errors import FootstepError
 
 class AnalysisError(FootstepError):
     """A clip that cannot be analysed; the message names the clip."""
+
+
+class ShortClipError(AnalysisError):
+    """A locomotion clip too short for a gait cycle; ``stances`` are those it has."""
+
+    def __init__(self, message: str, stances: list):
+        super().__init__(message)
+        self.stances = stances
 
 
 @dataclass
@@ -91,10 +99,13 @@ class ClipAnalysis:
     stances: list[Stance]
     flights: list[tuple[float, float]]
     jump_flights: list[tuple[float, float]]
-    balance: np.ndarray = field(repr=False)  # (2, N) toe weight per clip sample
-    contact: np.ndarray = field(repr=False)  # (2, N) bool per clip sample
+    balance: np.ndarray = field(repr=False)  # (2, N) toe weight per sample of ``motion``
+    contact: np.ndarray = field(repr=False)  # (2, N) bool per sample of ``motion``
     motion: ClipMotion = field(repr=False, default=None)
     in_place: bool = False  # an in-place clip: ``motion`` holds its reconstructed root motion
+    # a loop read round its seam (``analyze_clip``): the loop; ``motion`` then holds it
+    # tiled (``loops.tile``), and every time here is a time of the tiled clip
+    loop: loops.Loop | None = None
 
     @property
     def gait_text(self) -> str:
@@ -108,16 +119,24 @@ class ClipAnalysis:
         return [(st.strike, st.liftoff) for st in self.stances if st.foot == foot]
 
     def to_dict(self) -> dict:
+        """The report: events as scene frames of the clip. A loop read round its seam
+        (``loop``) is reported in its own terms: its stances of one period, their frames
+        folded into its own range (a contact that crosses the seam starts on a later frame
+        than it ends), an interval's end its start plus its length."""
         m = self.motion
-        fr = lambda t: _r(float(m.frame_of(t)), 2)  # noqa: E731
+        own = (lambda t: t) if self.loop is None else (lambda t: loops.fold(t, self.loop))  # noqa: E731
+        fr = lambda t: _r(float(m.frame_of(own(t))), 2)  # noqa: E731
+        span = lambda a, b: [fr(a), fr(b) if self.loop is None else  # noqa: E731
+                             _r(float(m.frame_of(own(a) + (b - a))), 2)]
+        stances = self.reported_stances()
         feet = {}
         for k, foot in enumerate(FOOT_NAMES):
             feet[foot] = {
-                "contacts": [[fr(st.strike), fr(st.liftoff)] for st in self.stances if st.foot == k],
+                "contacts": [[fr(st.strike), fr(st.liftoff)] for st in stances if st.foot == k],
                 "events": [{"strike": fr(st.strike), "land": fr(st.land), "stance": fr(st.stance),
                             "lift": fr(st.lift), "liftoff": fr(st.liftoff)}
-                           for st in self.stances if st.foot == k],
-                "stance_time": _r(float(np.mean([st.liftoff - st.strike for st in self.stances
+                           for st in stances if st.foot == k],
+                "stance_time": _r(float(np.mean([st.liftoff - st.strike for st in stances
                                                  if st.foot == k and not (st.open_start or st.open_end)]
                                                 or [np.nan]))),
             }
@@ -128,14 +147,34 @@ class ClipAnalysis:
             "stop": self.ends_at_rest, "entry_gait": self.entry_gait, "exit_gait": self.exit_gait,
             "speed": _r(self.speed), "stride": _r(self.stride), "cycle": _r(self.cycle),
             "cadence": _r(self.cadence, 1), "tau": _r(self.tau),
-            "best_cycle": None if self.best_cycle is None else [fr(t) for t in self.best_cycle],
+            "best_cycle": None if self.best_cycle is None else span(*self.best_cycle),
             "loop_error_deg": None if self.loop_error is None else _r(np.degrees(self.loop_error), 2),
             "is_loop": self.is_loop,
-            "flights": [[fr(a), fr(b), _r(b - a)] for a, b in self.flights],
-            "jumps": [[fr(a), fr(b), _r(b - a)] for a, b in self.jump_flights],
+            "loop": None if self.loop is None else self.loop.to_dict(self.fps),
+            "flights": [span(a, b) + [_r(b - a)] for a, b in self.reported(self.flights)],
+            "jumps": [span(a, b) + [_r(b - a)] for a, b in self.reported(self.jump_flights)],
             "feet": feet,
-            "footprints": [f.to_dict(m) for f in self.footprints()],
+            "footprints": [st.footprint.to_dict(m) | {"frame": fr(st.footprint.time)}
+                           for st in sorted(stances, key=lambda st: st.stance)],
         }
+
+    def reported_stances(self) -> list[Stance]:
+        """The stances a report lists: all of them; a loop read round its seam, those of
+        one period (``loops.Loop``): its jump's, or those whose stance falls in the
+        period the clip's own samples play in the tiled clip (its second)."""
+        if self.loop is None or self.kind == "jump":
+            return list(self.stances)
+        lo, hi = self.loop.period, 2.0 * self.loop.period
+        return [st for st in self.stances if lo - 1e-9 <= st.stance < hi - 1e-9]
+
+    def reported(self, intervals) -> list[tuple[float, float]]:
+        """``intervals`` (start, end) s as a report lists them: all; a loop's, those that
+        start in the period its own samples play in (its second); a jump loop's, all (it
+        keeps those of one period about its jump)."""
+        if self.loop is None or self.kind == "jump":
+            return list(intervals)
+        lo, hi = self.loop.period, 2.0 * self.loop.period
+        return [(a, b) for a, b in intervals if lo - 1e-9 <= a < hi - 1e-9]
 
 
 def _r(v, nd=4):
@@ -263,16 +302,108 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
     An in-place clip (its hips stay over one spot while its feet step, ``core.inplace``)
     is analysed on its root motion reconstructed from its planted feet; its analysis says
     ``in_place`` and its ``motion`` is the reconstructed clip. AnalysisError when its feet
-    are never planted."""
-    s = settings or Settings()
+    are never planted.
+
+    A loop (its last pose matches its first, ``core.loops``) whose own reading holds no
+    gait cycle and that moves across its seam (one gait cycle long, each foot stepping
+    once; a running jump) is read round its seam (``_analyze_loop``).
+
+    A body of another size than a human's is read with the settings' lengths and speeds
+    scaled to its size (``Settings.for_body``, the clip's ``body_scale``)."""
+    s = (settings or Settings()).for_body(motion.body_scale)
     _check_analysable(motion)
+    loop = loops.find_loop(motion)
+    if loop is None:
+        return _read(motion, s)
+    return _analyze_loop(motion, loop, s)
+
+
+def _read(motion: ClipMotion, s: Settings, loop: loops.Loop | None = None) -> ClipAnalysis:
+    """The analysis of a clip as it is, in place or travelling (``loop``: the loop a
+    tiled clip was made of, ``_analyze``)."""
     d = _resample(motion, s)
     if inplace.check_in_place(motion, s, d.motion).in_place:
-        return _analyze_in_place(motion, d.motion, s)
-    return _analyze(motion, s, d)
+        return _analyze_in_place(motion, d.motion, s, loop)
+    return _analyze(motion, s, d, loop)
 
 
-def _analyze_in_place(motion: ClipMotion, dense: ClipMotion, s: Settings) -> ClipAnalysis:
+#: A loop is read on this many of its periods end to end, its own samples the second's.
+LOOP_COPIES = 3
+#: A loop of fewer frames a period holds no gait cycle (nor is one tiled).
+MIN_LOOP_FRAMES = 8
+
+
+def _analyze_loop(motion: ClipMotion, loop: loops.Loop, s: Settings) -> ClipAnalysis:
+    """The analysis of loop ``motion``: as it is when that holds a gait cycle of each foot
+    (a loop of several cycles, ``_steps_twice``) or the loop rests at its seam (at rest at both ends: nothing moves
+    across it, an idle, a jump from standing to standing), else read on ``LOOP_COPIES``
+    periods tiled (``loops.tile``): a stance
+    that crosses the seam is one stance, each foot's step is read across it, an in-place
+    loop's root motion comes from its feet planted across it. The figures are the tiled
+    clip's, its times the tiled clip's (``ClipAnalysis.loop``); its name, rate, frames and
+    duration the loop's own. AnalysisError (one line naming the clip and what it lacks)
+    for a loop too short for a gait cycle."""
+    try:
+        plain = _read(motion, s)
+    except AnalysisError as ex:
+        plain, failure = None, ex
+    if plain is not None and (_steps_twice(plain) or loop.frames < MIN_LOOP_FRAMES
+                              or (plain.starts_at_rest and plain.ends_at_rest)):
+        return plain
+    if loop.frames < MIN_LOOP_FRAMES:
+        raise AnalysisError(
+            f"loop {motion.name!r} repeats every {loop.frames} frames ({loop.period:.2f} s): too few for "
+            f"a gait cycle (at least {MIN_LOOP_FRAMES}); {failure}")
+    tiled = loops.tile(motion, loop, LOOP_COPIES)
+    try:
+        a = _read(tiled, s, loop)
+    except ShortClipError as ex:
+        raise AnalysisError(_short_loop(motion, loop, ex.stances)) from None
+    return _as_loop(a, motion, loop)
+
+
+def _steps_twice(a: ClipAnalysis) -> bool:
+    """Each foot of analysis ``a`` strikes (or lifts off) twice inside the clip (not at its
+    ends), with a gait cycle between: the clip holds a gait cycle of each foot."""
+    if a.best_cycle is None:
+        return False
+    for k in range(2):
+        mine = [st for st in a.stances if st.foot == k]
+        if sum(not st.open_start for st in mine) < 2 and sum(not st.open_end for st in mine) < 2:
+            return False
+    return True
+
+
+def _short_loop(motion: ClipMotion, loop: loops.Loop, stances: list[Stance]) -> str:
+    """The one-line message for a loop too short for a gait cycle: which foot does not
+    step (its stances in the tiled clip: none, never planted; one, never lifting)."""
+    count = [sum(st.foot == k for st in stances) for k in range(2)]
+    side = ("left", "right")
+    lacking = [f"its {side[k]} foot is never planted" if c == 0 else f"its {side[k]} foot never lifts"
+               for k, c in enumerate(count) if c < 2]
+    what = ("only its " + side[count.index(max(count))] + " foot steps (" + lacking[0] + ")"
+            if len(lacking) == 1 else "neither foot steps (" + " and ".join(lacking) + ")" if lacking
+            else "its feet do not step one after the other without a pause or a jump")
+    return (f"loop {motion.name!r} ({motion.n} frames, repeating every {loop.frames} at "
+            f"{motion.fps:g} fps) is too short for a gait cycle: {what}")
+
+
+def _as_loop(a: ClipAnalysis, motion: ClipMotion, loop: loops.Loop) -> ClipAnalysis:
+    """The analysis ``a`` of loop ``motion`` tiled, as the loop's: its name, rate, frames
+    and duration, ``is_loop`` and ``loop``; a jump keeps the stances and flights of one
+    period about its jump (one jump, as the clip is)."""
+    a.name, a.fps, a.frames, a.duration = motion.name, motion.fps, motion.n, motion.duration
+    a.is_loop, a.loop = True, loop
+    if a.kind == "jump" and a.jump_flights:
+        lo = a.jump_flights[0][0] - 0.5 * loop.period
+        hi = a.jump_flights[-1][1] + 0.5 * loop.period
+        a.stances = [st for st in a.stances if lo <= st.stance <= hi]
+        a.flights = [f for f in a.flights if lo <= f[0] and f[1] <= hi]
+    return a
+
+
+def _analyze_in_place(motion: ClipMotion, dense: ClipMotion, s: Settings,
+                      loop: loops.Loop | None = None) -> ClipAnalysis:
     """The analysis of an in-place clip (``dense``: at the analysis rate): its root motion
     reconstructed from the feet ``inplace.slide_weights`` finds planted, then again from
     the stances Johansen's rules find on that, and analysed as a travelling clip."""
@@ -282,25 +413,31 @@ def _analyze_in_place(motion: ClipMotion, dense: ClipMotion, s: Settings) -> Cli
             f"clip {motion.name!r} is in place (its hips stay while its feet step) but its feet "
             f"are never planted: no heel or toe stays low while moving steadily backwards under "
             f"the body for {inplace.MIN_PLANT:.2f} s, so its root motion cannot be reconstructed")
-    first = _analyze(moved, s)
+    first = _analyze(moved, s, loop=loop)
     moved = inplace.reconstruct(motion, *inplace.stance_weights(dense.times, first.stances), dense, s)
-    out = first if moved is None else _analyze(moved, s)
+    out = first if moved is None else _analyze(moved, s, loop=loop)
     out.in_place = True
     return out
 
 
-def _analyze(motion: ClipMotion, s: Settings, d: _Dense | None = None) -> ClipAnalysis:
+def _analyze(motion: ClipMotion, s: Settings, d: _Dense | None = None,
+             loop: loops.Loop | None = None) -> ClipAnalysis:
     """analyze_clip of a clip whose root travels (or stands): Johansen's analysis (``d``:
-    the clip resampled by ``_resample``, if at hand)."""
+    the clip resampled by ``_resample``, if at hand). ``loop``: the clip is that loop
+    tiled ``LOOP_COPIES`` times; its jumps are counted per period, and the kind, gaits
+    and jumps are those of its second period."""
     d = _resample(motion, s) if d is None else d
     feet = [_foot_stances(d.motion, k, d.body_speed_s, s) for k in range(2)]
     stances = _all_stances(feet, motion.name)
     contact = _contact_mask(d, feet)
     flights, jumps = _flights_and_jumps(stances, d, s)
+    if loop is not None:
+        jumps = _loop_jumps(flights, loop.period, s)
+    mine = jumps if loop is None else [j for j in jumps if loop.period <= j[0] < 2 * loop.period]
     starts_at_rest, ends_at_rest, moving = _rest_at_ends(d, contact, s)
     loco = moving & ~_jump_mask(d, jumps)
-    kind = _kind(d, jumps, starts_at_rest, ends_at_rest)
-    gait, entry_gait, exit_gait = _gaits(d, loco, stances, flights, jumps,
+    kind = _kind(d, mine, starts_at_rest, ends_at_rest)
+    gait, entry_gait, exit_gait = _gaits(d, loco, stances, flights, jumps, mine,
                                          starts_at_rest, ends_at_rest, s)
     windows = _cycle_windows(stances, loco, d.dt)
     cyc = _cycle_figures(motion, d, stances, windows, loco, kind)
@@ -311,7 +448,7 @@ def _analyze(motion: ClipMotion, s: Settings, d: _Dense | None = None) -> ClipAn
         entry_gait=entry_gait, exit_gait=exit_gait, speed=cyc.speed, stride=cyc.stride,
         cycle=cyc.cycle, cadence=cyc.cadence, tau=cyc.tau, best_cycle=cyc.best,
         loop_error=cyc.loop_error, is_loop=_is_loop(motion, d, windows), stances=stances,
-        flights=flights, jump_flights=jumps,
+        flights=flights, jump_flights=mine,
         balance=np.stack([f.balance for f in feet])[:, idx], contact=contact[:, idx],
         motion=motion)
 
@@ -372,6 +509,23 @@ def _flights_and_jumps(stances: list[Stance], d: _Dense, s: Settings
     return flights, jumps
 
 
+def _loop_jumps(flights: list[tuple[float, float]], period: float, s: Settings) -> list[tuple[float, float]]:
+    """The jumps of a loop tiled period after period (``period`` s), its ``flights`` (start,
+    end) s: a flight of ``s.jump_min_flight`` or more that lasts twice the median of the
+    other flights of its period (any such flight when it is its period's only one: a run's
+    cycle has two alike, a running jump's cycle a jump and a run's flights), the second
+    period's read, the others' by their repeats."""
+    own = [f for f in flights if period <= f[0] < 2 * period]
+    jump_starts = []
+    for f in own:
+        others = [g[1] - g[0] for g in own if g is not f]
+        if f[1] - f[0] >= s.jump_min_flight and (not others or f[1] - f[0] >= 2.0 * float(np.median(others))):
+            jump_starts.append(f[0] - period)
+    tol = 0.25 * min((b - a for a, b in flights), default=0.0) + 1e-6
+    return [f for f in flights if any(abs(np.mod(f[0] - t + 0.5 * period, period) - 0.5 * period) <= tol
+                                      for t in jump_starts)]
+
+
 def _rest_at_ends(d: _Dense, contact: np.ndarray, s: Settings) -> tuple[bool, bool, np.ndarray]:
     """(starts_at_rest, ends_at_rest, moving): at rest is the body slower than
     ``s.rest_speed`` with both feet down, for ``s.rest_time`` at the clip's start or end;
@@ -412,7 +566,7 @@ def _kind(d: _Dense, jumps: list, starts_at_rest: bool, ends_at_rest: bool) -> s
 def _gait_of(d: _Dense, mask: np.ndarray, stances: list[Stance], flights: list,
              jumps: list, s: Settings) -> str | None:
     """The gait of the dense samples in ``mask`` (n,) bool: None under 0.15 s; "stand"
-    when the body is slow; "walk" when a foot is always down, "run" when the steps have
+    when the body is slow or no foot lifts or lands in it; "walk" when a foot is always down, "run" when the steps have
     flight phases: decided by the share of the steps inside ``mask`` followed by a
     flight that is not a jump."""
     dt, n = d.dt, d.n
@@ -421,6 +575,9 @@ def _gait_of(d: _Dense, mask: np.ndarray, stances: list[Stance], flights: list,
     if np.mean(d.body_speed_s[mask]) < 2 * s.rest_speed:
         return "stand"
     inside = lambda t_: mask[min(int(round(t_ / dt)), n - 1)]  # noqa: E731
+    if not any(inside(t_) for st in stances for t_, cut in ((st.strike, st.open_start), (st.liftoff, st.open_end))
+               if not cut):
+        return "stand"  # no foot lifts or lands: the feet stay down (a jump on the spot's run-up)
     steps = sum(1 for st in stances if inside(st.stance))
     air = sum(1 for a, b in flights if inside(0.5 * (a + b)) and (a, b) not in jumps)
     if steps < 2:
@@ -429,19 +586,27 @@ def _gait_of(d: _Dense, mask: np.ndarray, stances: list[Stance], flights: list,
 
 
 def _gaits(d: _Dense, loco: np.ndarray, stances: list[Stance], flights: list, jumps: list,
-           starts_at_rest: bool, ends_at_rest: bool, s: Settings) -> tuple[str, str, str]:
+           mine: list, starts_at_rest: bool, ends_at_rest: bool, s: Settings) -> tuple[str, str, str]:
     """(gait, entry_gait, exit_gait). The gait is that of the locomotion ``loco`` (n,)
     bool ("stand" when too short to tell); the clip is entered and left in it, or in the
-    gaits before the first and after the last jump, or "stand" from and to rest."""
+    gaits before the first and after the last of the jumps ``mine`` (of all ``jumps``: the
+    locomotion from the jump before them, to the jump after them), or "stand" from and to
+    rest."""
     gait = _gait_of(d, loco, stances, flights, jumps, s) or "stand"
-    if not jumps:
+    if not mine:
         return (gait, "stand" if starts_at_rest else gait,
                 "stand" if ends_at_rest else gait)
-    ja, jb = int(round(jumps[0][0] / d.dt)), int(round(jumps[-1][1] / d.dt))
+    ja, jb = int(round(mine[0][0] / d.dt)), int(round(mine[-1][1] / d.dt))
+    before = [b for a, b in jumps if b <= mine[0][0]]
+    after = [a for a, b in jumps if a >= mine[-1][1]]
     pre = loco.copy()
     pre[ja:] = False
+    if before:
+        pre[:int(round(max(before) / d.dt)) + 1] = False
     post = loco.copy()
     post[:jb + 1] = False
+    if after:
+        post[int(round(min(after) / d.dt)):] = False
     entry_gait = "stand" if starts_at_rest else (_gait_of(d, pre, stances, flights, jumps, s) or gait)
     exit_gait = "stand" if ends_at_rest else (_gait_of(d, post, stances, flights, jumps, s) or gait)
     return gait, entry_gait, exit_gait
@@ -470,9 +635,9 @@ def _cycle_figures(motion: ClipMotion, d: _Dense, stances: list[Stance],
     a window: the mean body speed over the locomotion, AnalysisError for a "cycle"."""
     if not windows:
         if kind == "cycle":
-            raise AnalysisError(
+            raise ShortClipError(
                 f"clip {motion.name!r} is too short for a gait cycle: no foot steps twice in "
-                f"its {motion.duration:.2f} s")
+                f"its {motion.duration:.2f} s", stances)
         speed = float(np.mean(d.body_speed[loco])) if loco.any() else 0.0
         return _Cycle(None, None, None, None, speed, 0.0, None)
     cycle = float(np.mean([b - a for _, _, a, b in windows]))

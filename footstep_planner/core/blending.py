@@ -327,7 +327,7 @@ def _loop_end(a: ClipAnalysis, quat: np.ndarray, foot: int, t0: float, t1: float
     # only where the foot lies flat (its higher end within LOOP_FLAT of its lowest there):
     # the key is where the foot stands on its footprint
     upper = np.maximum(np.interp(cand, m.times, m.heel[foot, :, 2]), np.interp(cand, m.times, m.toe[foot, :, 2]))
-    cand = cand[(upper <= np.percentile(upper, 10) + LOOP_FLAT) | (cand == t2)]
+    cand = cand[(upper <= np.percentile(upper, 10) + LOOP_FLAT * m.body_scale) | (cand == t2)]
     q, _, hq = _raw_pose(quat, m.hips_in_root, float(m.fps), np.r_[t0, cand])
     ang = 2.0 * np.arccos(np.clip(np.abs(np.einsum("bk,fbk->fb", q[0], q[1:])), 0.0, 1.0))
     ang[:, m.hips_index] = 2.0 * np.arccos(np.clip(np.abs(hq[1:] @ hq[0]), 0.0, 1.0))

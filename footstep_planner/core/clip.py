@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from .body import body_scale
 from .rig import Rig, forward_kinematics
 
 SIDES = ("l", "r")
@@ -39,6 +40,7 @@ class ClipMotion:
     hips_index: int  # index of the hips bone in local_rot
     source_fps: float | None = None
     frame_rate: float | None = None  # scene frames per second (default: fps)
+    body_scale: float = 1.0  # the rig's size over a human's (``core.body.body_scale``)
 
     @property
     def n(self) -> int:
@@ -137,7 +139,7 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
     # The ankle and ball are dropped onto the ground at most this far: a foot's sole lies
     # a few centimetres below them, never a large part of the leg (a floating clip must
     # not be grounded by the projection).
-    max_drop = MAX_SOLE_DROP * _leg_length(rig)
+    max_drop = MAX_SOLE_DROP * _hip_to_ankle(rig)
     heel = np.empty((2, n, 3))
     toe = np.empty((2, n, 3))
     heel_local = np.empty((2, 4))
@@ -162,7 +164,7 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
         root_pos=root_pos, root_heading=heading, hips_in_root=hips_in_root,
         local_rot=_unit_rot(basis[..., :3, :3]), heel=heel, toe=toe, heel_local=heel_local,
         toe_local=toe_local, rest_forward=fwd[:2].copy(), hips_index=hips,
-        source_fps=source_fps, frame_rate=frame_rate,
+        source_fps=source_fps, frame_rate=frame_rate, body_scale=body_scale(rig),
     )
 
 
@@ -170,8 +172,9 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
 MAX_SOLE_DROP = 0.2
 
 
-def _leg_length(rig: Rig) -> float:
-    """Rest distance from thigh head to foot head, the longer leg."""
+def _hip_to_ankle(rig: Rig) -> float:
+    """Rest distance from thigh head to foot head, the longer leg (straight across the
+    knee: shorter than ``body.leg_length``)."""
     out = 0.0
     for side in SIDES:
         a = rig.rest[rig.role_index(f"thigh_{side}"), :3, 3]

@@ -145,7 +145,7 @@ def check_in_place(motion: ClipMotion, s: Settings | None = None,
     root_speed = float(np.mean(np.linalg.norm(root_v, axis=1)))
     low_speed = np.linalg.norm(sig.velocity, axis=2)[sig.low]
     slide = float(np.median(low_speed)) if low_speed.size else 0.0
-    in_place = steps and slide >= MIN_SLIDE and root_speed < ROOT_SHARE * slide
+    in_place = steps and slide >= s.length(MIN_SLIDE) and root_speed < ROOT_SHARE * slide
     return InPlaceCheck(bool(in_place), slide, root_speed, steps)
 
 
@@ -169,7 +169,7 @@ def slide_weights(dense: ClipMotion, s: Settings) -> tuple[np.ndarray, np.ndarra
     core = np.zeros(speed.shape, bool)
     # the slide direction: the median velocity of the feet while flat on the ground
     flat = sig.low & (upper < np.percentile(upper, 2, axis=1)[:, None] + s.firm_height)
-    sliding = flat & (speed >= MIN_SLIDE)
+    sliding = flat & (speed >= s.length(MIN_SLIDE))
     if not sliding.any():
         return planted, core
     ref = np.median(rel_v[sliding], axis=0)
@@ -282,7 +282,7 @@ def _steady(planted: np.ndarray, core: np.ndarray, local_k: np.ndarray, dt: floa
             if hi <= lo:
                 lo = (int(idx[0]) + int(idx[-1])) // 2
                 hi = lo + 1
-            calm = acc[k, a:b] < MAX_ACCELERATION
+            calm = acc[k, a:b] < s.length(MAX_ACCELERATION)
             while lo > 0 and ok[lo - 1] and calm[lo - 1]:
                 lo -= 1
             while hi < b - a and ok[hi] and calm[hi]:

@@ -22,7 +22,9 @@ def format_table(title: str, analyses) -> str:
             f"{a.name:38s} {a.fps:5.0f} {a.frames:6d} {a.kind:6s} {a.gait:5s} "
             f"{a.entry_gait + '>' + a.exit_gait:12s} {a.speed:6.2f} {f(a.stride, '6.2f'):>6s} "
             f"{f(a.cycle, '6.2f'):>6s} {f(a.cadence, '5.0f'):>5s} {a.tau:+7.3f} {fl:14s}"
-            + (" (in place: root motion from its feet)" if a.in_place else ""))
+            + (" (in place: root motion from its feet)" if a.in_place else "")
+            + (f" (loop of {a.loop.frames} frames, read round its seam)" if getattr(a, "loop", None)
+               else " (loop)" if a.is_loop else ""))
     lines.append("units: speed m/s, stride m, cycle s, cadence steps/min, tau 1/m (+ turns left); "
                  "flights: jump flights, else count x mean")
     return "\n".join(lines)
