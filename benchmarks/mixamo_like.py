@@ -1,8 +1,10 @@
 """Mixamo-like FBX files made from the project's own sample character: its bones renamed
 to Mixamo's, the armature turned and scaled the way Mixamo files come into Blender (90
 degrees about X, scale 0.01, bones and location keys in centimetres), clips optionally
-made "in place" (the hips' horizontal travel removed), written one clip per file by
-Blender's FBX exporter. Used by tests/test_fbx_import.py and bench_characters.py."""
+made "in place" (the hips' horizontal travel removed) and cut to one gait cycle (its
+first and last frames the same pose, as a Mixamo walk or run download is: 32 frames at 30
+fps), written one clip per file by Blender's FBX exporter. Used by tests/test_fbx_import.py,
+tests/test_downloads.py and bench_characters.py."""
 
 import numpy as np
 
@@ -109,25 +111,36 @@ def mixamoize(ob, body):
 
 
 def write_character(out_dir: str, clips=("walk", "run", "walk_turn_left_wide", "walk_turn_right_wide"),
-                    in_place_clips: bool = True) -> list:
+                    in_place_clips: bool = True, one_cycle: bool = False, fps: int | None = None) -> list:
     """A Mixamo-style character as FBX files in ``out_dir``, one per generated clip of the
-    sample character (in place unless ``in_place_clips`` is false), the first with its
-    skinned body. Resets the scene (``read_homefile``) before and after. Returns the paths."""
+    sample character (in place unless ``in_place_clips`` is false; with ``one_cycle``, a
+    cyclic clip cut to one gait cycle, its last frame the pose of its first), the first
+    with its skinned body, at ``fps`` (default the empty scene's). Resets the scene
+    (``read_homefile``) before and after. Returns the paths."""
     import os
 
     import bpy
 
     from footstep_planner.blender import mannequin
+    from footstep_planner.core import gait
 
     bpy.ops.wm.read_homefile(use_empty=True)
+    if fps:
+        bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = int(fps), 1.0
+    rate = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
     ob, body = mannequin.build()
     acts = mannequin.generate_clips(ob, names=list(clips))
+    specs = {s.name: s for s in gait.library_specs()}
     if in_place_clips:
         acts = [in_place(ob, a, "spine") for a in acts]
     mixamoize(ob, body)
     paths = []
     for k, act in enumerate(acts):
         objects = [ob, body] if k == 0 else [ob]
-        paths.append(export(os.path.join(out_dir, f"{act.name}.fbx"), objects, act, (1, int(act.frame_range[1]))))
+        frames = (1, int(act.frame_range[1]))
+        spec = specs.get(act.name.removesuffix("_in_place"))
+        if one_cycle and spec is not None and spec.kind == "cycle":
+            frames = (1, 1 + int(round(spec.gait.cycle * rate)))  # (the generator's cycle: whole frames)
+        paths.append(export(os.path.join(out_dir, f"{act.name}.fbx"), objects, act, frames))
     bpy.ops.wm.read_homefile(use_empty=True)
     return paths

@@ -83,7 +83,7 @@ class ClipAnalysis:
     frames: int
     duration: float
     gait: str  # "walk", "run" or "stand"
-    kind: str  # "cycle", "start", "stop", "jump" or "idle"
+    kind: str  # "cycle", "start", "stop", "jump", "idle" or "other" (not locomotion: never in a library)
     starts_at_rest: bool
     ends_at_rest: bool
     entry_gait: str
@@ -436,9 +436,10 @@ def _analyze(motion: ClipMotion, s: Settings, d: _Dense | None = None,
     mine = jumps if loop is None else [j for j in jumps if loop.period <= j[0] < 2 * loop.period]
     starts_at_rest, ends_at_rest, moving = _rest_at_ends(d, contact, s)
     loco = moving & ~_jump_mask(d, jumps)
-    kind = _kind(d, mine, starts_at_rest, ends_at_rest)
+    kind = _kind(d, mine, starts_at_rest, ends_at_rest, s)
     gait, entry_gait, exit_gait = _gaits(d, loco, stances, flights, jumps, mine,
                                          starts_at_rest, ends_at_rest, s)
+    kind = _locomotion_kind(kind, gait, d.motion, contact.any(axis=0))
     windows = _cycle_windows(stances, loco, d.dt)
     cyc = _cycle_figures(motion, d, stances, windows, loco, kind)
     idx = _clip_samples(motion, d)
@@ -547,20 +548,50 @@ def _jump_mask(d: _Dense, jumps: list[tuple[float, float]]) -> np.ndarray:
     return in_jump
 
 
-def _kind(d: _Dense, jumps: list, starts_at_rest: bool, ends_at_rest: bool) -> str:
-    """"jump" with a jump; "idle" at rest at both ends travelling under 0.5 m, else
-    "start" / "stop" at rest at the start / end; "cycle" otherwise."""
+def _kind(d: _Dense, jumps: list, starts_at_rest: bool, ends_at_rest: bool, s: Settings) -> str:
+    """"jump" with a jump; "idle" at rest at both ends travelling under 0.5 m (a human's),
+    else "start" / "stop" at rest at the start / end; "cycle" otherwise."""
     if jumps:
         return "jump"
     if starts_at_rest and ends_at_rest:
         pos = d.motion.root_pos
         travel = float(np.linalg.norm(pos[-1, :2] - pos[0, :2]))
-        return "idle" if travel < 0.5 else "start"
+        return "idle" if travel < s.length(0.5) else "start"
     if starts_at_rest:
         return "start"
     if ends_at_rest:
         return "stop"
     return "cycle"
+
+
+#: m/s (a human's): locomotion whose steps have flights is still a walk while its body
+#: goes slower than this (its 90th percentile): a game character's walk whose feet hover
+#: a little over the ground between its steps; the slowest runs and jogs go faster.
+WALK_TOP_SPEED = 2.0
+
+#: The body stands at a clip's end while its hips are at least this share of their
+#: standing height (the rig's, as it stands at rest; or the highest they are in the clip
+#: with a foot on the ground, if lower) there, over END_POSTURE s.
+STANDING_HIPS = 0.7
+END_POSTURE = 0.2
+
+
+def _locomotion_kind(kind: str, gait: str, m: ClipMotion, down: np.ndarray) -> str:
+    """``kind``, or "other" for a clip (``m`` at the analysis rate, a foot ``down`` (n,)
+    bool) that is not locomotion: its body does not stand at its start or its end (its
+    hips below STANDING_HIPS of their standing height there: lying down, sitting, getting
+    up), or a start or stop that neither walks nor runs (a lunge, a stagger that ends at
+    rest). Such clips are never put in the library."""
+    h = m.hips_in_root[:, 2, 3]
+    top = float(h[down].max()) if down.any() else float(np.median(h))
+    if m.stand_height is not None and m.stand_height > 0:
+        top = min(top, m.stand_height)
+    n = max(1, int(round(END_POSTURE * m.fps)))
+    if top > 0 and min(float(np.mean(h[:n])), float(np.mean(h[-n:]))) < STANDING_HIPS * top:
+        return "other"
+    if kind in ("start", "stop") and gait not in ("walk", "run"):
+        return "other"
+    return kind
 
 
 def _gait_of(d: _Dense, mask: np.ndarray, stances: list[Stance], flights: list,
@@ -580,9 +611,10 @@ def _gait_of(d: _Dense, mask: np.ndarray, stances: list[Stance], flights: list,
         return "stand"  # no foot lifts or lands: the feet stay down (a jump on the spot's run-up)
     steps = sum(1 for st in stances if inside(st.stance))
     air = sum(1 for a, b in flights if inside(0.5 * (a + b)) and (a, b) not in jumps)
-    if steps < 2:
-        return "run" if air else "walk"
-    return "run" if air >= s.run_flight_share * (steps - 1) else "walk"
+    runs = air > 0 if steps < 2 else air >= s.run_flight_share * (steps - 1)
+    if runs and float(np.percentile(d.body_speed_s[mask], 90)) < s.length(WALK_TOP_SPEED):
+        return "walk"  # (a game's walk whose feet hover between its steps: at a walk's speed, a walk)
+    return "run" if runs else "walk"
 
 
 def _gaits(d: _Dense, loco: np.ndarray, stances: list[Stance], flights: list, jumps: list,

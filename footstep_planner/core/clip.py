@@ -41,6 +41,7 @@ class ClipMotion:
     source_fps: float | None = None
     frame_rate: float | None = None  # scene frames per second (default: fps)
     body_scale: float = 1.0  # the rig's size over a human's (``core.body.body_scale``)
+    stand_height: float | None = None  # m: the rig's hips over its feet in its rest pose (standing)
 
     @property
     def n(self) -> int:
@@ -164,12 +165,19 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
         root_pos=root_pos, root_heading=heading, hips_in_root=hips_in_root,
         local_rot=_unit_rot(basis[..., :3, :3]), heel=heel, toe=toe, heel_local=heel_local,
         toe_local=toe_local, rest_forward=fwd[:2].copy(), hips_index=hips,
-        source_fps=source_fps, frame_rate=frame_rate, body_scale=body_scale(rig),
+        source_fps=source_fps, frame_rate=frame_rate, body_scale=body_scale(rig), stand_height=_stand_height(rig),
     )
 
 
 #: The largest drop from ankle or ball to the sole, as a fraction of the leg's length.
 MAX_SOLE_DROP = 0.2
+
+
+def _stand_height(rig: Rig) -> float:
+    """m: how high the rig's hips stand over its feet in its rest pose (the hips' head over
+    the lower foot's head)."""
+    feet = [rig.rest[rig.role_index(f"foot_{side}"), 2, 3] for side in SIDES]
+    return float(rig.rest[rig.role_index("hips"), 2, 3] - min(feet))
 
 
 def _hip_to_ankle(rig: Rig) -> float:

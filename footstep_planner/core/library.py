@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
+import numpy as np
+
 from .analysis import ClipAnalysis
 from .errors import FootstepError
 
@@ -129,7 +131,9 @@ class Library:
 
 def propose_library(analyses: list[ClipAnalysis], excluded=()) -> Library:
     """The library the analysis suggests: cyclic clips into a turning group per gait,
-    jumps, starts, stops and idles as special clips."""
+    jumps, starts, stops and idles as special clips (the stillest idle first: the one the
+    character stands in, not a clapping or a looking-round); clips that are not
+    locomotion (kind "other": lying, sitting, a lunge) are left out."""
     groups: dict[str, TurnGroup] = {}
     specials: list[SpecialClip] = []
     for a in analyses:
@@ -142,5 +146,17 @@ def propose_library(analyses: list[ClipAnalysis], excluded=()) -> Library:
             specials.append(SpecialClip(a.name, a.kind, a.entry_gait, a.exit_gait))
     for g in groups.values():
         g.clips.sort(key=lambda c: c.tau)
-    specials.sort(key=lambda sp: (SPECIAL_KINDS.index(sp.kind), sp.clip))
+    stir = {a.name: _stir(a) for a in analyses if a.kind == "idle"}
+    specials.sort(key=lambda sp: (SPECIAL_KINDS.index(sp.kind), stir.get(sp.clip, 0.0), sp.clip))
     return Library(groups, specials, list(excluded))
+
+
+def _stir(a: ClipAnalysis) -> float:
+    """rad/s: how much a clip's bones turn, the mean over its bones and samples of each
+    one's rotation from one sample to the next (0 without a motion)."""
+    m = a.motion
+    if m is None or m.n < 2:
+        return 0.0
+    r = np.asarray(m.local_rot, float)
+    trace = np.einsum("fbij,fbij->fb", r[1:], r[:-1])
+    return float(np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0)).mean() * m.fps)
