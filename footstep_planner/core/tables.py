@@ -9,8 +9,9 @@ import math
 import numpy as np
 
 
-def format_table(title: str, analyses) -> str:
-    """One row per clip analysis: rate, length, kind, gait, speed, stride, cycle, tau."""
+def format_table(title: str, analyses, refused=()) -> str:
+    """One row per clip analysis: rate, length, kind, gait, speed, stride, cycle, tau; then
+    one per clip ``refused`` ((name, reason) pairs), with its reason."""
     head = (f"{'clip':38s} {'fps':>5s} {'frames':>6s} {'kind':6s} {'gait':5s} {'entry>exit':12s} "
             f"{'speed':>6s} {'stride':>6s} {'cycle':>6s} {'cad.':>5s} {'tau':>7s} {'flights (s)':14s}")
     lines = [f"{title}:", head, "-" * len(head)]
@@ -23,6 +24,7 @@ def format_table(title: str, analyses) -> str:
             f"{a.entry_gait + '>' + a.exit_gait:12s} {a.speed:6.2f} {f(a.stride, '6.2f'):>6s} "
             f"{f(a.cycle, '6.2f'):>6s} {f(a.cadence, '5.0f'):>5s} {a.tau:+7.3f} {fl:14s}"
             + (" (in place: root motion from its feet)" if a.in_place else ""))
+    lines += [f"{name:38s} refused: {reason}" for name, reason in refused]
     lines.append("units: speed m/s, stride m, cycle s, cadence steps/min, tau 1/m (+ turns left); "
                  "flights: jump flights, else count x mean")
     return "\n".join(lines)
