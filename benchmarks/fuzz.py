@@ -238,8 +238,10 @@ def job_statuses(stdout: str) -> dict:
 
 
 def outcome(case: fc.Case, run: Run, jobs: dict) -> str:
-    """ok, partial, refused (an expected failure: exit 2 with one message, or a job list
-    none of whose jobs baked), traceback, timeout or other."""
+    """ok, partial, refused (an expected failure: exit 2 with one message, a job list none
+    of whose jobs baked, an import-clips that imported nothing), traceback, timeout or
+    other. import-clips and analyze count the files and clips they refused in their exit
+    status: partial when the others were imported (and saved) or analysed."""
     errors = [ln for ln in run.stderr.splitlines() if ERROR_LINE.match(ln)]
     if run.timed_out:
         return "timeout"
@@ -249,10 +251,13 @@ def outcome(case: fc.Case, run: Run, jobs: dict) -> str:
         return "ok"
     if case.batch and jobs and 1 <= run.status <= 100:
         return "partial" if "baked" in jobs.values() else "refused"
-    if case.argv[0] == "analyze" and run.status == 1 and errors:
-        return "partial"  # (some clips could not be analysed; the others were)
+    saved = any(ln.startswith("saved ") for ln in run.stdout.splitlines())
+    if case.argv[0] == "import-clips" and 1 <= run.status <= 100 and errors and saved:
+        return "partial"  # (some files or takes were refused; the others imported and saved)
     if run.status == 2 and len(errors) == 1:
         return "refused"
+    if case.argv[0] in ("analyze", "import-clips") and 1 <= run.status <= 100 and errors:
+        return "partial" if case.argv[0] == "analyze" else "refused"  # (each refused file or clip named)
     return "other"
 
 

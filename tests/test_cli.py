@@ -125,7 +125,10 @@ def test_clip_too_short_for_a_cycle(cli, capsys, tmp_path):
 
 
 @needs_cmu
-def test_failed_import_into_a_file_saves_nothing_and_changes_nothing(cli, capsys, tmp_path):
+def test_a_refused_file_among_good_ones_is_named_and_the_others_saved(cli, capsys, tmp_path):
+    """import-clips imports every file it can: the refused one is named on stderr with its
+    reason, the exit status counts it, the input file is left as it was; a run that
+    imports nothing saves nothing."""
     import bpy
 
     lib = str(tmp_path / "lib.blend")
@@ -134,11 +137,18 @@ def test_failed_import_into_a_file_saves_nothing_and_changes_nothing(cli, capsys
     out = str(tmp_path / "out.blend")
     capsys.readouterr()
     assert cli(["import-clips", "--blend", lib, "--into", "Hero", "--out", out, cmu("16_35"),
+                legless(str(tmp_path / "armsonly.bvh"))]) == 1
+    assert "armsonly.bvh" in _one_error_line(capsys)
+    assert os.path.getsize(lib) == size
+    assert sorted(a.name for a in bpy.data.actions) == ["cmu_16_16_walk", "cmu_16_35_run_jog"]
+    bpy.ops.wm.open_mainfile(filepath=out)
+    assert sorted(a.name for a in bpy.data.actions) == ["cmu_16_16_walk", "cmu_16_35_run_jog"]
+    nothing = str(tmp_path / "nothing.blend")
+    assert cli(["import-clips", "--blend", lib, "--into", "Hero", "--out", nothing,
                 legless(str(tmp_path / "armsonly.bvh"))]) == 2
     assert "armsonly.bvh" in _one_error_line(capsys)
-    assert not os.path.exists(out) and os.path.getsize(lib) == size
-    assert sorted(a.name for a in bpy.data.actions) == ["cmu_16_16_walk"]
-    assert cli(["import-clips", "--blend", lib, "--into", "Nobody", "--out", out, cmu("16_35")]) == 2
+    assert not os.path.exists(nothing) and os.path.getsize(lib) == size
+    assert cli(["import-clips", "--blend", lib, "--into", "Nobody", "--out", nothing, cmu("16_35")]) == 2
     assert "'Nobody'" in _one_error_line(capsys)
 
 

@@ -4,6 +4,9 @@
 Expected problems (a bad file, a rig without legs, a clip with no footsteps, a folder
 that can't be written, Ctrl-C) print one line ``footstep: error: ...`` naming what is at
 fault and return a non-zero status; they never show a traceback and never write anything.
+``import-clips`` and ``analyze`` go on past a file or clip they refuse: each is named on
+its own line, the others are imported (and saved) or analysed, and the exit status is the
+number refused.
 Every file a verb writes goes through ``core.files.Outputs``: claimed before any work
 (an output that is an input is refused), written beside its destination, renamed into
 place when the verb has succeeded. Stdout carries the verb's results only
@@ -112,14 +115,19 @@ def _scene_options(character_required: bool) -> argparse.ArgumentParser:
 
 def _add_import_clips(sub) -> None:
     p = sub.add_parser(
-        "import-clips", help="import BVH or FBX files as Actions of one armature and save a .blend",
-        description="Import several BVH or FBX files (Mixamo downloads too; a mix is fine) of one "
-                    "skeleton as one armature carrying one Action per file, in metres, Z up, with "
+        "import-clips", help="import BVH, FBX or glTF files as Actions of one armature and save a .blend",
+        description="Import BVH, FBX, glTF and GLB files (Mixamo downloads too; a mix is fine) of one "
+                    "skeleton as one armature carrying one Action per clip, in metres, Z up, with "
                     "an identity object transform, keyed at the scene's frame rate whatever the "
-                    "files' rate. With --blend/--into, the clips are added to an existing "
-                    "armature; nothing of the file's is replaced.")
+                    "files' rate. A file of several clips (an FBX's takes, a glTF's animations) gives "
+                    "one Action per clip, named after it. Where a clip moves the armature object "
+                    "itself, that motion is moved onto the hips (the report says so). With "
+                    "--blend/--into, the clips are added to an existing armature; nothing of the "
+                    "file's is replaced. Every file and clip that can be imported is; each refused "
+                    "one is named with its reason on stderr, and the exit status is the number "
+                    "refused (0 when all were imported; 2 when none was, and nothing is saved).")
     p.set_defaults(run=_import_clips)
-    p.add_argument("clips", nargs="+", metavar="CLIP.bvh|CLIP.fbx")
+    p.add_argument("clips", nargs="+", metavar="CLIP.bvh|.fbx|.glb|.gltf")
     p.add_argument("--out", required=True, metavar="LIB.blend", help="file to save")
     p.add_argument("--blend", metavar="IN.blend", help="start from this file (default: the "
                    "file Blender has open, or an empty scene)")
@@ -128,21 +136,24 @@ def _add_import_clips(sub) -> None:
     p.add_argument("--fps", type=_positive, help="scene frame rate to key at (default: the "
                    "scene's; an empty scene takes the first file's rate)")
     p.add_argument("--scale", type=_positive, help="metres per BVH unit (default: guessed; FBX "
-                   "files carry their unit)")
+                   "and glTF files carry their unit)")
 
 
 def _add_analyze(sub) -> None:
     p = sub.add_parser(
         "analyze", help="analyse clips: contacts, footprints, speed, stride, cycle, tau, gait",
-        description="Analyse BVH files, or the clips of the characters in a .blend, after "
-                    "Johansen's method. Prints a table, or with --json one object per clip.")
+        description="Analyse clip files (BVH, FBX, glTF, GLB), or the clips of the characters in a "
+                    ".blend, after Johansen's method. Prints a table, or with --json one object per "
+                    "clip: a row for every clip, a clip that cannot be read or analysed with its "
+                    "reason (its \"error\"). The exit status is the number of clips refused (2 when "
+                    "no clip file could be read at all).")
     p.set_defaults(run=_analyze)
-    p.add_argument("inputs", nargs="*", metavar="CLIP.bvh|LIB.blend",
-                   help="BVH files, or one .blend (default: the file Blender has open)")
+    p.add_argument("inputs", nargs="*", metavar="CLIP.bvh|.fbx|.glb|.gltf|LIB.blend",
+                   help="clip files, or one .blend (default: the file Blender has open)")
     p.add_argument("--character", type=_text, metavar="ARMATURE", help="only this armature's clips")
     p.add_argument("--clip", action="append", metavar="NAME", help="only these clips (repeatable)")
     p.add_argument("--fps", type=_positive, help="sample the clips at this rate (default: the "
-                   "scene's; for BVH input, the first file's rate)")
+                   "scene's; for clip files, the first file's rate)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--plot", metavar="DIR", help="also draw each clip's foot curves and "
                    "contacts as PNG into DIR (needs matplotlib)")
@@ -225,8 +236,10 @@ def _add_demo(sub) -> None:
 def cli_main(argv=None) -> int:
     """Entry point shared by ``python -m footstep_planner`` and ``blender -c footstep``.
     Exit status: 0 done; 2 an expected problem (one line on stderr, nothing written); for
-    ``bake --job``, the number of jobs that failed; 130 interrupted (nothing written); 70
-    a bug (its traceback, and a line asking to report it)."""
+    ``bake --job``, the number of jobs that failed; for ``import-clips`` and ``analyze``,
+    the number of files, takes or clips refused (2 when none could be imported: nothing
+    written); 130 interrupted (nothing written); 70 a bug (its traceback, and a line
+    asking to report it)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         args = _parser().parse_args(argv)
@@ -341,37 +354,77 @@ def _names(csv: str) -> list[str]:
     return [n.strip() for n in csv.split(",") if n.strip()]
 
 
-def _characters_to_analyze(args) -> tuple[list, bool]:
-    """The armatures ``analyze`` works on, and whether they came from clip files: one per
-    BVH or FBX file (imported into an empty scene), or those of a .blend (or the open
-    file)."""
-    from .clips import CLIP_EXTENSIONS, clip_fps, import_clips
+def _clip_files_or_blend(args) -> tuple[list, list]:
+    """(clip files, .blend files) among ``analyze``'s inputs; CliError for anything else,
+    or a mix."""
+    from .clips import CLIP_EXTENSIONS
 
     files = [p for p in args.inputs if p.lower().endswith(CLIP_EXTENSIONS)]
     blends = [p for p in args.inputs if p.lower().endswith(".blend")]
     other = [p for p in args.inputs if p not in files and p not in blends]
     if other:
-        raise CliError(f"{other[0]}: neither a .bvh, an .fbx nor a .blend file")
+        raise CliError(f"{other[0]}: neither a clip file ({', '.join(CLIP_EXTENSIONS)}) nor a .blend file")
     if files and blends or len(blends) > 1:
-        raise CliError("give BVH or FBX files, or one .blend, not both")
-    for path in files:
-        check_input(path, "clip file")
-    if files:
-        empty_scene(args.fps or clip_fps(files[0]))
-        # one armature per file: files of different skeletons are fine
-        return [import_clips([path])[0] for path in files], True
+        raise CliError("give clip files (BVH, FBX, glTF), or one .blend, not both")
+    return files, blends
+
+
+def _characters_of_blend(args, blends) -> list:
+    """The armatures with clips of the .blend (or the open file), or ``--character``."""
     if blends:
         open_blend(blends[0])
     if args.fps:
         set_scene_fps(bpy.context.scene, args.fps)
     if args.character:
-        return [find_armature(args.character)], False
+        return [find_armature(args.character)]
     from .scene import armature_actions
 
     characters = [o for o in bpy.data.objects if o.type == "ARMATURE" and armature_actions(o)]
     if not characters:
         raise CliError(f"{bpy.data.filepath or 'the scene'} has no armature with clips")
-    return characters, False
+    return characters
+
+
+def _each_clip_file(files, fps):
+    """Each clip file imported on its own into an empty scene (files of different
+    skeletons are fine; each file's clips keep their names): yields (armature or None,
+    {clip or file: message} of those refused) while that scene is open."""
+    from .clips import import_clip_files
+
+    fps = fps or _first_fps(files)
+    for path in files:
+        empty_scene(fps)
+        outcomes, readable = _readable([path])
+        ob = None
+        if readable:
+            done = import_clip_files(readable)
+            ob, outcomes = done.armature, done.outcomes
+        yield ob, {o.take or os.path.basename(o.path): o.error for o in outcomes if o.error}
+
+
+def _readable(paths) -> tuple[list, list]:
+    """(outcomes refusing the paths that are no readable file, the others)."""
+    from .clips import ClipOutcome
+
+    refused, readable = [], []
+    for path in paths:
+        try:
+            readable.append(check_input(path, "clip file"))
+        except CliError as ex:
+            refused.append(ClipOutcome(os.path.abspath(path), error=str(ex)))
+    return refused, readable
+
+
+def _first_fps(paths) -> float | None:
+    """The frame rate of the first of ``paths`` that can be read, or None."""
+    from .clips import clip_fps
+
+    for path in paths:
+        try:
+            return clip_fps(check_input(path, "clip file"))
+        except FootstepError:
+            continue
+    return None
 
 
 def _read_text(path: str, what: str) -> str:
@@ -386,52 +439,74 @@ def _read_text(path: str, what: str) -> str:
 # -- the verbs ----------------------------------------------------------------------
 
 def _import_clips(args) -> int:
-    from .clips import clip_fps, import_clips
+    from .clips import ClipImport, import_clip_files
 
-    for path in args.clips:
-        check_input(path, "clip file")
     with Outputs(args.clips + [args.blend or bpy.data.filepath]) as outs:
         out = claim_blend(outs, args.out, "--out library")
         if args.blend:
             open_blend(args.blend)
         elif bpy.data.filepath == "" and not args.into:
-            empty_scene(args.fps or clip_fps(args.clips[0]))
+            empty_scene(args.fps or _first_fps(args.clips))
         if args.fps and args.blend:
             set_scene_fps(bpy.context.scene, args.fps)
         target = find_armature(args.into) if args.into else None
-        ob, actions = import_clips(args.clips, target=target, name=args.name, scale=args.scale)
+        unreadable, readable = _readable(args.clips)
+        done = (import_clip_files(readable, target=target, name=args.name, scale=args.scale) if readable
+                else ClipImport(target))
+        order = {os.path.abspath(p): i for i, p in reversed(list(enumerate(args.clips)))}
+        done.outcomes = sorted(unreadable + done.outcomes, key=lambda o: order.get(o.path, len(order)))
+        for o in done.refused:
+            print(f"footstep: error: {o.error}", file=sys.stderr)
+        for line in done.report():
+            say(line)
+        if not done.actions:
+            return 2  # (nothing imported: nothing written)
+        ob = done.armature
         if not ob.animation_data:
             ob.animation_data_create()
-        if ob.animation_data.action is None and actions:
-            ob.animation_data.action = actions[0]
+        if ob.animation_data.action is None:
+            ob.animation_data.action = done.actions[0]
+            ob.animation_data.action_slot = done.actions[0].slots[0]
         outs.stage(out, blend_writer(out))
         outs.commit()
-    say(f"imported {len(actions)} clip(s) into armature {ob.name!r}: " + ", ".join(a.name for a in actions))
     say(f"saved {out}")
-    return 0
+    return min(100, len(done.refused))
 
 
 def _analyze(args) -> int:
-    from .character import analyze_character, library_for
-
     settings = settings_from_args(args.set)
     with Outputs(args.inputs + [bpy.data.filepath]) as outs:
         if args.plot:
             outs.claim(os.path.join(args.plot, ".footstep-plots"), "--plot folder")
-        characters, from_bvh = _characters_to_analyze(args)
-        out, failed = [], []
-        for ob in characters:
-            result = analyze_character(ob, settings)
-            analyses = [a for a in result.analyses if not args.clip or a.name in args.clip]
-            failed += [msg for name, msg in result.errors.items() if not args.clip or name in args.clip]
-            out.append((ob, analyses, library_for(ob, result) if analyses else None))
-            if args.plot:
-                _plot_clips(outs, analyses, args.plot)
+        files, blends = _clip_files_or_blend(args)
+        characters = (_each_clip_file(files, args.fps) if files
+                      else ((ob, {}) for ob in _characters_of_blend(args, blends)))
+        out = [_analyze_one(args, settings, outs, ob, refused) for ob, refused in characters]
         outs.commit()
-    _print_analyses(args, out, failed, from_bvh)
+    failed = [msg for *_, errors in out for msg in errors.values()]
+    _print_analyses(args, out, failed, bool(files))
     for msg in failed:
         print(f"footstep: error: {msg}", file=sys.stderr)
-    return 1 if failed else 0
+    if files and all(name is None for name, *_ in out):
+        return 2  # (no clip file could be read)
+    return min(100, len(failed))
+
+
+def _analyze_one(args, settings, outs: Outputs, ob, refused: dict) -> tuple:
+    """(armature's name, analyses, library, {clip: reason refused}) of one character
+    (None: a clip file refused as a whole), only the ``--clip`` clips."""
+    from .character import analyze_character, library_for
+
+    wanted = lambda name: not args.clip or name in args.clip  # noqa: E731
+    errors = {n: m for n, m in refused.items() if wanted(n)}
+    if ob is None:
+        return None, [], None, errors
+    result = analyze_character(ob, settings)
+    analyses = [a for a in result.analyses if wanted(a.name)]
+    errors.update((n, m) for n, m in result.errors.items() if wanted(n))
+    if args.plot:
+        _plot_clips(outs, analyses, args.plot)
+    return ob.name, analyses, library_for(ob, result) if analyses else None, errors
 
 
 def _plot_clips(outs: Outputs, analyses, folder: str) -> None:
@@ -443,20 +518,27 @@ def _plot_clips(outs: Outputs, analyses, folder: str) -> None:
         outs.adopt(made, os.path.join(folder, os.path.basename(made)))
 
 
-def _print_analyses(args, out, failed, from_bvh) -> None:
+def _print_analyses(args, out, failed, from_files) -> None:
+    """The table (or JSON) of every clip: each analysed one's figures, each refused one
+    with its reason (``"error"``)."""
+    def rows(analyses, errors):
+        return [{**a.to_dict(), "error": None} for a in analyses] + [
+            {"name": n, "error": m} for n, m in errors.items()]
+
     if args.json:
         doc = {"characters": [
-            {"armature": ob.name, "clips": [a.to_dict() for a in analyses],
-             "library": lib.to_dict() if lib else None} for ob, analyses, lib in out],
+            {"armature": name, "clips": rows(analyses, errors),
+             "library": lib.to_dict() if lib else None} for name, analyses, lib, errors in out if name is not None],
             "errors": failed}
-        if from_bvh:  # BVH input: one object per clip, flat
-            doc = {"clips": [d for c in doc["characters"] for d in c["clips"]], "errors": failed}
+        if from_files:  # clip files: one object per clip, flat, in file order
+            doc = {"clips": [r for _, analyses, _, errors in out for r in rows(analyses, errors)], "errors": failed}
         say(json.dumps(doc, indent=1))
-    elif from_bvh:
-        say(format_table("clip files", [a for _, analyses, _ in out for a in analyses]))
+    elif from_files:
+        say(format_table("clip files", [a for _, analyses, _, _ in out for a in analyses],
+                         [(n, m) for *_, errors in out for n, m in errors.items()]))
     else:
-        for ob, analyses, lib in out:
-            say(format_table(ob.name, analyses))
+        for name, analyses, lib, errors in out:
+            say(format_table(name, analyses, list(errors.items())))
             if lib is not None:
                 say(format_library(lib))
 

@@ -31,15 +31,15 @@ class _OnCharacter:
 
 
 class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
-    """Import BVH or FBX files (Mixamo too) as clips (one Action each) of the character, or
-    of a new armature in metres, Z up"""
+    """Import BVH, FBX, glTF or GLB files (Mixamo too; a file's several takes each a clip) as
+    clips (one Action each) of the character, or of a new armature in metres, Z up"""
 
     bl_idname = "footstep.import_clips"
-    bl_label = "Import Clips (BVH, FBX)"
+    bl_label = "Import Clips (BVH, FBX, glTF)"
     bl_options = {"REGISTER", "UNDO"}
 
     filename_ext = ".bvh"
-    filter_glob: StringProperty(default="*.bvh;*.fbx", options={"HIDDEN"})
+    filter_glob: StringProperty(default="*.bvh;*.fbx;*.glb;*.gltf", options={"HIDDEN"})
     files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
     directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
     target: EnumProperty(name="Into", items=[
@@ -48,22 +48,42 @@ class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
 
     def execute(self, context):
         from .character import analyze_and_propose
-        from .clips import import_clips
+        from .clips import import_clip_files
 
         paths = [os.path.join(self.directory, f.name) for f in self.files if f.name] or [self.filepath]
         target = character(context) if self.target == "CHARACTER" else None
+        fs = context.scene.footstep
         try:
-            ob, actions = import_clips(paths, target=target)
-            if context.scene.footstep.character is None:
-                context.scene.footstep.character = ob
+            done = import_clip_files(paths, target=target)
+            fs.last_report = _import_summary(done)
+            if not done.actions:
+                self.report({"ERROR"}, fs.last_report)
+                return {"CANCELLED"}
+            ob = done.armature
+            if fs.character is None:
+                fs.character = ob
             result = analyze_and_propose(ob, _settings(context))
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
-        self.report({"INFO"}, f"imported {len(actions)} clip(s) into {ob.name}")
+        for o in done.refused:
+            self.report({"WARNING"}, o.error)
+        for line in done.report()[1:]:
+            if line.startswith("  "):
+                self.report({"INFO"}, line.strip())
+        self.report({"INFO"}, fs.last_report)
         for name, msg in result.errors.items():
             self.report({"WARNING"}, msg)
         return {"FINISHED"}
+
+
+def _import_summary(done) -> str:
+    """One line for the panel: imported N clip(s) into the armature; refused M, with reasons."""
+    head = (f"imported {len(done.actions)} clip(s) into {done.armature.name}" if done.actions
+            else "imported no clip")
+    if not done.refused:
+        return head
+    return f"{head}; refused {len(done.refused)}: " + "; ".join(o.error for o in done.refused)
 
 
 def _settings(context):
@@ -411,7 +431,8 @@ CLASSES = (FOOTSTEP_OT_import_clips, FOOTSTEP_OT_analyze_clips, FOOTSTEP_OT_plan
 
 
 def _menu_import(self, context):
-    self.layout.operator(FOOTSTEP_OT_import_clips.bl_idname, text="Clips for Footstep Planner (.bvh, .fbx)")
+    self.layout.operator(FOOTSTEP_OT_import_clips.bl_idname,
+                         text="Clips for Footstep Planner (.bvh, .fbx, .glb, .gltf)")
 
 
 def register():

@@ -33,7 +33,7 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
         layout.prop(fs, "character")
         ob = character(context)
         if ob is None:
-            layout.label(text="Pick an armature, import clips (BVH, FBX), or add the mannequin", icon="INFO")
+            layout.label(text="Pick an armature, import clips (BVH, FBX, glTF), or add the mannequin", icon="INFO")
             layout.operator("footstep.import_clips", icon="IMPORT").target = "NEW"
             layout.operator("footstep.add_mannequin", icon="OUTLINER_OB_ARMATURE")
             return

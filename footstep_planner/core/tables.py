@@ -9,8 +9,9 @@ import math
 import numpy as np
 
 
-def format_table(title: str, analyses) -> str:
-    """One row per clip analysis: rate, length, kind, gait, speed, stride, cycle, tau."""
+def format_table(title: str, analyses, refused=()) -> str:
+    """One row per clip analysis: rate, length, kind, gait, speed, stride, cycle, tau; then
+    one per clip ``refused`` ((name, reason) pairs), with its reason."""
     head = (f"{'clip':38s} {'fps':>5s} {'frames':>6s} {'kind':6s} {'gait':5s} {'entry>exit':12s} "
             f"{'speed':>6s} {'stride':>6s} {'cycle':>6s} {'cad.':>5s} {'tau':>7s} {'flights (s)':14s}")
     lines = [f"{title}:", head, "-" * len(head)]
@@ -25,6 +26,7 @@ def format_table(title: str, analyses) -> str:
             + (" (in place: root motion from its feet)" if a.in_place else "")
             + (f" (loop of {a.loop.frames} frames, read round its seam)" if getattr(a, "loop", None)
                else " (loop)" if a.is_loop else ""))
+    lines += [f"{name:38s} refused: {reason}" for name, reason in refused]
     lines.append("units: speed m/s, stride m, cycle s, cadence steps/min, tau 1/m (+ turns left); "
                  "flights: jump flights, else count x mean")
     return "\n".join(lines)
