@@ -614,3 +614,233 @@ def test_role_mapping_methods():
     assert ok.describe().startswith("mapped") and "hips=mixamorig:Hips" in ok.describe()
     with pytest.raises(Exception):
         ok.roles = {}  # frozen
+
+
+# ------------------------------------------------------------------ game rigs: feet hung by geometry
+# Rest heads and tails (a ~1.7 m character facing -Y, Z up) of an IK-style game rig shaped
+# like Quaternius' "HumanArmature": the feet (and the knees' pole targets) parented to the
+# root at the ground, not to the shins, whose only child is an FBX end marker.
+GAME = {  # bone: (parent, head, tail), left side (the right is its mirror in X)
+    "Bone": (None, (0.0, 0.0, 0.0), (0.0, 0.0, 0.4)),
+    "Body": ("Bone", (0.0, -0.03, 0.99), (0.0, -0.03, 1.1)),
+    "Hips": ("Body", (0.0, 0.0, 0.95), (0.0, 0.0, 1.1)),
+    "Abdomen": ("Hips", (0.0, 0.0, 1.1), (0.0, 0.0, 1.3)),
+    "Torso": ("Abdomen", (0.0, 0.0, 1.3), (0.0, 0.01, 1.5)),
+    "Neck": ("Torso", (0.0, 0.01, 1.5), (0.0, 0.01, 1.58)),
+    "Head": ("Neck", (0.0, 0.01, 1.58), (0.0, 0.01, 1.75)),
+    "Shoulder.L": ("Torso", (0.03, 0.0, 1.45), (0.16, 0.0, 1.46)),
+    "UpperArm.L": ("Shoulder.L", (0.16, 0.0, 1.46), (0.35, 0.0, 1.22)),
+    "LowerArm.L": ("UpperArm.L", (0.35, 0.0, 1.22), (0.5, 0.0, 1.0)),
+    "Palm.L": ("LowerArm.L", (0.5, 0.0, 1.0), (0.55, 0.0, 0.93)),
+    "UpperLeg.L": ("Body", (0.1, 0.0, 0.93), (0.1, -0.02, 0.5)),
+    "LowerLeg.L": ("UpperLeg.L", (0.1, -0.02, 0.5), (0.1, 0.02, 0.08)),
+    "LowerLeg.L_end": ("LowerLeg.L", (0.1, 0.02, 0.08), (0.1, 0.06, -0.34)),
+    "Foot.L": ("Bone", (0.1, 0.02, 0.08), (0.1, -0.1, 0.075)),
+    "Foot.L_end": ("Foot.L", (0.1, -0.1, 0.075), (0.1, -0.22, 0.07)),
+    "PoleTarget.L": ("Bone", (0.1, -0.6, 0.5), (0.1, -0.6, 0.6)),
+    "PoleTarget.L_end": ("PoleTarget.L", (0.1, -0.6, 0.6), (0.1, -0.6, 0.7)),
+}
+GAME_ROLES = {"hips": "Body", "spine": "Abdomen", "root": "Bone"}
+for _s in ("l", "r"):
+    GAME_ROLES.update({f"thigh_{_s}": f"UpperLeg.{_s.upper()}", f"shin_{_s}": f"LowerLeg.{_s.upper()}",
+                       f"foot_{_s}": f"Foot.{_s.upper()}"})
+
+
+def game_rig(foot_parent="Bone", rename=None):
+    """(names, parents, heads, tails) of the game rig, both sides, its feet parented to
+    ``foot_parent``; ``rename`` maps names to others."""
+    rows = []
+    for name, (parent, head, tail) in GAME.items():
+        sides = [("L", 1), ("R", -1)] if ".L" in name else [("", 1)]
+        for s, sign in sides:
+            nm = name.replace(".L", f".{s}") if s else name
+            par = parent.replace(".L", f".{s}") if (s and parent) else parent
+            if name == "Foot.L":
+                par = foot_parent.replace(".L", f".{s}")
+            rows.append((nm, par, (sign * head[0], head[1], head[2]), (sign * tail[0], tail[1], tail[2])))
+    rename = rename or {}
+    names = [rename.get(r[0], r[0]) for r in rows]
+    idx = {r[0]: i for i, r in enumerate(rows)}
+    parents = [idx[r[1]] if r[1] else -1 for r in rows]
+    return names, parents, np.array([r[2] for r in rows]), np.array([r[3] for r in rows])
+
+
+@pytest.mark.parametrize("foot_parent", ["Bone", "Body", "PoleTarget.L", "Hips", "UpperLeg.L"])
+def test_game_rig_feet_parented_anywhere_hang_from_their_shins(foot_parent):
+    """Feet parented to the root (Quaternius), the pelvis, an IK control, the spine or the
+    thigh: each is found at its shin's end, the same mapping every time."""
+    names, parents, heads, tails = game_rig(foot_parent)
+    m = map_roles(names, parents, heads, tails)
+    assert m.ok, m.describe()
+    assert m.roles == GAME_ROLES, m.describe()
+    assert m.how["foot_l"] == m.how["foot_r"] == "name"
+    assert "Foot.L_end" not in m.roles.values() and "PoleTarget.L" not in m.roles.values()
+
+
+def test_game_rig_without_tails_finds_the_shins_end_by_its_end_marker():
+    names, parents, heads, _ = game_rig()
+    m = map_roles(names, parents, heads)
+    assert m.ok and m.roles == GAME_ROLES, m.describe()
+
+
+def test_game_rig_anonymous_by_hierarchy_and_geometry():
+    """Nameless bones: the legs come from the tree, each foot from the shin's end; the
+    shin's end marker (a leaf going on the shin's way) is no foot."""
+    names, parents, heads, tails = game_rig()
+    rename = {n: f"b{i:02d}" for i, n in enumerate(names)}
+    anon = [rename[n] for n in names]
+    m = map_roles(anon, parents, heads, tails)
+    assert m.ok, m.describe()
+    for role in REQUIRED_ROLES:
+        assert m.roles[role] == rename[GAME_ROLES[role]], (role, m.describe())
+        assert m.how[role] == "hierarchy"
+
+
+def _rot(axis, deg):
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_rotvec(np.radians(deg) * np.asarray(axis, float)).as_matrix()
+
+
+def posed_rest(names, parents, heads, tails, turns, carry, lift=(0.0, 0.0, 0.0), gaps=None):
+    """Heads and tails of the rig posed as a clip's frame would pose it (a rest pose written
+    from that frame): bone ``b`` turned by ``turns[b]`` (3, 3) about its head, each bone
+    carried by its parent, a foot in ``carry`` (bone -> bone) by that bone instead (the
+    animation keeps it at the ankle), then parted from there by ``gaps[b]`` (3,)."""
+    n = len(names)
+    pp = [carry.get(i, parents[i]) for i in range(n)]
+    G, H = [None] * n, [None] * n
+    done = 0
+    while done < n:
+        for i in range(n):
+            if G[i] is not None or (pp[i] >= 0 and G[pp[i]] is None):
+                continue
+            if pp[i] < 0:
+                G[i], H[i] = turns.get(i, np.eye(3)), heads[i] + np.asarray(lift)
+            else:
+                p = pp[i]
+                G[i] = G[p] @ turns.get(i, np.eye(3))
+                H[i] = H[p] + G[p] @ (heads[i] - heads[p])
+            done += 1
+    H = np.array(H) + (np.array([gaps.get(i, np.zeros(3)) for i in range(n)]) if gaps else 0.0)
+    T = H + np.einsum("bij,bj->bi", np.array(G), tails - heads)
+    return H, T
+
+
+@settings(max_examples=60, deadline=None, database=None)
+@given(yaw=st.floats(-180, 180), tilt=st.floats(-15, 15), hip=st.tuples(*[st.floats(-50, 50)] * 2),
+       knee=st.tuples(*[st.floats(0, 110)] * 2), ankle=st.tuples(*[st.floats(-40, 40)] * 2),
+       gap=st.floats(0.0, 0.08), lift=st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(0, 0.5)))
+def test_game_rig_maps_the_same_whatever_frame_its_rest_pose_was_written_in(yaw, tilt, hip, knee, ankle, gap,
+                                                                             lift):
+    """An FBX's rest pose is the pose it was written in: the same mapping however the legs
+    are posed, the character turned or lifted, an ankle parted from its shin by up to 8%
+    of the shin's length."""
+    names, parents, heads, tails = game_rig()
+    i = {n: k for k, n in enumerate(names)}
+    turns = {i["Bone"]: _rot((0, 0, 1), yaw) @ _rot((1, 0, 0), tilt)}
+    for k, s in enumerate("LR"):
+        turns[i[f"UpperLeg.{s}"]] = _rot((1, 0, 0), -hip[k])
+        turns[i[f"LowerLeg.{s}"]] = _rot((1, 0, 0), knee[k])
+        turns[i[f"Foot.{s}"]] = _rot((1, 0, 0), ankle[k])
+    carry = {i[f"Foot.{s}"]: i[f"LowerLeg.{s}"] for s in "LR"}
+    shin = np.linalg.norm(heads[i["LowerLeg.L"]] - tails[i["LowerLeg.L"]])
+    gaps = {i["Foot.L"]: np.array([0.0, 0.6, 0.8]) * gap * shin, i["Foot.R"]: np.array([0.6, 0.0, -0.8]) * gap * shin}
+    H, T = posed_rest(names, parents, heads, tails, turns, carry, lift, gaps)
+    m = map_roles(names, parents, H, T)
+    assert {r: m.roles.get(r) for r in REQUIRED_ROLES} == {r: GAME_ROLES[r] for r in REQUIRED_ROLES}, m.describe()
+
+
+@settings(max_examples=30, deadline=None, database=None)
+@given(data=st.data())
+def test_game_rig_mapping_invariant_under_bone_order(data):
+    names, parents, heads, tails = game_rig()
+    perm = data.draw(st.permutations(range(len(names))))
+    pos = {old: new for new, old in enumerate(perm)}
+    m = map_roles([names[o] for o in perm], [pos[parents[o]] if parents[o] >= 0 else -1 for o in perm],
+                  heads[list(perm)], tails[list(perm)])
+    assert m.roles == GAME_ROLES
+
+
+def test_a_foot_under_its_shin_wins_over_one_hanging_there():
+    """A rig with both: the foot its shin carries is the foot (an existing rig's mapping
+    is never changed by a bone that only hangs at the ankle)."""
+    rows, expected = mixamo()
+    names, parents, heads = build(rows)
+    for s, sign in (("Left", 1), ("Right", -1)):
+        names.append(f"Foot{s}Copy")  # a named foot at the ankle, parented to the hips
+        parents.append(names.index("mixamorig:Hips"))
+        heads = np.vstack([heads, P("foot", sign)])
+    m = map_roles(names, parents, heads)
+    assert m.roles == expected
+
+
+FAMILIES = {  # names that map without help: (thigh, shin, foot, toe) of the left leg, hips
+    "mixamo": (("mixamorig:LeftUpLeg", "mixamorig:LeftLeg", "mixamorig:LeftFoot", "mixamorig:LeftToeBase"),
+               "mixamorig:Hips"),
+    "quaternius": (("UpperLeg.L", "LowerLeg.L", "Foot.L", None), "Hips"),
+    "rigify_metarig": (("thigh.L", "shin.L", "foot.L", "toe.L"), "spine"),
+    "unreal": (("thigh_l", "calf_l", "foot_l", "ball_l"), "pelvis"),
+    "unity": (("LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "LeftToes"), "Hips"),
+    "cmu_bvh": (("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase"), "Hips"),
+}
+
+
+def _right(name):
+    for a, b in (("Left", "Right"), (".L", ".R"), ("_l", "_r")):
+        if a in name:
+            return name.replace(a, b)
+    raise AssertionError(name)
+
+
+@pytest.mark.parametrize("family", sorted(FAMILIES))
+@pytest.mark.parametrize("feet_on_root", [False, True])
+def test_rig_families_map_by_name_feet_under_the_shin_or_on_the_root(family, feet_on_root):
+    """Each family's leg names, with twist bones (Unreal), hip joints (CMU), a root at the
+    ground, and the feet either under their shins or parented to the root by the rig."""
+    leg_names, hips = FAMILIES[family]
+    rows = [("root", None, P("root"), None), (hips, "root", P("hips"), None), ("Spine", hips, P("spine"), None)]
+    for sign, side in ((1, lambda n: n), (-1, _right)):
+        thigh, shin, foot, toe = [side(n) if n else None for n in leg_names]
+        up = hips
+        if family == "cmu_bvh":
+            up = "LHipJoint" if sign > 0 else "RHipJoint"
+            rows.append((up, hips, P("hipjoint", sign), P("thigh", sign)))
+        rows += [(thigh, up, P("thigh", sign), P("shin", sign)), (shin, thigh, P("shin", sign), P("foot", sign))]
+        rows.append((foot, "root" if feet_on_root else shin, P("foot", sign), P("toe", sign)))
+        if toe:
+            rows.append((toe, foot, P("toe", sign), P("toe_end", sign)))
+        if family == "unreal":
+            rows += [(f"thigh_twist_01_{'lr'[sign < 0]}", thigh, P("thigh1", sign), P("shin", sign)),
+                     (f"calf_twist_01_{'lr'[sign < 0]}", shin, P("shin1", sign), P("foot", sign))]
+    names = [r[0] for r in rows]
+    parents = [names.index(r[1]) if r[1] else -1 for r in rows]
+    heads = np.array([r[2] for r in rows], float)
+    tails = np.array([r[3] if r[3] is not None else np.add(r[2], (0, 0, 0.1)) for r in rows], float)
+    m = map_roles(names, parents, heads, tails)
+    assert m.ok, m.describe()
+    for part, n in zip(("thigh", "shin", "foot", "toe"), leg_names):
+        assert m.roles.get(f"{part}_l") == n and m.roles.get(f"{part}_r") == (_right(n) if n else None), m.describe()
+        if n:
+            assert m.how[f"{part}_l"] == "name"
+    assert m.roles["hips"] == hips and m.roles.get("root") == "root"
+    assert not any("twist" in b or "HipJoint" in b for b in m.roles.values())
+
+
+def test_unpaired_feet_name_the_shins_ends_and_the_bones_tried():
+    """Feet parented to the root that stand nowhere near the shins' ends: the message says
+    where each shin ends and which bones were tried, how far each is and why it is not
+    the foot."""
+    names, parents, heads, tails = game_rig()
+    for s in "LR":
+        k = names.index(f"Foot.{s}")
+        heads[k] += (0.0, -0.25, 0.0)
+        tails[k] += (0.0, -0.25, 0.0)
+    m = map_roles(names, parents, heads, tails)
+    assert not m.ok and set(m.missing) == {"foot_l", "foot_r"}
+    text = m.describe()
+    assert "\n" not in text and text.startswith("could not map roles: foot_l, foot_r")
+    assert "shin 'LowerLeg.L' ends at (0.1, 0.02, 0.08)" in text and "'LowerLeg.R'" in text
+    assert "'Foot.L' 0.25 (too far)" in text and "'Foot.R' 0.25 (too far)" in text
+    assert "'LowerLeg.L_end' 0 (a control or end bone)" in text
+    assert "a foot's head within 0.105" in text

@@ -23,7 +23,7 @@ from scipy.spatial.transform import Rotation
 from ..core.errors import FootstepError
 from ..core.ik import IKResult, body_frames
 from ..core.quat import continuous
-from ..core.rig import Rig
+from ..core.rig import Rig, armature_basis
 from .scene import CONSTANT, fill_keys, scene_fps
 
 OWNED_PROP = "footstep_bake"
@@ -196,9 +196,12 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
     """Key ``res`` into a new Action on the armature ``ob`` in a new NLA track of the
     planner's, starting at ``frame_start``: the body on the object's transform
     (``body_on="OBJECT"``) or on the rig's root bone (``"ROOT"``, the object stays put),
-    every bone's rotation, and the hips' location. The planner's earlier bake of this
-    character is replaced. The character's active action is stashed (see the module's
-    doc) and, with ``frame_range``, the scene's frame range grows to cover the bake.
+    every bone's rotation, and the location of the hips and of any bone that moves from
+    its parent (``res.basis``, under the planner's hierarchy, is keyed under the
+    armature's, ``core.rig.armature_basis``: a foot parented to the root moves from it).
+    The planner's earlier bake of this character is replaced. The character's active
+    action is stashed (see the module's doc) and, with ``frame_range``, the scene's frame
+    range grows to cover the bake.
     ``planted`` holds (strike, stance, liftoff) seconds per footprint of ``path``,
     for the optional markers. ``rigify_ik_feet``: on a Rigify rig, the legs on their IK
     controls (``rigify.key_controls(leg_ik=True)``) instead of the FK ones."""
@@ -215,8 +218,8 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
         _key_body(keys, ob, res.body_pos, spin + res.body_heading)
     if on_controls:
         _key_rigify_controls(ob, rig, act, slot, frames, res, spin, body_on, rigify_ik_feet)
-    else:
-        _key_bones(keys, ob, basis)
+    else:  # (keys are Blender's bases: a foot parented to the root keyed relative to it)
+        _key_bones(keys, ob, armature_basis(rig, basis))
     track = _add_track(ob, name, act, slot, frame_start)
     _stash_active(ob, act)
     if frame_range:

@@ -124,7 +124,7 @@ def _chunked_clip(ob, action, rig: Rig, frames: np.ndarray, fps: float) -> ClipM
     local_rot = np.empty((n, len(rig.names), 3, 3), np.float32)  # (half the memory; 1e-7 is plenty)
     foot_pose = np.empty((len(feet), n, 4, 4))
     for a in range(0, n, CHUNK):
-        basis = sample_basis(ob, action, frames[a:a + CHUNK])
+        basis = sample_basis(ob, action, frames[a:a + CHUNK], rig)
         part = clip_motion(rig, action.name, basis, fps=fps, frame0=frames[0], **extra)
         local_rot[a:a + len(basis)] = part.local_rot
         foot_pose[:, a:a + len(basis)] = forward_kinematics(rig, basis, bones=feet)[:, feet].swapaxes(0, 1)
@@ -148,7 +148,7 @@ def _sole_points(ob, action, rig: Rig, frames, foot_pose: np.ndarray, fps: float
         fm = foot_pose[k]
         ankle, ball = fm[:, 2, 3], (fm @ rig.ball_local(side))[:, 2]
         flat = int(np.argmin(np.maximum(ankle - ankle.min(), ball - ball.min())))
-        one = clip_motion(rig, action.name, sample_basis(ob, action, frames[[flat]]), fps=fps)
+        one = clip_motion(rig, action.name, sample_basis(ob, action, frames[[flat]], rig), fps=fps)
         heel_local[k], toe_local[k] = one.heel_local[k], one.toe_local[k]
         heel[k] = (fm @ heel_local[k])[:, :3]
         toe[k] = (fm @ toe_local[k])[:, :3]

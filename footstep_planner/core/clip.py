@@ -31,7 +31,7 @@ class ClipMotion:
     root_pos: np.ndarray  # (N, 3) ground-projected hips position (z = 0)
     root_heading: np.ndarray  # (N,) unwrapped yaw of the character, radians
     hips_in_root: np.ndarray  # (N, 4, 4) the hips' matrix in the root frame
-    local_rot: np.ndarray  # (N, B, 3, 3) bone basis rotations (scale removed)
+    local_rot: np.ndarray  # (N, B, 3, 3) bone basis rotations (scale removed), the planner's hierarchy
     heel: np.ndarray  # (2, N, 3) heel point of each foot, armature space
     toe: np.ndarray  # (2, N, 3) toe (ball) point of each foot
     heel_local: np.ndarray  # (2, 4) heel point in the foot bone's frame (homogeneous)
@@ -121,7 +121,9 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
     forward direction carried by the hips. Heel and toe points follow Johansen: the ankle
     and the ball of each foot projected onto the ground at the foot's stance pose (the
     frame where both are lowest), then carried rigidly with the foot bone. The drop is at
-    most ``MAX_SOLE_DROP`` of the leg's length.
+    most ``MAX_SOLE_DROP`` of the leg's length. A rig with the soles of its skinned mesh
+    (``Rig.sole``, ``core.sole``) has its heel and ball from there instead, the same in
+    every clip. ``basis`` is under the rig's planner hierarchy (``core.rig.planner_basis``).
     """
     rig.require_legs()
     basis = np.asarray(basis, dtype=np.float64)
@@ -148,6 +150,10 @@ def clip_motion(rig: Rig, name: str, basis: np.ndarray, fps: float, frame0: floa
     for k, side in enumerate(SIDES):
         foot, _ = rig.foot_chain(side)
         fm = pose[:, foot]
+        if rig.sole is not None:  # the mesh's own heel and ball
+            heel_local[k], toe_local[k] = rig.sole.local(k)[:2]
+            heel[k], toe[k] = (fm @ heel_local[k])[:, :3], (fm @ toe_local[k])[:, :3]
+            continue
         ankle = fm[:, :3, 3]
         ball = (fm @ rig.ball_local(side))[:, :3]
         low = np.maximum(ankle[:, 2] - ankle[:, 2].min(), ball[:, 2] - ball[:, 2].min())

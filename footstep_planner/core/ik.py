@@ -711,8 +711,16 @@ def toe_tip(rig: Rig, side: str, foot_m: np.ndarray, toe_m: np.ndarray | None, h
     sole (``toe_local`` (3,)) by the toe bone's length, along the sole (from
     ``heel_local``), bent as the toe bone is bent from its rest in ``foot_m``/``toe_m``
     (F, 4, 4) (the foot's and the toe's matrices in any one space; without a toe bone
-    (None) the foot's tail stands for the tip, unbent, on the sole)."""
+    (None) the foot's tail stands for the tip, unbent, on the sole). A rig with the soles
+    of its skinned mesh (``Rig.sole``) has the mesh's tip, bent about the toe bone's head."""
     foot, toe = rig.foot_chain(side)
+    if rig.sole is not None:
+        tip = rig.sole.tip[SIDES.index(side)]
+        if toe is None or toe_m is None:
+            return np.tile(tip, (len(foot_m), 1))
+        rel = np.linalg.inv(rig.rest[foot]) @ rig.rest[toe]
+        bend = np.swapaxes(foot_m[:, :3, :3], 1, 2) @ toe_m[:, :3, :3] @ rel[:3, :3].T
+        return rel[:3, 3] + bend @ (tip - rel[:3, 3])
     ahead = toe_local - heel_local
     ahead = ahead / max(float(np.linalg.norm(ahead)), 1e-9)
     if toe is None or toe_m is None:

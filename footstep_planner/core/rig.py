@@ -8,11 +8,21 @@ to its rest pose (Blender's ``PoseBone.matrix_basis``), so with default inherit 
     pose[b] = pose[parent] @ inv(rest[parent]) @ rest[b] @ basis[b]
 
 where ``rest[b]`` is ``Bone.matrix_local`` (armature space).
+
+Two hierarchies. The planner (forward kinematics here, ``core.ik``, the synthesis) works
+on a *planner hierarchy* in which each mapped foot hangs from its shin and each mapped toe
+from its foot: ``Rig.parents``, ``Rig.rest_rel``, ``Rig.order``, and every pose basis the
+core makes or reads. The armature's own parents are ``Rig.armature_parents`` (with
+``Rig.armature_rest_rel``): they differ only where the rig's foot (toe) is parented
+elsewhere, to the root or an IK control (game rigs), the bones ``Rig.reparented``.
+``planner_basis`` and ``armature_basis`` turn pose bases from one to the other (what
+Blender's ``PoseBone.matrix_basis`` holds is under the armature's). Where the two agree
+(a foot under its shin) both return their input, and everything is as if there were one.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -26,30 +36,57 @@ class RigError(FootstepError):
 
 @dataclass(frozen=True)
 class Rig:
+    """An armature as the planner sees it (see the module's doc for the two hierarchies)."""
+
     name: str
     names: tuple[str, ...]
-    parents: np.ndarray  # (B,) int, -1 for roots
+    parents: np.ndarray  # (B,) int, -1 for roots: the planner hierarchy (feet under shins)
     rest: np.ndarray  # (B, 4, 4) armature-space rest matrices (Bone.matrix_local)
     tails: np.ndarray  # (B, 3) armature-space rest tails
     roles: RoleMapping
     order: np.ndarray = field(repr=False, default=None)  # topological order (parents first)
     rest_rel: np.ndarray = field(repr=False, default=None)  # (B, 4, 4) parent-relative rest
+    #: (B,) the armature's own parents and parent-relative rests (the planner's very arrays
+    #: where the two hierarchies agree)
+    armature_parents: np.ndarray = field(repr=False, default=None)
+    armature_rest_rel: np.ndarray = field(repr=False, default=None)
+    #: the bones whose planner parent is not their own, in planner order (parents first),
+    #: and the armature's own topological order
+    reparented: tuple[int, ...] = field(repr=False, default=())
+    armature_order: np.ndarray = field(repr=False, default=None)
+    #: the feet's heel, ball and toe tip, when known from the skinned mesh (``core.sole``)
+    sole: object = field(repr=False, default=None)
 
     @staticmethod
     def build(name, names, parents, rest, tails, overrides=None) -> "Rig":
-        """Build a rig and map its roles. ``overrides`` is role -> bone name, set by hand."""
+        """Build a rig and map its roles. ``parents`` are the armature's own; the rig's
+        planner hierarchy (``parents``) hangs each mapped foot from its shin and each toe
+        from its foot where the armature parents them elsewhere. ``overrides`` is role ->
+        bone name, set by hand."""
         names = tuple(names)
         parents = np.asarray(parents, dtype=np.int64)
         rest = np.asarray(rest, dtype=np.float64).reshape(-1, 4, 4)
         tails = np.asarray(tails, dtype=np.float64).reshape(-1, 3)
         if not (len(names) == len(parents) == len(rest) == len(tails)):
             raise RigError(f"armature {name!r}: inconsistent bone arrays")
-        order = topological_order(parents)
-        rest_rel = rest.copy()
-        has_parent = parents >= 0
-        rest_rel[has_parent] = np.linalg.inv(rest[parents[has_parent]]) @ rest[has_parent]
+        own_order = topological_order(parents)
         roles = map_roles(names, parents, rest[:, :3, 3], tails, overrides=overrides)
-        return Rig(name, names, parents, rest, tails, roles, order, rest_rel)
+        plan = planner_parents(names, parents, roles)
+        try:
+            order = topological_order(plan)
+        except RigError:
+            raise RigError(f"armature {name!r}: a foot or toe mapped above its shin or foot; "
+                           f"set the roles by hand ({roles.describe()})") from None
+        rest_rel = _relative_rest(plan, rest)
+        moved = tuple(int(b) for b in order if plan[b] != parents[b])
+        if not moved:
+            return Rig(name, names, parents, rest, tails, roles, order, rest_rel, parents, rest_rel, (), order)
+        return Rig(name, names, plan, rest, tails, roles, order, rest_rel, parents,
+                   _relative_rest(parents, rest), moved, own_order)
+
+    def with_sole(self, sole) -> "Rig":
+        """The same rig with the feet's sole points ``sole`` (``core.sole.Sole``, or None)."""
+        return replace(self, sole=sole)
 
     def index(self, bone: str) -> int:
         try:
@@ -93,6 +130,35 @@ class Rig:
         return fwd
 
 
+def planner_parents(names, parents: np.ndarray, roles: RoleMapping) -> np.ndarray:
+    """(B,) the planner hierarchy of an armature whose own parents are ``parents``: each
+    mapped foot that does not descend from its mapped shin becomes the shin's child, each
+    mapped toe that does not descend from its foot the foot's (bones in between, a split
+    shin's halves, are kept); every other bone keeps its parent."""
+    plan = np.array(parents, dtype=np.int64, copy=True)
+    index = {n: i for i, n in enumerate(names)}
+    for side in ("l", "r"):
+        chain = [roles.roles.get(f"{p}_{side}") for p in ("shin", "foot", "toe")]
+        for upper, lower in zip(chain, chain[1:]):
+            if upper is None or lower is None:
+                continue
+            hi, lo = index[upper], index[lower]
+            p = plan[lo]
+            while p >= 0 and p != hi:
+                p = plan[p]
+            if p != hi:
+                plan[lo] = hi
+    return plan
+
+
+def _relative_rest(parents: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """(B, 4, 4) each bone's rest relative to its parent's under ``parents``."""
+    rest_rel = rest.copy()
+    has_parent = parents >= 0
+    rest_rel[has_parent] = np.linalg.inv(rest[parents[has_parent]]) @ rest[has_parent]
+    return rest_rel
+
+
 def topological_order(parents: np.ndarray) -> np.ndarray:
     """Bone indices ordered so that every parent comes before its children."""
     parents = np.asarray(parents)
@@ -115,18 +181,63 @@ def forward_kinematics(rig: Rig, basis: np.ndarray, bones=None) -> np.ndarray:
     array of the bases' size but the result. With ``bones`` (indices), only those and
     their ancestors are computed (the other entries are left undefined).
     """
+    return _kinematics(rig.parents, rig.rest_rel, rig.order, basis, bones)
+
+
+def armature_kinematics(rig: Rig, basis: np.ndarray, bones=None) -> np.ndarray:
+    """``forward_kinematics`` under the armature's own hierarchy: armature-space pose
+    matrices (F, B, 4, 4) from the pose bases Blender holds (``PoseBone.matrix_basis``)."""
+    if not rig.reparented:
+        return forward_kinematics(rig, basis, bones)
+    return _kinematics(rig.armature_parents, rig.armature_rest_rel, rig.armature_order, basis, bones)
+
+
+def _kinematics(parents, rest_rel, order, basis, bones) -> np.ndarray:
+    """Armature-space pose matrices (F, B, 4, 4) of pose bases (F, B, 4, 4) under the
+    hierarchy ``parents`` (``rest_rel``: rests relative to the parents', ``order``: parents
+    first); with ``bones``, only those and their ancestors."""
     basis = np.asarray(basis, dtype=np.float64)
-    order = rig.order
     if bones is not None:
         need = set()
         for b in bones:
             while b >= 0 and b not in need:
                 need.add(int(b))
-                b = rig.parents[b]
-        order = [b for b in rig.order if b in need]
+                b = parents[b]
+        order = [b for b in order if b in need]
     pose = np.empty_like(basis)  # (one array of the bases' size: no copy of the locals)
     for b in order:
-        local = rig.rest_rel[b] @ basis[:, b]
-        p = rig.parents[b]
+        local = rest_rel[b] @ basis[:, b]
+        p = parents[b]
         pose[:, b] = local if p < 0 else pose[:, p] @ local
     return pose
+
+
+def planner_basis(rig: Rig, basis: np.ndarray) -> np.ndarray:
+    """Pose bases (F, B, 4, 4) under the planner hierarchy from pose bases under the
+    armature's own (Blender's ``matrix_basis``): the same armature-space pose. Only the
+    ``rig.reparented`` bones' bases change (a foot's becomes relative to its shin);
+    ``basis`` itself is returned when there are none. Vectorized over frames."""
+    return _rebase(basis, rig.reparented, armature_kinematics, rig, rig.parents, rig.rest_rel)
+
+
+def armature_basis(rig: Rig, basis: np.ndarray) -> np.ndarray:
+    """Pose bases (F, B, 4, 4) under the armature's own hierarchy, what Blender keys, from
+    pose bases under the planner's: the inverse of ``planner_basis`` (a foot parented to
+    the root gets the location and rotation relative to the root that put it where the
+    planner did). ``basis`` itself is returned when no bone is reparented."""
+    return _rebase(basis, rig.reparented, forward_kinematics, rig, rig.armature_parents, rig.armature_rest_rel)
+
+
+def _rebase(basis, bones, kinematics, rig: Rig, parents, rest_rel) -> np.ndarray:
+    """``basis`` with the bases of ``bones`` made relative to their parents under
+    ``parents`` (``rest_rel``), the pose given by ``kinematics(rig, basis, bones=...)``."""
+    if not bones:
+        return basis
+    bones = list(bones)
+    up = [int(parents[b]) for b in bones]
+    pose = kinematics(rig, basis, bones=bones + [p for p in up if p >= 0])
+    out = np.array(basis, dtype=np.float64, copy=True)
+    for b, p in zip(bones, up):
+        parent = pose[:, p] @ rest_rel[b] if p >= 0 else rest_rel[b][None]
+        out[:, b] = np.linalg.solve(parent, pose[:, b])
+    return out

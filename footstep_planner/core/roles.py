@@ -43,9 +43,16 @@ Conventions
 
 * Every mapping is consistent with the hierarchy: thighs descend from the hips, the shin
   from the thigh, the foot from the shin, the toe from the foot, the spine from the hips
-  and the hips from the root. For Rigify, ``DEF-x``/``ORG-x``/``x`` count as the same
-  logical bone when checking ancestry (generated rigs parent ``DEF-thigh.L`` to
-  ``ORG-spine``, not to ``DEF-spine``).
+  and the hips from the root. A foot (toe) may instead *hang* from its shin (foot) by
+  geometry, as in IK-style game rigs whose feet are parented to the root or to an IK
+  control (Quaternius ``Foot.L`` under ``Bone``): its rest head lies at the shin's far end
+  (the shin's tail, or its chain child's head) within ``ATTACH_TOLERANCE`` of the shin's
+  length, and it points away from the shin like a foot (``FOOT_ANGLES``). A descendant is
+  preferred to a bone that only hangs there. Control and mechanism bones (poles, IK
+  targets, ``_end`` stubs...) never qualify. The planner treats a hanging foot as a child
+  of its shin (``core.rig.Rig``'s planner hierarchy). For Rigify, ``DEF-x``/``ORG-x``/``x``
+  count as the same logical bone when checking ancestry (generated rigs parent
+  ``DEF-thigh.L`` to ``ORG-spine``, not to ``DEF-spine``).
 """
 
 from __future__ import annotations
@@ -99,6 +106,20 @@ ALL_ROLES: tuple[str, ...] = (
 _SIDES = ("l", "r")
 _LEG_PARTS = ("thigh", "shin", "foot", "toe")
 
+#: A foot (toe) hangs from a shin (foot) it does not descend from when its rest head lies
+#: within this share of the shin's (foot's) length of the shin's far end. Generous, so
+#: that a rest pose written from a clip's frame (an FBX's rest is the pose it was written
+#: in), where the animation parts the ankle from the shin a little, maps the same; the
+#: nearest such bone is the one taken.
+ATTACH_TOLERANCE = 0.25
+#: (min, max) degrees between a shin's direction (head to tail) and a foot hanging from
+#: it: a foot points away from the shin, forward, or down when pointed (seen from 25 to
+#: 132 degrees in a game rig's clips), never along it (a stub continuing the shin) nor back
+#: up it (a pole or an IK target standing up).
+FOOT_ANGLES = (15.0, 160.0)
+#: (min, max) degrees between a foot's direction and a toe hanging from it: about its way.
+TOE_ANGLES = (0.0, 100.0)
+
 
 class RoleError(FootstepError):
     """A role cannot be resolved (unmapped role, bad override, malformed armature)."""
@@ -118,6 +139,9 @@ class RoleMapping:
     missing: tuple[str, ...]
     how: dict[str, str]
     bones: tuple[str, ...] = field(default=(), repr=False)
+    #: Where a foot is missing: the shins' ends and the candidate feet tried, with their
+    #: distances (one line, for messages); empty otherwise.
+    tried: str = field(default="", repr=False)
 
     @property
     def ok(self) -> bool:
@@ -146,6 +170,8 @@ class RoleMapping:
             )
             if mapped:
                 text += f"; mapped: {mapped}"
+            if self.tried:
+                text += f"; {self.tried}"
             return text
         notes = []
         for kind in ("hierarchy", "manual"):
@@ -183,6 +209,9 @@ _EXCLUDE = frozenset(
     end nub site tip null helper hlp socket vis wgt widget pivot spin corrective offset
     aux jiggle stretch track aim lock driver drv proxy mech""".split()
 )
+# The words of an end marker's name: FBX ``LowerLeg.L_end``, Mixamo ``LeftToe_End``, 3ds
+# Max ``Toe0Nub``, BVH ``End Site``.
+_END_MARK = frozenset("end nub site".split())
 # Tokens that carry no meaning for matching.
 _NOISE = frozenset("jnt jt bn bone bind skin deform def bend".split())
 # Centre markers (AdvancedSkeleton ``Root_M``, ``C_Hips``) dropped at either end.
@@ -316,6 +345,7 @@ class _Ctx:
                 self._size[p] += self._size[i]
                 if self.parsed[i].tier is not None:
                     self._height[p] = max(self._height[p], self._height[i] + 1)
+        self.hang_cache: dict = {}
         self.eps, self.zmin, self.zmax = 1e-9, 0.0, 0.0
         if self.heads is not None and n:
             z = self.heads[:, 2]
@@ -382,12 +412,22 @@ def _compatible(ctx: _Ctx, role: str, idx: int, roles: dict[str, int]) -> bool:
     for chain in chains:
         pos = chain.index(role)
         above = next((roles[r] for r in reversed(chain[:pos]) if r in roles), None)
-        below = next((roles[r] for r in chain[pos + 1 :] if r in roles), None)
-        if above is not None and ctx.desc(idx, above) is None:
+        below = next(((r, roles[r]) for r in chain[pos + 1 :] if r in roles), None)
+        if above is not None and _below(ctx, role, idx, above) is None:
             return False
-        if below is not None and ctx.desc(below, idx) is None:
+        if below is not None and _below(ctx, below[0], below[1], idx) is None:
             return False
     return True
+
+
+def _below(ctx: _Ctx, role: str, lo: int, hi: int) -> int | None:
+    """Steps from bone ``lo`` (mapped to ``role``) up to bone ``hi`` as a mapping links
+    them: its ancestry, or, for a foot or toe that hangs from ``hi`` by geometry
+    (``_hangs``), ``ctx.n`` (after any real chain); None when ``lo`` is not below ``hi``."""
+    d = ctx.desc(lo, hi)
+    if d is None and role.startswith(("foot_", "toe_")) and _hangs(ctx, lo, hi, role[:-2]):
+        return ctx.n
+    return d
 
 
 def _assemble(ctx, fixed, proposal):
@@ -463,20 +503,22 @@ def _best_leg(ctx, side, hips, cands, fixed):
             (f"{part}_{side}", c[1]) for part, c in zip(("thigh", "shin", "foot"), combo)
         ]
         chain = [(r, i) for r, i in chain if i is not None]
-        total_dist, ok = 0, True
+        total_dist, hanging, ok = 0, 0, True
         for (ra, a), (rb, b) in zip(chain, chain[1:]):
             if ra in fixed and rb in fixed:
                 continue
-            d = ctx.desc(b, a)
+            d = _below(ctx, rb, b, a)
             if d is None:
                 ok = False
                 break
+            hanging += d >= ctx.n
             total_dist += d
         if not ok:
             continue
         scores = [c[0] for c in combo if c[1] is not None]
         key = (
             -len(scores),
+            hanging,  # a foot under its shin before one that only hangs from it
             sum(s[0] for s in scores),
             sum(s[1] for s in scores),
             sum(s[2] for s in scores),
@@ -486,7 +528,7 @@ def _best_leg(ctx, side, hips, cands, fixed):
         if best_key is None or key < best_key:
             best_key, best = key, {r: i for r, i in chain if r != "hips"}
     if best is None:  # only possible when an override contradicts every candidate
-        return (0, 0, 0, 0, 0, ()), {}
+        return (0, 0, 0, 0, 0, 0, ()), {}
     # toe: best candidate under the deepest filled role of this side
     toe_role = f"toe_{side}"
     anchor = next(
@@ -498,9 +540,9 @@ def _best_leg(ctx, side, hips, cands, fixed):
     elif anchor is not None and f"foot_{side}" in best:
         toes = []
         for score, i in cands[toe_role]:
-            d = ctx.desc(i, anchor)
+            d = _below(ctx, toe_role, i, anchor)
             if d is not None and i not in best.values():
-                toes.append(((score[0], score[1], score[2], d, score[3]), i))
+                toes.append(((d >= ctx.n, score[0], score[1], score[2], d, score[3]), i))
         if toes:
             best[toe_role] = min(toes)[1]
     return best_key, best
@@ -556,6 +598,131 @@ def _name_root(ctx: _Ctx, hips: int, used) -> int | None:
     return min(opts)[1] if opts else None
 
 
+# ------------------------------------------------------------- feet by geometry
+
+
+def _far_ends(ctx: _Ctx, a: int) -> list:
+    """The far end of bone ``a`` (rest, armature space): its tail, when tails are known,
+    and its chain child's head (``_main_child``), when it has one; failing both, the head
+    of an end marker hanging from it (a leaf named ``_end``, ``Nub``...: FBX and 3ds Max
+    put one at a chain's last tail)."""
+    ends = [ctx.tails[a]] if ctx.tails is not None else []
+    c = _main_child(ctx, a)
+    if c is not None:
+        ends.append(ctx.heads[c])
+    if not ends:
+        ends = [ctx.heads[k] for k in ctx.children[a] if not ctx.children[k] and _end_mark(ctx.names[k])]
+    return ends
+
+
+def _end_mark(name: str) -> bool:
+    """Whether a bone's ``name`` is an end marker's (a word of ``_END_MARK``)."""
+    return any(t.lower() in _END_MARK for part in _SPLIT_RE.split(name) for t in _CAMEL_RE.findall(part))
+
+
+def _end_and_reach(ctx: _Ctx, a: int):
+    """(far ends (K, 3), the distance within which a bone's head hangs from them: the
+    ``ATTACH_TOLERANCE`` share of ``a``'s length) of bone ``a``; None without rest heads or
+    a far end, or for a bone of no length."""
+    if ctx.heads is None:
+        return None
+    ends = _far_ends(ctx, a)
+    if not ends:
+        return None
+    ends = np.asarray(ends)
+    length = float(np.linalg.norm(ends - ctx.heads[a], axis=1).max())
+    return (ends, ATTACH_TOLERANCE * length) if length > ctx.eps else None
+
+
+def _angle(ctx: _Ctx, a: int, b: int) -> float | None:
+    """Degrees between the rest directions (head to tail) of bones ``a`` and ``b``; None
+    without tails or for a bone of no length."""
+    if ctx.tails is None:
+        return None
+    u, v = ctx.tails[a] - ctx.heads[a], ctx.tails[b] - ctx.heads[b]
+    nu, nv = float(np.linalg.norm(u)), float(np.linalg.norm(v))
+    if nu <= ctx.eps or nv <= ctx.eps:
+        return None
+    return float(np.degrees(np.arccos(np.clip(u @ v / (nu * nv), -1.0, 1.0))))
+
+
+def _hang_fault(ctx: _Ctx, b: int, a: int, part: str) -> str | None:
+    """Why bone ``b`` does not hang from bone ``a`` as its ``part`` ("foot" from a shin,
+    "toe" from a foot) by geometry, in a few words; None when it does: ``b`` is no control bone,
+    no ancestor of ``a``, its rest head lies within reach of ``a``'s far end
+    (``_end_and_reach``) and it points as a foot (``FOOT_ANGLES``) or toe (``TOE_ANGLES``)
+    does from ``a``."""
+    if b == a or ctx.desc(a, b) is not None:
+        return "above it"
+    if ctx.parsed[b].tier is None:
+        return "a control or end bone"
+    er = _end_and_reach(ctx, a)
+    if er is None:
+        return "no rest geometry"
+    ends, reach = er
+    if float(np.linalg.norm(ends - ctx.heads[b], axis=1).min()) > reach:
+        return "too far"
+    ang = _angle(ctx, a, b)
+    lo, hi = FOOT_ANGLES if part == "foot" else TOE_ANGLES
+    if ang is not None and not lo <= ang <= hi:
+        return f"at {ang:.0f} degrees to it"
+    return None
+
+
+def _hangs(ctx: _Ctx, b: int, a: int, part: str) -> bool:
+    """Whether bone ``b`` hangs from bone ``a`` as its ``part`` by geometry
+    (``_hang_fault``; cached)."""
+    key = (b, a, part)
+    if key not in ctx.hang_cache:
+        ctx.hang_cache[key] = ctx.heads is not None and _hang_fault(ctx, b, a, part) is None
+    return ctx.hang_cache[key]
+
+
+def _hanging_bone(ctx: _Ctx, a: int, part: str) -> int | None:
+    """The bone that hangs from bone ``a`` as its ``part`` by geometry and does not descend
+    from it: of those that hang (none below another that does), the nearest to ``a``'s far
+    end, then by name; None if there is none."""
+    er = _end_and_reach(ctx, a)
+    if er is None:
+        return None
+    ends, reach = er
+    dist = np.linalg.norm(ctx.heads[:, None] - ends[None], axis=2).min(axis=1)
+    near = [int(b) for b in np.flatnonzero(dist <= reach)
+            if ctx.desc(int(b), a) is None and _hangs(ctx, int(b), a, part)]
+    top = [b for b in near if not any(ctx.desc(b, c) is not None for c in near)]
+    return min(top, key=lambda b: (dist[b], ctx.names[b])) if top else None
+
+
+def _feet_tried(ctx: _Ctx, roles: dict[str, int]) -> str:
+    """One line on each leg whose shin is mapped and whose foot is not: where the shin
+    ends, how far a foot may be from there, and the bones nearest it (and those named as
+    that side's foot), each with its distance and why it is not the foot."""
+    parts = []
+    for side in _SIDES:
+        shin = roles.get(f"shin_{side}")
+        if shin is None or f"foot_{side}" in roles:
+            continue
+        er = _end_and_reach(ctx, shin)
+        if er is None:
+            parts.append(f"shin {ctx.names[shin]!r} has no rest tail or child to find its foot by")
+            continue
+        ends, reach = er
+        dist = np.linalg.norm(ctx.heads[:, None] - ends[None], axis=2).min(axis=1)
+        named = [i for i, p in enumerate(ctx.parsed) if p.side == side and p.base in _FOOT]
+        others = [i for i in np.argsort(dist, kind="stable") if i != shin and ctx.desc(shin, int(i)) is None]
+        tried = list(dict.fromkeys(named + [int(i) for i in others[:4]]))
+        used = set(roles.values())
+        words = []
+        for b in sorted(tried, key=lambda b: (dist[b], ctx.names[b])):
+            why = "mapped as another role" if b in used else (_hang_fault(ctx, b, shin, "foot")
+                                                               or "not consistent with the rest")
+            words.append(f"{ctx.names[b]!r} {dist[b]:.3g} ({why})")
+        x, y, z = ends[0]
+        parts.append(f"shin {ctx.names[shin]!r} ends at ({x:.3g}, {y:.3g}, {z:.3g}), a foot's head within "
+                     f"{reach:.3g}: tried {', '.join(words) or 'no other bone'}")
+    return ("feet tried: " + "; ".join(parts)) if parts else ""
+
+
 # ----------------------------------------------------------------- hierarchy stage
 
 
@@ -590,12 +757,42 @@ def _seg_len(ctx: _Ctx, chain: list[int], j: int) -> float:
 def _leg_from(ctx: _Ctx, start: int):
     """Interpret the limb starting at ``start`` as a leg: (bones, intermediate) or None.
 
-    ``bones`` is [thigh, shin, foot] or [thigh, shin, foot, toe].
+    ``bones`` is [thigh, shin, foot] or [thigh, shin, foot, toe]. The limb follows the
+    main children (``_main_child``); where that makes no leg, or one whose foot is a stub
+    continuing the shin (``_stub``), it goes on from the shin to the foot that hangs from
+    it by geometry (``_hanging_bone``: a game rig's foot parented to the root), and that
+    foot's main child or hanging toe.
     """
     chain, x = [start], _main_child(ctx, start)
     while x is not None and len(chain) < 8:
         chain.append(x)
         x = _main_child(ctx, x)
+    leg = _leg_of(ctx, chain)
+    if leg is not None and not _stub(ctx, leg[0][2]):
+        return leg
+    head = chain[: chain.index(leg[0][2])] if leg is not None else chain
+    foot = _hanging_bone(ctx, head[-1], "foot") if len(head) >= 2 else None
+    if foot is None:
+        return leg
+    toe = _main_child(ctx, foot)
+    toe = _hanging_bone(ctx, foot, "toe") if toe is None else toe
+    return _leg_of(ctx, head + [foot] + ([toe] if toe is not None else [])) or leg
+
+
+def _stub(ctx: _Ctx, b: int) -> bool:
+    """Whether bone ``b`` is a leaf that goes on its parent's way (within
+    ``FOOT_ANGLES[0]``): an exporter's end marker (FBX ``_end`` bones, nameless here), no
+    foot."""
+    p = ctx.parents[b]
+    if p < 0 or ctx.children[b]:
+        return False
+    ang = _angle(ctx, p, b)
+    return ang is not None and ang < FOOT_ANGLES[0]
+
+
+def _leg_of(ctx: _Ctx, chain: list[int]):
+    """The leg (bones, intermediate) a limb's ``chain`` of bones makes, or None: its
+    first three or four bones going down (or those after one short intermediate bone)."""
     offsets = [0]
     if ctx.heads is not None and len(chain) >= 4:
         # one short intermediate bone (CMU LHipJoint) before the thigh
@@ -743,8 +940,12 @@ def map_roles(
     ignored, and an unknown role or a bone that does not exist raises :class:`RoleError`.
 
     Names are tried first (``how == "name"``); roles that names cannot fill consistently
-    are taken from the bone hierarchy (``how == "hierarchy"``). Required roles that stay
-    unfilled are listed in :attr:`RoleMapping.missing` (no exception is raised for them).
+    are taken from the bone hierarchy (``how == "hierarchy"``). A foot (toe) need not
+    descend from its shin (foot): one parented elsewhere hangs from it by geometry (see the
+    module's doc). Everything is read from rest data, so a rest pose written from any
+    frame of a clip maps the same. Required roles that stay unfilled are listed in
+    :attr:`RoleMapping.missing` (no exception is raised for them); where a foot is
+    missing, :attr:`RoleMapping.tried` says which bones were tried at the shin's end.
     """
     ctx = _Ctx(names, parents, heads, tails)
     fixed = _fixed_roles(ctx, overrides)
@@ -756,6 +957,7 @@ def map_roles(
         missing=tuple(r for r in REQUIRED_ROLES if r not in roles),
         how={r: how[r] for r in ALL_ROLES if r in roles},
         bones=tuple(ctx.names),
+        tried=_feet_tried(ctx, roles),
     )
 
 
@@ -786,7 +988,22 @@ def _proposals(ctx: _Ctx, fixed: dict[str, int]) -> list[dict[str, tuple[int, st
     if all(r in base_roles for r in REQUIRED_ROLES):
         return [by_name]
     tree = {r: (i, "hierarchy") for r, i in _hierarchy_stage(ctx, fixed).items() if r not in fixed}
+    tree = _named_legs_kept(tree, base_roles)
     return [by_name, _mixed_proposal(ctx, by_name, base_roles, tree), tree]
+
+
+def _named_legs_kept(tree: dict, base_roles: dict[str, int]) -> dict:
+    """The hierarchy proposal ``tree`` without the legs that leave out the thigh and shin
+    names gave their side (``base_roles``): such a chain is another limb (arms hanging in
+    an A pose where a leg's foot was not found), never that side's leg."""
+    out = dict(tree)
+    for side in _SIDES:
+        named = {base_roles[r] for r in (f"thigh_{side}", f"shin_{side}") if r in base_roles}
+        leg = [f"{p}_{side}" for p in _LEG_PARTS]
+        if named and not named & {tree[r][0] for r in leg if r in tree}:
+            for r in leg:
+                out.pop(r, None)
+    return out
 
 
 def _mixed_proposal(ctx: _Ctx, by_name: dict, base_roles: dict[str, int], tree: dict) -> dict:
@@ -796,12 +1013,16 @@ def _mixed_proposal(ctx: _Ctx, by_name: dict, base_roles: dict[str, int], tree: 
     foot is missing, as a whole."""
     mixed = dict(by_name)
     if "hips" not in base_roles:
-        if "hips" in tree:
+        thighs = [base_roles[r] for r in ("thigh_l", "thigh_r") if r in base_roles]
+        carries = "hips" in tree and all(ctx.desc(t, tree["hips"][0]) is not None for t in thighs)
+        if carries:
             mixed["hips"] = tree["hips"]
-        elif "thigh_l" in base_roles and "thigh_r" in base_roles:
-            lca = _lca(ctx, base_roles["thigh_l"], base_roles["thigh_r"])
-            if lca is not None:
-                mixed["hips"] = (lca, "hierarchy")
+        elif len(thighs) == 2 and _lca(ctx, *thighs) is not None:
+            # (the tree's hips, found on a rest pose written from a clip's frame, may carry
+            # other limbs: a character lying down has its arms reaching lowest)
+            mixed["hips"] = (_lca(ctx, *thighs), "hierarchy")
+        elif "hips" in tree:
+            mixed["hips"] = tree["hips"]
     for side in _SIDES:
         leg = [f"{p}_{side}" for p in _LEG_PARTS]
         if all(r in base_roles for r in leg[:3]):
