@@ -60,7 +60,14 @@ def scaled_rig(rig: Rig, k: float) -> Rig:
     rest[:, :3, 3] *= k
     rest_rel = np.array(rig.rest_rel, float, copy=True)
     rest_rel[:, :3, 3] *= k
-    return replace(rig, rest=rest, tails=np.asarray(rig.tails, float) * k, rest_rel=rest_rel)
+    extra = {}
+    if rig.armature_rest_rel is not None:
+        own = np.array(rig.armature_rest_rel, float, copy=True)
+        own[:, :3, 3] *= k
+        extra["armature_rest_rel"] = own
+    if rig.sole is not None:
+        extra["sole"] = replace(rig.sole, heel=rig.sole.heel * k, ball=rig.sole.ball * k, tip=rig.sole.tip * k)
+    return replace(rig, rest=rest, tails=np.asarray(rig.tails, float) * k, rest_rel=rest_rel, **extra)
 
 
 def scaled_bases(basis: np.ndarray, k: float) -> np.ndarray:

@@ -482,6 +482,9 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
                 world[:, legs.thigh[k], :3, 3], MAX_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
         lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t))
                 for k in range(2)]
+        for k in range(2):
+            ankle_t[k] = _swing_within_reach(ankle_t[k], lift[k], tg.weight[k] < 1.0, world[:, legs.thigh[k], :3, 3],
+                                             legs.thigh_len[k] + legs.shin_len[k], _frame_rate(t))
         bend = [toe_bend(ankle_t[k] + lift[k][:, None] * [0.0, 0.0, 1.0], rot_t[k], tg.weight[k] >= 1.0,
                          sole[k][2], toe_local[k, :3], planes[k], _frame_rate(t)) for k in range(2)]
         basis = _solve_legs(rig, basis, pose, world, legs, ankle_t, rot_t, lift, yaw,
@@ -505,6 +508,31 @@ def _solved_at_human_size(k: float, rig: Rig, basis, t, body_pos, body_heading, 
     dp, dpsi = r.body_offset
     return IKResult(r.body_pos * k, r.body_heading, scaled_bases(r.basis, k), targets, r.hips_drop * k,
                     (dp * k, dpsi), r.seconds)
+
+
+#: A swinging foot's ankle is kept within this share of its leg's length of the hip: a
+#: target further out (a foot reaching up a flight ahead of the body, a long leg's lift
+#: over a riser) is drawn in towards the hip, eased over REACH_EASE s, so the knee bends
+#: on as the clip bends it instead of locking straight and snapping when the target comes
+#: back in reach.
+SWING_REACH = 0.99
+
+
+def _swing_within_reach(ankle: np.ndarray, lift: np.ndarray, free: np.ndarray, hip: np.ndarray, length: float,
+                        fps: float) -> np.ndarray:
+    """``ankle`` (F, 3) targets (raised by ``lift`` (F,) when solved) with the ``free``
+    (F,) bool (swinging) frames' drawn in towards ``hip`` (F, 3) as far as they lie beyond
+    SWING_REACH of the leg's ``length``, that pull eased over REACH_EASE s (never on a
+    planted frame)."""
+    a = ankle + lift[:, None] * [0.0, 0.0, 1.0]
+    v = a - hip
+    d = np.linalg.norm(v, axis=1)
+    need = np.where(free, d - SWING_REACH * length, 0.0)
+    if not (need > 0).any():
+        return ankle
+    pull = np.where(free, lower_smoothly(np.maximum(need, 0.0), max(1, int(round(REACH_EASE * fps)))), 0.0)
+    pull = np.minimum(pull, np.maximum(d - 0.5 * length, 0.0))
+    return ankle - (pull / np.maximum(d, 1e-9))[:, None] * v
 
 
 def _legs_in_world(pose: np.ndarray, legs: _Legs, pos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
