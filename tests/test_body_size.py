@@ -36,7 +36,7 @@ def _scaled_scene(fp, name: str, k: float):
     return scene
 
 
-def _character(fp, scene, k: float):
+def _character(fp, scene, k: float, object_scale: float = 1.0):
     """The sample character at the Start with its clips, made ``k`` times its size as a
     rescaled asset is: its bones, its body and its clips' location keys (values and
     handles) times ``k``, their timing kept; then analysed."""
@@ -60,6 +60,7 @@ def _character(fp, scene, k: float):
                             fc.update()
     ob.data.transform(Matrix.Scale(k, 4))
     body.data.transform(Matrix.Scale(k, 4))
+    ob.scale = (object_scale,) * 3
     import_module(fp.__name__ + ".blender.character").analyze_and_propose(ob)
     scene.footstep.character = ob
     return ob
@@ -123,3 +124,40 @@ def test_a_giant_and_a_child_plan_and_bake_a_scaled_scene_as_a_human_does(fp, hu
     # scene changes: the Turns scene's end has two ways of about 46 and 52 footprints, the
     # first with up to 26 knee and ankle pops of at most 2.5 degrees over the clips' own)
     assert q["pops"]["introduced"]["max_excess_deg"] <= max(qr["pops"]["introduced"]["max_excess_deg"] + 1.0, 3.0)
+
+
+@pytest.mark.parametrize("data, scale", [(100.0, 0.01), (0.01, 100.0), (2.77, 1 / 2.77)])
+def test_an_evenly_scaled_object_is_taken_as_blender_shows_it(fp, human, data, scale):
+    """The sample character's bones and keys in centimetres under an object scaled 0.01 (an
+    FBX brought in at its file's unit), the reverse, and a giant set to a human's size by its
+    object's scale: planned as the human it looks like, the bake keyed in the armature's own
+    units (the object's scale kept, never keyed)."""
+    scene = _scaled_scene(fp, "turns", 1.0)
+    ob = _character(fp, scene, data, scale)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    goal, heading = planning.goal_of(scene, "Goal")
+    doc = planning.run(scene, ob, goal, heading, scene.objects["Start"], name="scaled", frame_start=1)
+    q, qr = doc["quality"], human["turns"]["quality"]
+    assert abs(len(doc["footprints"]) - len(human["turns"]["footprints"])) <= 7
+    assert q["goal"]["distance_m"] <= max(qr["goal"]["distance_m"], 0.01) + 0.01
+    assert q["foot_skate"]["max_mm"] <= max(qr["foot_skate"]["max_mm"], 0.1) + 0.2
+    assert q["footprint_error"]["max_mm"] <= max(qr["footprint_error"]["max_mm"], 0.2) + 0.5
+    assert q["penetration"]["max_mm"] <= max(qr["penetration"]["max_mm"], 1.0) + 1.0
+    assert tuple(ob.scale) == pytest.approx((scale,) * 3)
+    ad = ob.animation_data
+    keyed = {fc.data_path for tr in ad.nla_tracks for st in tr.strips for layer in st.action.layers
+             for s in layer.strips for cb in s.channelbags for fc in cb.fcurves}
+    assert "scale" not in keyed
+
+
+def test_an_unevenly_scaled_object_is_refused_in_one_line_naming_the_scale(fp):
+    scene = _scaled_scene(fp, "turns", 1.0)
+    ob = _character(fp, scene, 1.0)
+    ob.scale = (1.0, 1.0, 0.5)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    goal, heading = planning.goal_of(scene, "Goal")
+    errors = import_module(fp.__name__ + ".core.errors")
+    with pytest.raises(errors.FootstepError) as ex:
+        planning.run(scene, ob, goal, heading, scene.objects["Start"], name="uneven", frame_start=1)
+    msg = str(ex.value)
+    assert "scaled 1, 1, 0.5 on X, Y, Z" in msg and "Apply > Scale" in msg and "\n" not in msg

@@ -24,7 +24,7 @@ from ..core.errors import FootstepError
 from ..core.ik import IKResult, body_frames
 from ..core.quat import continuous
 from ..core.rig import Rig, armature_basis
-from .scene import CONSTANT, fill_keys, scene_fps
+from .scene import CONSTANT, fill_keys, object_scale, scene_fps
 
 OWNED_PROP = "footstep_bake"
 #: The character's own object transform before the first bake (row-major 4x4), put back
@@ -56,6 +56,20 @@ def owned_tracks(ob) -> list:
         return []
     return [tr for tr in ad.nla_tracks if tr.name.startswith(TRACK_PREFIX) and tr.strips
             and all(st.action is not None and st.action.get(OWNED_PROP) is not None for st in tr.strips)]
+
+
+def unscaled(m: np.ndarray) -> np.ndarray:
+    """(..., 4, 4) ``m`` with its even scale taken out of its rotation (translation kept)."""
+    m = np.array(m, float, copy=True)
+    s = np.cbrt(np.abs(np.linalg.det(m[..., :3, :3])))
+    m[..., :3, :3] /= np.asarray(s)[..., None, None]
+    return m
+
+
+def own_frame(ob) -> np.ndarray:
+    """(4, 4) the object's own world frame (``own_matrix_world``) without its even scale:
+    where the planner's world-unit rig stands."""
+    return unscaled(own_matrix_world(ob))
 
 
 def own_matrix_world(ob) -> np.ndarray:
@@ -205,9 +219,15 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start
     ``planted`` holds (strike, stance, liftoff) seconds per footprint of ``path``,
     for the optional markers. ``rigify_ik_feet``: on a Rigify rig, the legs on their IK
     controls (``rigify.key_controls(leg_ik=True)``) instead of the FK ones."""
+    from dataclasses import replace
+
+    from ..core.body import scaled_bases, scaled_rig
     from . import rigify
 
     _check(ob, rig, body_on)
+    s = object_scale(ob)
+    if s != 1.0:  # (planned in world units: keyed in the armature's)
+        rig, res = scaled_rig(rig, 1.0 / s), replace(res, basis=scaled_bases(res.basis, 1.0 / s))
     on_controls = rigify.is_rigify(ob)
     basis = _root_carries_body(ob, rig, res, spin) if body_on == "ROOT" and not on_controls else res.basis
     rest = _own_rest(ob)  # (read before clearing frees the old action, and its property with it)
@@ -245,10 +265,18 @@ def _root_carries_body(ob, rig: Rig, res: IKResult, spin: float) -> np.ndarray:
     M = O^-1 Body, every bone under it is where the object carrying the body would
     have put it."""
     r = root_bone(ob, rig)
-    M = np.linalg.inv(own_matrix_world(ob))[None] @ body_frames(res.body_pos, spin + res.body_heading)
+    M = _in_object(ob, body_frames(res.body_pos, spin + res.body_heading))
     basis = res.basis.copy()
     basis[:, r] = np.linalg.inv(rig.rest[r])[None] @ M @ rig.rest[r][None]
     return basis
+
+
+def _in_object(ob, frames: np.ndarray) -> np.ndarray:
+    """(F, 4, 4) world frames (unit rotations) in the armature's space: in the object's own
+    frame, their translations over its even scale."""
+    out = np.linalg.inv(own_frame(ob))[None] @ frames
+    out[:, :3, 3] /= object_scale(ob)
+    return out
 
 
 def _own_rest(ob) -> list[float]:
@@ -342,7 +370,7 @@ def _key_rigify_controls(ob, rig: Rig, act, slot, frames: np.ndarray, res: IKRes
 
     pose = forward_kinematics(rig, res.basis)  # armature space, the body at the object
     if body_on == "ROOT":
-        carry = np.linalg.inv(own_matrix_world(ob))[None] @ body_frames(res.body_pos, spin + res.body_heading)
+        carry = _in_object(ob, body_frames(res.body_pos, spin + res.body_heading))
         pose = carry[:, None] @ pose
     rigify.key_controls(ob, (act, slot), frames, {name: pose[:, b] for b, name in enumerate(rig.names)},
                         leg_ik=ik_feet)
@@ -390,6 +418,10 @@ def evaluate_played(scene, ob, rig: Rig, frame_start: int, frames: int, root: in
             obm[i] = np.array(ev.matrix_world)
     finally:
         scene.frame_set(saved[0], subframe=saved[1])
+    # (an evenly scaled object: its scale moved into the bones, as the rig is read in world units)
+    scale = np.cbrt(np.abs(np.linalg.det(obm[:, :3, :3])))
+    obm = unscaled(obm)
+    pose[..., :3, 3] *= scale[:, None, None]
     world = obm[:, None] @ pose
     body = obm if root is None else obm @ pose[:, root] @ np.linalg.inv(rig.rest[root])
     yaw = np.unwrap(np.arctan2(body[:, 1, 0], body[:, 0, 0]))

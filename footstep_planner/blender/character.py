@@ -54,6 +54,8 @@ def analyze_character(ob, settings: Settings | None = None, fps: float | None = 
     is kept in ``errors`` under the mirror's name."""
     rig = rig_from_armature(ob)
     rig.require_legs()
+    if any(rig.foot_chain(side)[1] is None for side in SIDES):  # (no toe bone: the mesh says where the toes end)
+        rig = rig_from_armature(ob, sole="mesh")
     settings = (settings or Settings()).for_body(body_scale(rig))  # (a human's lengths, at this rig's size)
     result = CharacterClips(rig)
     for act in (actions if actions is not None else armature_actions(ob)):

@@ -120,7 +120,7 @@ def generate_clips(ob, names=None, fps: float | None = None) -> list:
 
     if rigify.is_rigify(ob):
         return _generate_on_rigify(ob, names, fps)
-    rig = rig_from_armature(ob)
+    rig = rig_from_armature(ob, world=False)  # (its clips are keyed in the armature's units)
     rig.require_legs()
     gait.require_metarig(rig)
     fps = float(fps or scene_fps())
@@ -149,7 +149,7 @@ def _generate_on_rigify(ob, names, fps) -> list:
     meta = _org_rig(ob)
     meta.require_legs()
     gait.require_metarig(meta)
-    deform = rig_from_armature(ob)
+    deform = rig_from_armature(ob, world=False)
     org_of = _org_of_deform(ob, deform.names)
     relation = {d: np.linalg.inv(meta.rest[meta.index(o)]) @ deform.rest[deform.index(d)] for d, o in org_of.items()}
     fps = float(fps or scene_fps())

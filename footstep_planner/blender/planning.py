@@ -53,14 +53,9 @@ class PlanSetup:
 def world_forward(ob, analyses) -> np.ndarray:
     """The character's heading-0 direction in the world, checking its object transform
     (its own one: a bake of the planner's animates the object, and does not count)."""
-    from .bake import own_matrix_world
+    from .bake import own_frame
 
-    m = own_matrix_world(ob)
-    scale = np.linalg.norm(m[:3, :3], axis=0)
-    if np.abs(scale - 1).max() > 1e-3:
-        raise PlanError(f"character {ob.name!r} is scaled ({', '.join(f'{v:.3g}' for v in scale)}) in "
-                        "object mode; apply its scale (Object > Apply > Scale) so its clips "
-                        "fit the world")
+    m = own_frame(ob)  # (an even scale is the rig's, read in world units: ``scene.object_scale``)
     if abs(m[2, 2] - 1) > 1e-3:
         raise PlanError(f"character {ob.name!r} is tilted in object mode; only a turn about Z "
                         "is allowed: clear its X and Y rotation")
@@ -81,6 +76,14 @@ def foot_shape(analyses, rig: Rig | None = None, scale: float = 1.0) -> FootShap
             (rig.foot_chain(side)[1] for side in "lr") if t is not None] if rig is not None else []
     room = TOE_ROOM * scale
     tip = half + max(toes) if toes and max(toes) > room else 0.0
+    sole = getattr(rig, "sole", None)
+    if sole is not None:  # (the mesh's own heel and toe tip: the rectangle is the foot's, and a little room)
+        along = sole.ball - sole.heel
+        reach = max(float(np.max(np.einsum("ki,ki->k", sole.tip - sole.ball, along)
+                                  / np.maximum(np.linalg.norm(along, axis=1), 1e-9))), 0.0)
+        front = min(reach, room)  # (the toes beyond that may hang over a nosing, going down: ``tip``)
+        return FootShape(back=half + 0.01 * scale, front=half + front, half_width=0.05 * scale,
+                         tip=half + reach if reach > room else 0.0, scale=scale)
     return FootShape(back=half + 0.04 * scale, front=half + room, half_width=0.05 * scale, tip=tip, scale=scale)
 
 
@@ -113,7 +116,7 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
     settings = settings.for_body(body_scale(clips.rig))  # (a human's lengths, for this character's size)
     library = library_for(ob, clips)
     steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature,
-                          stride=(settings.stride_min, settings.stride_max),
+                          stride=(shortest_stride(settings, library, clips.analyses), settings.stride_max),
                           straighten=settings.straightens, scale=settings.body_scale)
     forward = world_forward(ob, clips.analyses)
     foot = foot_shape(clips.analyses, clips.rig, settings.body_scale)
@@ -124,14 +127,40 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
     return PlanSetup(planner, clips.analyses, library, forward, clips.rig)
 
 
+#: m (a human's): the shortest step a walk is shortened to is at most this long, whatever
+#: its clip's stride (one stair tread, 28 cm, a step): ``Settings.stride_min`` of a
+#: long-striding game walk (0.9 m a step) would still skip treads.
+SHORTEST_STEP = 0.28
+
+
+def shortest_stride(settings: Settings, library: Library, analyses) -> float:
+    """The least share of its clip's stride a walking step may be shortened to:
+    ``Settings.stride_min``, or less for a library whose straightest walk steps so far
+    that that share is well longer than SHORTEST_STEP (at the character's size: a 0.9 m
+    game walk step, not a human's 0.72 m)."""
+    if settings.stride_min >= 1.0:  # (the clips' own strides only, as asked)
+        return settings.stride_min
+    by = {a.name: a for a in analyses}
+    walk = library.turn_groups.get("walk") or library.turn_groups.get("run")
+    if walk is None or not walk.clips:
+        return settings.stride_min
+    straight = min(walk.clips, key=lambda c: abs(c.tau))
+    a = by.get(straight.clip)
+    step = 0.5 * a.stride if a is not None and a.stride else 0.0
+    if step <= 0:
+        return settings.stride_min
+    share = settings.length(SHORTEST_STEP) / step
+    return settings.stride_min if share >= 0.8 * settings.stride_min else float(max(share, 0.05))
+
+
 def character_footprints(ob, setup: PlanSetup) -> list[PathFootprint]:
     """Both feet standing where the character stands: under its hips at rest, placed by
     its object's own transform (not the one a bake of the planner's animates it to, nor
     the pose its active clip has at the current frame), facing its forward. The same
     scene gives the same start, so re-baking gives the same footprints."""
-    from .bake import own_matrix_world
+    from .bake import own_frame
 
-    m = own_matrix_world(ob)
+    m = own_frame(ob)  # (the rig is in world units)
     hips = setup.rig.rest[setup.rig.role_index("hips")][:, 3]
     return standing_footprints(m @ hips, 0.0, setup, f"character {ob.name!r}")
 
@@ -468,7 +497,22 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
     allowance = report.source_steps(syn.tracks, sched.clips, sched.weights, fps)
     return report.measure_bake(world, bone_rot, body_pos, body_yaw - solved.spin,
                                [setup.rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local,
-                               setup.planner.ground, stances, goal, goal_heading, allowance, setup.rig.names)
+                               setup.planner.ground, stances, goal, goal_heading, allowance, setup.rig.names,
+                               tips=toe_tips(setup.rig, world, walk.heel_local, walk.toe_local))
+
+
+def toe_tips(rig: Rig, world: np.ndarray, heel_local: np.ndarray, toe_local: np.ndarray) -> np.ndarray:
+    """(2, F, 3) each foot's toe tip in the world (``core.ik.toe_tip``: the toe bone's end,
+    bent as it is, or the mesh's tip) of bone matrices ``world`` (F, B, 4, 4)."""
+    from ..core.ik import toe_tip
+
+    out = []
+    for k, side in enumerate(("l", "r")):
+        foot, toe = rig.foot_chain(side)
+        local = toe_tip(rig, side, world[:, foot], world[:, toe] if toe is not None else None,
+                        heel_local[k, :3], toe_local[k, :3])
+        out.append(np.einsum("fij,fj->fi", world[:, foot, :3, :3], local) + world[:, foot, :3, 3])
+    return np.stack(out)
 
 
 def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
@@ -554,7 +598,11 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     if planned.performance is not None:
         doc["waypoints"] = waypoint_rows(planned, frame_start, fps, played.get("body"))
     walk, rig = _walk_motion(planned.setup), planned.setup.rig
-    doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")], walk.heel_local,
-                                     walk.toe_local)
+    from ..core.body import scaled_points
+    from .scene import object_scale
+
+    own = 1.0 / object_scale(ob)  # (in the armature's own units: as an independent read of the file has them)
+    doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")],
+                                     scaled_points(walk.heel_local, own), scaled_points(walk.toe_local, own))
     return doc
 

@@ -43,7 +43,8 @@ def review_sheet(scene, ob, doc, out_dir: str, name: str, foot: FootShape | None
         airborne = int((take_off + fps[i]["planted_frames"][0]) // 2)
         picks[1] = airborne
     picks = sorted(set(int(f) for f in picks))
-    shots = [_render_character(scene, ob, f, os.path.join(out_dir, f"{name}_frame{f:04d}.png")) for f in picks]
+    size = foot.scale if foot is not None else 1.0  # (a giant's camera stands further off)
+    shots = [_render_character(scene, ob, f, os.path.join(out_dir, f"{name}_frame{f:04d}.png"), size) for f in picks]
     _draw_footprints(scene, doc, foot or FootShape())
     top = os.path.join(out_dir, f"{name}_top.png")
     scene.frame_set(doc["frame_end"])
@@ -130,19 +131,21 @@ def _compose(paths: list[str], out: str) -> None:
     bpy.data.images.remove(im)
 
 
-def _render_character(scene, ob, frame: int, path: str) -> str:
-    """A Workbench render of the character at ``frame``, from the side and a little above."""
+def _render_character(scene, ob, frame: int, path: str, size: float = 1.0) -> str:
+    """A Workbench render of the character at ``frame``, from the side and a little above,
+    the camera ``size`` (the body's scale) times as far off as for a human."""
     from mathutils import Vector
 
     scene.frame_set(frame)
     bpy.context.view_layer.update()
-    hips = np.array(ob.matrix_world @ ob.pose.bones[0].head)
+    heads = np.array([tuple(ob.matrix_world @ pb.head) for pb in ob.pose.bones])
+    hips = np.r_[heads[:, :2].mean(axis=0), 0.5 * (heads[:, 2].min() + heads[:, 2].max())]  # (the body's middle)
     cam = scene.objects.get("CharacterCamera")
     if cam is None:
         cam = bpy.data.objects.new("CharacterCamera", bpy.data.cameras.new("CharacterCamera"))
         scene.collection.objects.link(cam)
     yaw = ob.matrix_world.to_euler("XYZ").z
-    spot, hidden = _camera_spot(scene, hips, yaw)
+    spot, hidden = _camera_spot(scene, hips, yaw, size)
     cam.location = tuple(spot)
     cam.rotation_euler = (Vector(hips.tolist()) - cam.location).to_track_quat("-Z", "Y").to_euler()
     scene.camera = cam
@@ -168,7 +171,7 @@ CAMERA_TURNS = (0.0, math.pi, math.pi / 4, -math.pi / 4, 3 * math.pi / 4, -3 * m
                 math.pi / 2, -math.pi / 2)
 
 
-def _camera_spot(scene, hips: np.ndarray, yaw: float) -> tuple[np.ndarray, list]:
+def _camera_spot(scene, hips: np.ndarray, yaw: float, size: float = 1.0) -> tuple[np.ndarray, list]:
     """Where the character camera sees the hips unobstructed (the rig's +X side first,
     then round it: ``CAMERA_TURNS``), and the objects hidden from the render to see them
     at all when every spot is blocked (their ``hide_render`` set: the caller restores it)."""
@@ -178,12 +181,12 @@ def _camera_spot(scene, hips: np.ndarray, yaw: float) -> tuple[np.ndarray, list]
     first, blockers = None, []
     for turn in CAMERA_TURNS:
         d = np.array([math.cos(yaw + turn), math.sin(yaw + turn), 0.0])
-        spot = hips + CAMERA_DISTANCE * d + [0.0, 0.0, CAMERA_RISE]
+        spot = hips + size * (CAMERA_DISTANCE * d + [0.0, 0.0, CAMERA_RISE])
         first = spot if first is None else first
         hits = []
         for aim in VIEW_POINTS:  # (the head, the hips and the feet in view)
-            way = hips + [0.0, 0.0, aim] - spot
-            reach = float(np.linalg.norm(way)) - 0.6  # (up to the character's reach, not into it)
+            way = hips + [0.0, 0.0, size * aim] - spot
+            reach = float(np.linalg.norm(way)) - 0.6 * size  # (up to the character's reach, not into it)
             hit, _, _, _, other, _ = scene.ray_cast(depsgraph, Vector(spot.tolist()),
                                                     Vector((way / np.linalg.norm(way)).tolist()), distance=reach)
             if hit:

@@ -487,6 +487,10 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
                                              legs.thigh_len[k] + legs.shin_len[k], _frame_rate(t))
         bend = [toe_bend(ankle_t[k] + lift[k][:, None] * [0.0, 0.0, 1.0], rot_t[k], tg.weight[k] >= 1.0,
                          sole[k][2], toe_local[k, :3], planes[k], _frame_rate(t)) for k in range(2)]
+        for k in range(2):  # (a foot without a toe bone stands on its tip: lifted, not bent)
+            if rig.foot_chain(SIDES[k])[1] is None:
+                lift[k] = _tip_lift(ankle_t[k], lift[k], rot_t[k], tg.weight[k] >= 1.0, sole[k][2], planes[k],
+                                    _frame_rate(t))
         basis = _solve_legs(rig, basis, pose, world, legs, ankle_t, rot_t, lift, yaw,
                             (bend, toe_local[:, :3] - heel_local[:, :3]))
     sec["total"] = time.perf_counter() - t0
@@ -822,11 +826,12 @@ def _lift_need(ankle: np.ndarray, rot: np.ndarray, free: np.ndarray, sole: list,
     base = (1 - u) * _plane_z(pa, na, pts[..., :2]) + u * _plane_z(pb, nb, pts[..., :2])  # (P, n)
     w = smoothstep(gap / max(LIFT_RAMP * fps, 1.0))
     # the clearance over the planes, never under GROUND_MARGIN (the heel and ball) or, away
-    # from the footprints, under the clip's own if that is less (a toe tip a clip sinks)
+    # from the footprints, under the clip's own if that is less (a toe tip a clip sinks, by
+    # TIP_SINK at most)
     clip = np.minimum(np.stack([h[free] for _, h in sole]), GROUND_MARGIN)
     above = pts[..., 2] - base
     want = above + w * np.maximum(clip - above, 0.0)
-    want = np.maximum(want, np.array([GROUND_MARGIN, GROUND_MARGIN] + [-np.inf] * (len(sole) - 2))[:, None])
+    want = np.maximum(want, np.array([GROUND_MARGIN, GROUND_MARGIN] + [-TIP_SINK] * (len(sole) - 2))[:, None])
     gz = np.asarray(ground_z(pts.reshape(-1, 3)), float).reshape(want.shape)
     depth = gz + want - pts[..., 2] - CLEARANCE_TOL
     return np.maximum(np.where(np.isfinite(depth), depth, 0.0).max(axis=0), 0.0)
@@ -948,12 +953,36 @@ def ease_peaks(v: np.ndarray, rate: float) -> np.ndarray:
     return out
 
 
+def _tip_lift(ankle: np.ndarray, lift: np.ndarray, rot: np.ndarray, planted: np.ndarray, tip: tuple, planes,
+              fps: float) -> np.ndarray:
+    """(F,) ``lift`` raised, while ``planted`` (F,), by as much as a foot that has no toe
+    bone (its toes are its own, rigid) would sink its toe tip (``tip`` from
+    ``sole_points``) more than TIP_SINK into the footprint it stands on: such a foot at its
+    clip's toe-off stands on its tip, not its ball. Eased in and out at LIFT_RATE."""
+    on = np.flatnonzero(planted)
+    if planes is None or not len(on):
+        return lift
+    pt = ankle[on] + lift[on, None] * [0.0, 0.0, 1.0] + np.einsum("fij,fj->fi", rot[on], tip[0][on])
+    (pa, _), (na, _), _, _ = planes
+    need = np.zeros(len(ankle))
+    need[on] = np.maximum(_plane_z(pa[on], na[on], pt[:, :2]) - pt[:, 2] - TIP_SINK, 0.0)
+    if not need.any():
+        return lift
+    return lift + ease_peaks(need, LIFT_RATE)
+
+
+#: m: a planted foot's toe tip may sink this far into its footprint (rounding, a soft
+#: floor), never further, whatever its clip does (a clip whose toes go through its own
+#: floor at toe-off, played on a footprint, would sink them there).
+TIP_SINK = 0.008
+
+
 def toe_bend(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, tip: tuple, toe_local: np.ndarray,
              planes, fps: float = DEFAULT_FPS) -> np.ndarray:
     """(F,) rad to bend one foot's toe up, beyond its clip's bend (at most ``MAX_TOE_BEND``),
     so that its toe tip (``tip``: ((F, 3) in the foot bone's frame, (F,) m its height over
     the clip's floor), from ``sole_points``) goes no deeper into the footprint it stands on
-    while ``planted`` (F,) than it goes into the clip's floor: a foot rolled up on its ball
+    while ``planted`` (F,) than it goes into the clip's floor (at most TIP_SINK): a foot rolled up on its ball
     (the clip's toe-off held on a footprint, a roll for reach, a slope) would sink its
     toes. The foot at ``ankle`` (F, 3) turned by ``rot`` (F, 3, 3); the toe bends about the
     ball (``toe_local`` (3,)); ``planes`` from ``_swing_planes``. Eased in and out at
@@ -965,7 +994,7 @@ def toe_bend(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, tip: tuple
     pt = ankle[on] + np.einsum("fij,fj->fi", rot[on], tip[0][on])
     ball = ankle[on] + rot[on] @ toe_local
     (pa, _), (na, _), _, _ = planes
-    depth = _plane_z(pa[on], na[on], pt[:, :2]) - pt[:, 2] - np.maximum(-tip[1][on], 0.0)
+    depth = _plane_z(pa[on], na[on], pt[:, :2]) - pt[:, 2] - np.clip(-tip[1][on], 0.0, TIP_SINK)
     length = np.maximum(np.linalg.norm(pt - ball, axis=1), 1e-6)
     bend[on] = np.minimum(np.arcsin(np.clip(depth / length, 0.0, 1.0)), MAX_TOE_BEND)
     return ease_peaks(bend, TOE_BEND_RATE / fps)

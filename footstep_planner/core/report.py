@@ -66,7 +66,7 @@ def ground_under(ground: Ground, points: np.ndarray) -> np.ndarray:
 def measure_bake(world: np.ndarray, bone_rot: np.ndarray, body_pos: np.ndarray, body_yaw: np.ndarray,
                  foot_bones: Sequence[int], heel_local: np.ndarray, toe_local: np.ndarray, ground: Ground,
                  stances: list[dict], goal, goal_heading, allowance: np.ndarray | None,
-                 bone_names: Sequence[str]) -> dict:
+                 bone_names: Sequence[str], tips: np.ndarray | None = None) -> dict:
     """The quality of a baked motion as it plays (see ``metrics``): ``world`` (F, B, 4, 4)
     bone matrices in the world, ``bone_rot`` (F, B, 4) local rotations, ``body_pos``
     (F, 3) and ``body_yaw`` (F,) the body in the planner's heading frame; the heel and
@@ -79,6 +79,12 @@ def measure_bake(world: np.ndarray, bone_rot: np.ndarray, body_pos: np.ndarray, 
     qual = quality(heel, toe, ground_z, stances, world[..., :3, 3], bone_rot, body_pos, body_yaw,
                    np.asarray(goal, float), goal_heading)
     qual["pops"]["introduced"] = introduced_pops(bone_rot, allowance)
+    if tips is not None:  # (the toe tips (2, F, 3) too: the lowest of heel, ball and tip)
+        depth = ground_under(ground, tips) - np.asarray(tips, float)[..., 2]
+        tip = max(float(np.nanmax(depth)) if np.isfinite(depth).any() else 0.0, 0.0) * 1000.0
+        pen = qual["penetration"]
+        pen["tip_max_mm"] = round(tip, 3)
+        pen["lowest_mm"] = round(max(pen["max_mm"], tip), 3)
     for key in ("rotation_bone", "offset_bone"):
         if qual["pops"].get(key) is not None:
             qual["pops"][key] = bone_names[qual["pops"][key]]

@@ -202,7 +202,7 @@ class Settings:
         this far apart.""")
 
     # --- the character's size ------------------------------------------------------
-    body_scale: float = setting(1.0, "1", 0.01, 100.0, """The character's size over the human's the
+    body_scale: float = setting(1.0, "1", 1e-4, 1e4, """The character's size over the human's the
         other settings are for (its leg length over 0.84 m): set from the rig by the planner
         (``Settings.for_body``), so every length and speed above is a human's, scaled by it.""",
         lo_open=True, derived=True)

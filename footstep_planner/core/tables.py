@@ -100,8 +100,10 @@ def format_bake(doc) -> str:
         f"foot skate per stance: mean {q['foot_skate']['mean_mm']:.2f} mm, max {q['foot_skate']['max_mm']:.2f} mm; "
         f"planted foot to footprint: mean {q['footprint_error']['mean_mm']:.2f} mm, max "
         f"{q['footprint_error']['max_mm']:.2f} mm",
-        f"ground penetration: max {q['penetration']['max_mm']:.2f} mm ({q['penetration']['frames_over_tolerance']} "
-        f"frames over 5 mm); floating while planted: max {q['floating']['max_mm']:.2f} mm",
+        f"ground penetration: heel and ball max {q['penetration']['max_mm']:.2f} mm "
+        f"({q['penetration']['frames_over_tolerance']} frames over 5 mm)"
+        + (f", toe tip max {q['penetration']['tip_max_mm']:.2f} mm" if "tip_max_mm" in q["penetration"] else "")
+        + f"; floating while planted: max {q['floating']['max_mm']:.2f} mm",
         f"goal: {q['goal']['distance_m'] * 100:.1f} cm" + (
             f", heading {q['goal']['heading_deg']:.1f} deg" if q['goal'].get('heading_deg') is not None else ""),
         f"pops: largest step {pops['max_rotation_deg']:.1f} deg ({pops['rotation_bone']}, as in its clip); "
