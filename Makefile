@@ -10,6 +10,8 @@ VENV_PY := $(VENV)/bin/python
 VENV_STAMP := $(VENV)/.installed
 
 PYTEST_ARGS ?=
+# test processes (pytest-xdist): one per core; TEST_JOBS=0 runs them in this process
+TEST_JOBS ?= auto
 SCENE ?=
 PLATFORMS ?=
 BUILD_ARGS ?=
@@ -30,7 +32,7 @@ $(VENV): $(VENV_STAMP)
 venv: $(VENV_STAMP)
 
 test: $(VENV_STAMP)
-	$(VENV_PY) -m pytest -q tests $(PYTEST_ARGS)
+	$(VENV_PY) -m pytest -q -n $(TEST_JOBS) --dist loadfile tests $(PYTEST_ARGS)
 
 demo: $(VENV_STAMP)
 	$(VENV_PY) -m footstep_planner demo --out sample_scenes/out $(if $(SCENE),--scene $(SCENE))

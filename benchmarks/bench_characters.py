@@ -44,9 +44,9 @@ QUATERNIUS = os.path.join(os.path.dirname(ROOT), "shared", "clips", "quaternius_
 
 def add_character(kind: str, scene):
     """The character ``kind`` standing on the scene's Start."""
-    from footstep_planner.blender import mannequin
-    from footstep_planner.blender.character import analyze_and_propose
-    from footstep_planner.blender.clips import import_clips
+    from footstep_planner.blender.sample import mannequin
+    from footstep_planner.blender.read.character import analyze_and_propose
+    from footstep_planner.blender.read.clips import import_clips
 
     if kind == "mannequin":
         return mannequin.add_to_scene(scene, "Start")[0]
@@ -63,8 +63,8 @@ def add_character(kind: str, scene):
     elif kind == "downloads":
         ob, _ = import_clips(DOWNLOAD_FILES, name="Downloads")
     elif kind == "quaternius":
-        from footstep_planner.blender.scene import rig_from_armature
-        from footstep_planner.core.body import body_scale
+        from footstep_planner.blender.read.scene import rig_from_armature
+        from footstep_planner.core.clips.body import body_scale
 
         ob, _ = import_clips([QUATERNIUS], name="Quaternius")
         ob.scale = (1.0 / body_scale(rig_from_armature(ob)),) * 3  # (a human's size: as a user sets it)
@@ -95,7 +95,7 @@ def bake_one(kind: str, scene_name: str, out: str, settings=None) -> dict:
     import bpy
 
     from footstep_planner.blender import planning
-    from footstep_planner.blender.sample_scenes import build
+    from footstep_planner.blender.sample.sample_scenes import build
 
     bpy.ops.wm.read_homefile(use_empty=True)
     base, _, variant = scene_name.partition("-")
@@ -127,7 +127,7 @@ def main():
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                     help="a planner setting (Settings field) other than its default; repeatable")
     args = ap.parse_args()
-    from footstep_planner.core.settings import Settings
+    from footstep_planner.core.base.settings import Settings
 
     settings = Settings.from_pairs(args.set) if args.set else None
     os.makedirs(args.out, exist_ok=True)
@@ -146,7 +146,7 @@ def main():
         DOWNLOAD_FILES[:] = mixamo_like.write_character(
             d, clips=("walk", "run", "walk_turn_left_wide", "walk_turn_right_wide", "walk_turn_left_sharp",
                       "walk_turn_right_sharp", "idle"), one_cycle=True, fps=30)
-    from footstep_planner.core.errors import FootstepError
+    from footstep_planner.core.base.errors import FootstepError
 
     head = (f"{'character':10s} {'scene':10s} {'frames':>6s} {'run s':>6s} | {'skate max mm':>12s} "
             f"{'fp err max mm':>13s} {'goal cm':>7s} {'pops':>4s} {'over deg':>8s} | {'played: skate':>13s} "

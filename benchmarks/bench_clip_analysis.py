@@ -25,9 +25,9 @@ def main():
     import bpy
 
     from footstep_planner import register
-    from footstep_planner.blender.clips import import_clips
-    from footstep_planner.blender.scene import clip_from_action, rig_from_armature
-    from footstep_planner.core.analysis import analyze_clip
+    from footstep_planner.blender.read.clips import import_clips
+    from footstep_planner.blender.read.scene import clip_from_action, rig_from_armature
+    from footstep_planner.core.clips.analysis import analyze_clip
 
     register()
     files = sorted(glob.glob(os.path.join(args.mocap, "*.bvh")))

@@ -33,8 +33,8 @@ def shot(out: str) -> str:
     path's thirds, saved; its path."""
     import bpy
 
-    from footstep_planner.blender import mannequin, planning, sample_scenes
-
+    from footstep_planner.blender.sample import mannequin, sample_scenes
+    from footstep_planner.blender import planning
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = sample_scenes.build("turns")
     scene.render.fps, scene.render.fps_base = 30, 1.0
@@ -56,7 +56,7 @@ def played_arrivals(path: str, doc: dict) -> list[float]:
     through the depsgraph, frame by frame), by the report's windows about its frames."""
     import bpy
 
-    from footstep_planner.core.directed import Mark, arrival_frames
+    from footstep_planner.core.perform.directed import Mark, arrival_frames
 
     bpy.ops.wm.open_mainfile(filepath=path)
     scene, ob = bpy.context.scene, bpy.data.objects[CHAR]
@@ -88,7 +88,7 @@ def main():
     import bpy  # noqa: F401
 
     from footstep_planner import register
-    from footstep_planner.blender.cli import cli_main
+    from footstep_planner.blender.command.cli import cli_main
 
     register()
     path = shot(out)
@@ -138,8 +138,9 @@ def main():
               f"planner-made pops {d['quality']['pops']['introduced']['count']}")
 
     # 3. an edited footprint, re-baked: review sheets before and after
-    from footstep_planner.blender import directing, handles, planning
-    from footstep_planner.blender.review import review_sheet
+    from footstep_planner.blender.ui import directing, handles
+    from footstep_planner.blender import planning
+    from footstep_planner.blender.command.review import review_sheet
 
     bpy.ops.wm.open_mainfile(filepath=path)
     scene = bpy.context.scene

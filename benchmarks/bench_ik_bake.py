@@ -37,8 +37,8 @@ def cg_ik(rig, basis, t, body_pos, body_yaw, targets, max_frames=None):
     from scipy.optimize import minimize
     from scipy.spatial.transform import Rotation
 
-    from footstep_planner.core.ik import body_frames
-    from footstep_planner.core.rig import forward_kinematics
+    from footstep_planner.core.solve.ik import body_frames
+    from footstep_planner.core.clips.rig import forward_kinematics
 
     F = len(t)
     pose = forward_kinematics(rig, basis)
@@ -104,18 +104,17 @@ def main():
     import bpy
 
     from footstep_planner import register
-    from footstep_planner.blender import bake as baking
+    from footstep_planner.blender.write import bake as baking
     from footstep_planner.blender import planning
-    from footstep_planner.blender.clips import import_clips
-    from footstep_planner.blender.sample_scenes import build
-    from footstep_planner.core.ik import body_frames, solve_ik
-    from footstep_planner.core.metrics import foot_skate, footprint_error
-    from footstep_planner.core.pose import blend_pose, pose_bases
-    from footstep_planner.core.rig import forward_kinematics
-    from footstep_planner.core.surface import footprint_support
+    from footstep_planner.blender.read.clips import import_clips
+    from footstep_planner.blender.sample.sample_scenes import build
+    from footstep_planner.core.solve.ik import body_frames, solve_ik
+    from footstep_planner.core.report.metrics import foot_skate, footprint_error
+    from footstep_planner.core.solve.pose import blend_pose, pose_bases
+    from footstep_planner.core.clips.rig import forward_kinematics
+    from footstep_planner.core.plan.surface import footprint_support
 
-    from footstep_planner.blender import mannequin
-
+    from footstep_planner.blender.sample import mannequin
     register()
     files = (cmu_files(args.mocap)
              if args.library == "cmu" else [])

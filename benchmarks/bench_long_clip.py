@@ -45,7 +45,7 @@ import json, os, resource, sys, time
 t0 = time.perf_counter()
 import bpy
 from footstep_planner import register
-from footstep_planner.blender.cli import cli_main
+from footstep_planner.blender.command.cli import cli_main
 register()
 t1 = time.perf_counter()
 argv = json.loads(sys.argv[1])

@@ -33,8 +33,8 @@ def main():
 
     from footstep_planner import register
     from footstep_planner.blender import planning
-    from footstep_planner.blender.clips import import_clips
-    from footstep_planner.blender.sample_scenes import _box, _collection, _marker, _prism, build
+    from footstep_planner.blender.read.clips import import_clips
+    from footstep_planner.blender.sample.sample_scenes import _box, _collection, _marker, _prism, build
 
     register()
     files = cmu_files(args.mocap)

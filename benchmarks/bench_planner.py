@@ -58,7 +58,7 @@ def loops(fs) -> int:
     return int(near.any(axis=1).sum())
 
 
-from footstep_planner.core.steps import FIELDS as STEP_FIELDS  # noqa: E402
+from footstep_planner.core.clips.steps import FIELDS as STEP_FIELDS  # noqa: E402
 
 
 def save_character(character, path: str) -> None:
@@ -74,8 +74,8 @@ def read_character(path: str):
     """The character ``save_character`` wrote to ``path``."""
     from scene_generator import Character
 
-    from footstep_planner.core.steps import StepSet
-    from footstep_planner.core.surface import FootShape
+    from footstep_planner.core.clips.steps import StepSet
+    from footstep_planner.core.plan.surface import FootShape
 
     d = np.load(path, allow_pickle=False)
     steps = StepSet(*(d[f].astype(object) if f in ("gait", "label") else d[f] for f in STEP_FIELDS if f in d))  # (older: no stride)
@@ -105,8 +105,8 @@ def fingerprint(character) -> str:
 
 def run_scene(scene, character, reference: bool):
     """One row: (name, kind, length, footprints, expanded, ms, ratio, loops, ok, message)."""
-    from footstep_planner.core.navgraph import PlanError
-    from footstep_planner.core.settings import Settings
+    from footstep_planner.core.plan.navgraph import PlanError
+    from footstep_planner.core.base.settings import Settings
 
     pl, start, goal = make_planner(scene, character)
     t = time.process_time()
@@ -132,8 +132,8 @@ _REFERENCE = {}
 def reference_cost(scene, character) -> tuple[float, bool]:
     """(cost of plain A*, or of FALLBACK_WEIGHT A* where plain A* runs out of its budget;
     whether it is the fallback's). nan when neither finds a path."""
-    from footstep_planner.core.navgraph import PlanError
-    from footstep_planner.core.settings import Settings
+    from footstep_planner.core.plan.navgraph import PlanError
+    from footstep_planner.core.base.settings import Settings
 
     if scene.name not in _REFERENCE:
         _REFERENCE[scene.name] = (np.nan, False)

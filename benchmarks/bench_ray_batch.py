@@ -42,8 +42,8 @@ def build_batch(folder: str, package: str = "footstep_planner") -> tuple[str, st
 
     import bpy
 
-    sample = import_module(package + ".blender.sample_scenes")
-    mannequin = import_module(package + ".blender.mannequin")
+    sample = import_module(package + ".blender.sample.sample_scenes")
+    mannequin = import_module(package + ".blender.sample.mannequin")
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = sample.build("obstacles")
     scene.render.fps = 30
@@ -91,9 +91,9 @@ def run_ray(scene: str, jobs_path: str, out_dir: str, workers: int, fresh: bool)
 
 
 def _run_ray_direct(scene, jobs_path, out_dir, workers, fresh):
-    from footstep_planner.core.files import Outputs
+    from footstep_planner.core.base.files import Outputs
     from footstep_planner.core.jobs import exit_status, job_label, normalised, summary_table
-    from footstep_planner.blender.ray_batch import run_on_ray
+    from footstep_planner.blender.command.ray_batch import run_on_ray
 
     with open(jobs_path, encoding="utf-8") as fh:
         raw = json.load(fh)

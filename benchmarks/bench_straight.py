@@ -28,7 +28,7 @@ def strip_scene(length: float, pkg: str = "footstep_planner"):
     facing +X (``pkg``: the add-on's module, as the tests load it)."""
     import bpy
 
-    ss = import_module(pkg + ".blender.sample_scenes")
+    ss = import_module(pkg + ".blender.sample.sample_scenes")
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.name = "Strip"
@@ -47,7 +47,7 @@ def measure(kind: str, length: float, settings=None, pkg: str = "footstep_planne
     ``settings``."""
     import bpy
 
-    baking = import_module(pkg + ".blender.bake")
+    baking = import_module(pkg + ".blender.write.bake")
     planning = import_module(pkg + ".blender.planning")
     scene = strip_scene(length, pkg)
     if pkg == "footstep_planner":
@@ -57,11 +57,11 @@ def measure(kind: str, length: float, settings=None, pkg: str = "footstep_planne
     elif kind == "cmu":
         from library import MOCAP, cmu_files
 
-        ob, _ = import_module(pkg + ".blender.clips").import_clips(cmu_files(MOCAP), name="CMU")
+        ob, _ = import_module(pkg + ".blender.read.clips").import_clips(cmu_files(MOCAP), name="CMU")
         start = scene.objects["Start"]
         ob.location, ob.rotation_euler.z = start.location, start.rotation_euler.z
     elif kind == "mannequin":
-        ob, _ = import_module(pkg + ".blender.mannequin").add_to_scene(scene, "Start")
+        ob, _ = import_module(pkg + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     else:
         raise ValueError(f"character {kind!r}: with package {pkg!r} only 'mannequin' and 'cmu'")
     bpy.context.view_layer.update()
@@ -104,7 +104,7 @@ def main():
     ap.add_argument("--curvature-penalty", type=float, default=None,
                     help="Settings.curvature_penalty (default: the settings' own)")
     args = ap.parse_args()
-    from footstep_planner.core.settings import Settings
+    from footstep_planner.core.base.settings import Settings
 
     settings = Settings() if args.curvature_penalty is None else Settings(curvature_penalty=args.curvature_penalty)
     from footstep_planner import register

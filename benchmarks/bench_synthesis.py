@@ -28,7 +28,7 @@ def repeat_path(footsteps, k):
     """The path laid end to end k times: each copy turned and moved so its first footprint
     falls where the previous copy's last one stands (the copies' own first footprint,
     of the same foot, is dropped)."""
-    from footstep_planner.core.navgraph import PathFootprint
+    from footstep_planner.core.footprint import PathFootprint
 
     out = list(footsteps)
     for _ in range(k - 1):
@@ -54,13 +54,13 @@ def main():
 
     from footstep_planner import register
     from footstep_planner.blender import planning
-    from footstep_planner.blender.clips import import_clips
-    from footstep_planner.blender.sample_scenes import build
-    from footstep_planner.blender.surfaces import BvhGround
-    from footstep_planner.core.blending import make_track
-    from footstep_planner.core.pipeline import surface_snap, synthesize
-    from footstep_planner.core.settings import Settings
-    from footstep_planner.core.surface import TriMesh
+    from footstep_planner.blender.read.clips import import_clips
+    from footstep_planner.blender.sample.sample_scenes import build
+    from footstep_planner.blender.read.surfaces import BvhGround
+    from footstep_planner.core.synth.blending import make_track
+    from footstep_planner.core.synth.pipeline import surface_snap, synthesize
+    from footstep_planner.core.base.settings import Settings
+    from footstep_planner.core.plan.surface import TriMesh
 
     register()
     files = cmu_files(args.mocap)

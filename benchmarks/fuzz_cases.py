@@ -178,8 +178,7 @@ def build_scene(spec: dict, path: str) -> None:
     registered)."""
     import bpy
 
-    from footstep_planner.blender import sample_scenes as ss
-
+    from footstep_planner.blender.sample import sample_scenes as ss
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.name = spec["name"]
@@ -201,8 +200,7 @@ def build_scene(spec: dict, path: str) -> None:
 def _place_character(scene, c: dict) -> None:
     import bpy
 
-    from footstep_planner.blender import mannequin
-
+    from footstep_planner.blender.sample import mannequin
     ob, _ = mannequin.add_to_scene(scene, "Start")
     ob.scale = c["scale"]
     ob.rotation_euler.x = c["tilt"]
@@ -220,9 +218,10 @@ def build_sample(path: str, report: str) -> None:
     report of it at ``report`` (made with the planner's API, not the CLI under test)."""
     import bpy
 
-    from footstep_planner.blender import mannequin, planning, sample_scenes
-    from footstep_planner.core.report import plan_report
-    from footstep_planner.core.settings import Settings
+    from footstep_planner.blender.sample import mannequin, sample_scenes
+    from footstep_planner.blender import planning
+    from footstep_planner.core.report.document import plan_report
+    from footstep_planner.core.base.settings import Settings
 
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = sample_scenes.build("turns")
@@ -239,8 +238,7 @@ def build_bvh(path: str) -> None:
     """The mannequin's walk clip exported as a BVH file (small, with feet: a good clip)."""
     import bpy
 
-    from footstep_planner.blender import mannequin
-
+    from footstep_planner.blender.sample import mannequin
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     _set_fps(scene, 30)

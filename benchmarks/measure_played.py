@@ -25,7 +25,7 @@ def played(blend: str, doc: dict) -> dict:
     """The played scene's figures for the bake that ``doc`` reports."""
     import bpy
 
-    from footstep_planner.core.metrics import foot_skate, footprint_error
+    from footstep_planner.core.report.metrics import foot_skate, footprint_error
 
     bpy.ops.wm.open_mainfile(filepath=blend)
     scene = bpy.context.scene

@@ -121,9 +121,8 @@ def write_character(out_dir: str, clips=("walk", "run", "walk_turn_left_wide", "
 
     import bpy
 
-    from footstep_planner.blender import mannequin
-    from footstep_planner.core import gait
-
+    from footstep_planner.blender.sample import mannequin
+    from footstep_planner.core.sample import gait
     bpy.ops.wm.read_homefile(use_empty=True)
     if fps:
         bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = int(fps), 1.0

@@ -78,7 +78,7 @@ def boxes_mesh(boxes) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _trimesh(verts, tris, name):
-    from footstep_planner.core.surface import TriMesh
+    from footstep_planner.core.plan.surface import TriMesh
 
     return TriMesh(verts, tris.astype(np.int64), np.zeros(len(tris), np.int64), (name,) if len(tris) else ())
 
@@ -87,9 +87,9 @@ def _trimesh(verts, tris, name):
 
 @dataclass
 class Character:
-    steps: object  # core.steps.StepSet
+    steps: object  # core.clips.steps.StepSet
     forward: np.ndarray
-    foot: object  # core.surface.FootShape
+    foot: object  # core.plan.surface.FootShape
 
 
 @functools.lru_cache(maxsize=None)
@@ -105,16 +105,16 @@ def cmu_character(package: str = "footstep_planner") -> Character:
     sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
     from library import cmu_files
 
-    from footstep_planner.core.settings import Settings
-    from footstep_planner.core.steps import library_steps
+    from footstep_planner.core.base.settings import Settings
+    from footstep_planner.core.clips.steps import library_steps
 
     if package == "footstep_planner":
         from footstep_planner import register
 
         register()
     planning = import_module(package + ".blender.planning")
-    character = import_module(package + ".blender.character")
-    clips_mod = import_module(package + ".blender.clips")
+    character = import_module(package + ".blender.read.character")
+    clips_mod = import_module(package + ".blender.read.clips")
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.context.scene.render.fps = 30
     ob, _ = clips_mod.import_clips(cmu_files(), name="CMU")
@@ -131,8 +131,8 @@ def planner_inputs(scene: Scene, forward) -> tuple:
     """(ground, obstacles, start footprints, goal (3,)) of a scene: BVH ground queries on
     its meshes, both feet standing 0.1 m either side of the start facing the way the Start
     empty faces (heading = rotation - pi/2 - the forward's yaw), dropped onto the ground."""
-    from footstep_planner.blender.surfaces import BvhGround
-    from footstep_planner.core.navgraph import PathFootprint
+    from footstep_planner.blender.read.surfaces import BvhGround
+    from footstep_planner.core.footprint import PathFootprint
 
     ground = BvhGround(_trimesh(*plates_mesh(scene.plates), "ground"))
     obstacles = BvhGround(_trimesh(*boxes_mesh(scene.boxes), "obstacles"))
@@ -148,8 +148,8 @@ def planner_inputs(scene: Scene, forward) -> tuple:
 
 def make_planner(scene: Scene, character: Character, settings=None):
     """(Planner, start footprints, goal) for a scene and a character."""
-    from footstep_planner.core.navgraph import Planner
-    from footstep_planner.core.settings import Settings
+    from footstep_planner.core.plan.navgraph import Planner
+    from footstep_planner.core.base.settings import Settings
 
     ground, obstacles, start, goal = planner_inputs(scene, character.forward)
     pl = Planner(ground, obstacles, character.steps, character.forward, foot=character.foot,
@@ -160,7 +160,7 @@ def make_planner(scene: Scene, character: Character, settings=None):
 def plan_scene(scene: Scene, character: Character, **settings):
     """(Planner, PlanResult) of a scene planned with a character and ``settings``
     (Settings fields); PlanError where it has no path."""
-    from footstep_planner.core.settings import Settings
+    from footstep_planner.core.base.settings import Settings
 
     pl, start, goal = make_planner(scene, character, Settings(**settings))
     return pl, pl.plan(start, goal)

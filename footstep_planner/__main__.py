@@ -31,7 +31,7 @@ def main() -> int:
               file=sys.stderr)
         return 2
     from . import register
-    from .blender.cli import cli_main
+    from .blender.command.cli import cli_main
 
     register()
     return cli_main(sys.argv[1:])

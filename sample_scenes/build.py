@@ -17,7 +17,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
-from footstep_planner.blender.sample_scenes import SCENES  # noqa: E402
+from footstep_planner.blender.sample.sample_scenes import SCENES  # noqa: E402
 
 
 def main():
@@ -32,8 +32,8 @@ def main():
     import bpy
 
     from footstep_planner import register
-    from footstep_planner.blender import mannequin
-    from footstep_planner.blender.sample_scenes import build
+    from footstep_planner.blender.sample import mannequin
+    from footstep_planner.blender.sample.sample_scenes import build
 
     register()
     os.makedirs(args.out, exist_ok=True)

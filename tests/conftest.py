@@ -21,9 +21,34 @@ MOD = "bl_ext.dev.footstep_planner"
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-needs_cmu = pytest.mark.skipif(
-    not os.path.isdir(CMU),
-    reason=f"real motion capture not found at {CMU} (../shared beside the project; CI has it)")
+QUATERNIUS = os.path.join(SHARED, "clips", "quaternius_male_casual", "Male_Casual.fbx")
+
+
+def needs_shared(path: str, what: str):
+    """Mark ``shared``: the test reads ``path`` under ../shared (``what`` it is); where the
+    path is absent it is skipped, with a reason that names it (``pytest_runtest_setup``).
+    ``-m "not shared"`` leaves all of them out."""
+    return pytest.mark.shared(path=path, reason=f"{what} not found at {path} (../shared beside the project; "
+                                                "CI has it)")
+
+
+needs_cmu = needs_shared(CMU, "real motion capture")
+needs_quaternius = needs_shared(QUATERNIUS, "the Quaternius character")
+
+
+def pytest_runtest_setup(item):
+    for mark in item.iter_markers("shared"):
+        if not os.path.exists(mark.kwargs["path"]):
+            pytest.skip(mark.kwargs["reason"])
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark ``blender`` every test that runs inside Blender (it uses the enabled add-on,
+    ``fp``, or its module imports bpy): ``-m "not blender"`` runs the pure core's tests."""
+    for item in items:
+        module = getattr(item, "module", None)
+        if "fp" in getattr(item, "fixturenames", ()) or (module is not None and "bpy" in vars(module)):
+            item.add_marker(pytest.mark.blender)
 
 
 def cmu(name: str) -> str:
@@ -40,7 +65,7 @@ def plane(x0, x1, y0, y1, z=0.0, tilt_x=0.0, name="floor"):
     """A rectangle at height z + tilt_x * x, as a core TriMesh."""
     import numpy as np
 
-    from footstep_planner.core.surface import TriMesh
+    from footstep_planner.core.plan.surface import TriMesh
 
     v = np.array([[x0, y0, z + tilt_x * x0], [x1, y0, z + tilt_x * x1],
                   [x1, y1, z + tilt_x * x1], [x0, y1, z + tilt_x * x0]])
@@ -51,7 +76,7 @@ def box(lo, hi, name="box"):
     """A closed axis-aligned box as a core TriMesh."""
     import numpy as np
 
-    from footstep_planner.core.surface import TriMesh
+    from footstep_planner.core.plan.surface import TriMesh
 
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     v = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])])
@@ -65,7 +90,7 @@ def standing(x, y, heading, forward):
     from ``forward`` (x, y): the start footprints of a plan (core PathFootprint)."""
     import numpy as np
 
-    from footstep_planner.core.navgraph import PathFootprint
+    from footstep_planner.core.footprint import PathFootprint
 
     ang = heading + np.arctan2(forward[1], forward[0])
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
@@ -82,10 +107,10 @@ def scene_with_cmu(fp, name, fps=30):
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
+    import_module(fp.__name__ + ".blender.sample.sample_scenes").build(name)
     scene = bpy.context.scene
     scene.render.fps = fps
-    clips = import_module(fp.__name__ + ".blender.clips")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
     ob, _ = clips.import_clips([cmu(n) for n in LIBRARY], name="CMU")
     return scene, ob
 

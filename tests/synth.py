@@ -5,7 +5,7 @@ a body moving at constant speed along a circular arc (or a straight line) and tw
 that alternate between fixed footprints, with a smooth swing and a little heel-toe roll.
 It returns the clip and a ``truth`` dict with what the analysis should find.
 
-Conventions are those of ``footstep_planner.core.clip``: Z up, metres, seconds; heading
+Conventions are those of ``footstep_planner.core.clips.clip``: Z up, metres, seconds; heading
 is the yaw about +Z relative to ``rest_forward`` = (0, -1), positive turned left; the
 character's left is +X at heading 0. Foot 0 is the left foot.
 
@@ -25,7 +25,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from footstep_planner.core.clip import ClipMotion
+from footstep_planner.core.clips.clip import ClipMotion
 
 REST_FORWARD = np.array([0.0, -1.0])
 

@@ -1,4 +1,4 @@
-"""Property tests of footstep_planner.core.analysis on synthetic gaits with a known truth
+"""Property tests of footstep_planner.core.clips.analysis on synthetic gaits with a known truth
 (tests/synth.py): figures, invariances (mirror, rigid motion, frame rate), contact events,
 start/stop and the errors.
 
@@ -21,8 +21,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.analysis import AnalysisError, analyze_clip
-from footstep_planner.core.settings import Settings
+from footstep_planner.core.clips.analysis import AnalysisError, analyze_clip
+from footstep_planner.core.base.settings import Settings
 from synth import mirror_clip, raise_feet, synthetic_gait
 
 RUN = dict(speed=3.0, stride=2.4, duty=0.35)

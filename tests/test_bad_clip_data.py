@@ -25,7 +25,7 @@ BAD_BVH = ("nan_motion", "inf_motion", "overflow_motion", "zero_length", "frame_
 
 @pytest.fixture
 def cli(fp, empty_scene):
-    return import_module(fp.__name__ + ".blender.cli").cli_main
+    return import_module(fp.__name__ + ".blender.command.cli").cli_main
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +54,7 @@ def test_bad_bvh_data_is_refused_at_the_door(cli, capsys, tmp_path, bad_bvh, kin
 
 
 def test_a_folder_given_as_a_clip_is_named_a_folder(fp, cli, capsys, tmp_path):
-    clips = import_module(fp.__name__ + ".blender.clips")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
     for name in ("walk.bvh", "walk.fbx"):
         folder = tmp_path / name
         folder.mkdir()
@@ -74,7 +74,7 @@ def nan_fbx(fp, tmp_path_factory):
 
     from benchmarks import mixamo_like
 
-    mannequin = import_module(fp.__name__ + ".blender.mannequin")
+    mannequin = import_module(fp.__name__ + ".blender.sample.mannequin")
     bpy.ops.wm.read_homefile(use_empty=True)
     ob, _ = mannequin.build()
     (act,) = mannequin.generate_clips(ob, names=["walk"])
@@ -99,7 +99,7 @@ def test_an_fbx_key_that_is_not_a_number_is_refused(cli, capsys, tmp_path, nan_f
 def test_a_refused_fbx_leaves_the_users_scene_as_it_was(fp, empty_scene, nan_fbx):
     import bpy
 
-    clips = import_module(fp.__name__ + ".blender.clips")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
     mine = bpy.data.objects.new("Mine", None)
     empty_scene.collection.objects.link(mine)
     bpy.context.view_layer.objects.active = mine
@@ -123,8 +123,8 @@ def _curves(act):
 def test_a_long_clip_is_kept_as_samples_that_play_as_its_keys(fp, empty_scene, tmp_path, monkeypatch, fps):
     import bpy
 
-    clips = import_module(fp.__name__ + ".blender.clips")
-    scene_mod = import_module(fp.__name__ + ".blender.scene")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
+    scene_mod = import_module(fp.__name__ + ".blender.read.scene")
     empty_scene.render.fps = fps
     path = walker(str(tmp_path / "walker.bvh"), frames=240)
     ob, (keyed,) = clips.import_clips([path])
@@ -148,10 +148,10 @@ def test_a_long_clip_is_kept_as_samples_that_play_as_its_keys(fp, empty_scene, t
 
 @needs_cmu
 def test_a_long_clip_read_in_chunks_analyses_as_it_does_whole(fp, empty_scene, monkeypatch):
-    clips = import_module(fp.__name__ + ".blender.clips")
-    character = import_module(fp.__name__ + ".blender.character")
-    scene_mod = import_module(fp.__name__ + ".blender.scene")
-    analysis = import_module(fp.__name__ + ".core.analysis")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
+    character = import_module(fp.__name__ + ".blender.read.character")
+    scene_mod = import_module(fp.__name__ + ".blender.read.scene")
+    analysis = import_module(fp.__name__ + ".core.clips.analysis")
     empty_scene.render.fps = 120
     ob, (act,) = clips.import_clips([cmu("16_35")])
     rig = scene_mod.rig_from_armature(ob)
@@ -177,8 +177,8 @@ def test_the_bvh_import_gives_what_blenders_importer_gives(fp, empty_scene):
 
     import bpy
 
-    clips = import_module(fp.__name__ + ".blender.clips")
-    scene_mod = import_module(fp.__name__ + ".blender.scene")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
+    scene_mod = import_module(fp.__name__ + ".blender.read.scene")
     empty_scene.render.fps = 120
     with contextlib.redirect_stdout(io.StringIO()):
         bpy.ops.import_anim.bvh(filepath=cmu("49_05"), global_scale=0.01, use_fps_scale=True,

@@ -158,8 +158,8 @@ def test_the_report_measures_the_saved_scene_as_blender_plays_it(fp, jumps_baked
     import bpy
 
     scene, ob, before, doc = jumps_baked
-    bake = import_module(fp.__name__ + ".blender.bake")
-    rig = import_module(fp.__name__ + ".blender.scene").rig_from_armature(ob)
+    bake = import_module(fp.__name__ + ".blender.write.bake")
+    rig = import_module(fp.__name__ + ".blender.read.scene").rig_from_armature(ob)
     n = doc["frame_end"] - doc["frame_start"] + 1
     world = bake.evaluate_played(scene, ob, rig, doc["frame_start"], n)[0]
     path, heads = tmp_path / "baked.blend", tmp_path / "heads.npy"
@@ -175,7 +175,7 @@ def test_rebake_replaces_only_the_planners_own_and_clear_removes_it(fp, jumps_ba
     import bpy
 
     scene, ob, before, doc = jumps_baked
-    character = import_module(fp.__name__ + ".blender.character")
+    character = import_module(fp.__name__ + ".blender.read.character")
     clips = character.analyze_character(ob)
     assert not [a for a in clips.analyses if a.name.startswith("Footstep ")]  # a bake is never a clip
     n_actions = len(bpy.data.actions)
@@ -187,7 +187,7 @@ def test_rebake_replaces_only_the_planners_own_and_clear_removes_it(fp, jumps_ba
     assert ours == ["Footstep: leap again"]
     assert len(bpy.data.actions) == n_actions  # the old bake's action went with its track
     assert _snapshot(ob, scene) == before
-    bake = import_module(fp.__name__ + ".blender.bake")
+    bake = import_module(fp.__name__ + ".blender.write.bake")
     assert bake.clear(ob, scene) == 1
     assert not bake.owned_tracks(ob) and _snapshot(ob, scene) == before
     assert _transform(ob) == [list(r) for r in ob["transform_before"]]  # its own place again
@@ -213,7 +213,7 @@ def test_bake_operator_clear_operator_undo_and_panel(fp):
     assert doc["quality"]["foot_skate"]["max_mm"] < 10.0
     ob = bpy.data.objects["CMU"]
     assert [t.name for t in ob.animation_data.nla_tracks if t.name.startswith("Footstep: ")]
-    panel = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_PT_main
+    panel = import_module(fp.__name__ + ".blender.ui.panel").FOOTSTEP_PT_main
     stub = Recorder()
     panel.draw(type("P", (), {"layout": stub})(), bpy.context)
     ops = {a[0] for name, a, _ in stub.log if name == "operator" and a}
@@ -237,7 +237,7 @@ def test_bad_input_is_refused_with_a_clear_message_and_nothing_changed(fp):
     before = _user_animation(ob, scene)
     n_actions = len(bpy.data.actions)
     planning = import_module(fp.__name__ + ".blender.planning")
-    errors = import_module(fp.__name__ + ".core.errors")
+    errors = import_module(fp.__name__ + ".core.base.errors")
     goal = np.array(scene.objects["Goal"].location)
     start = scene.objects["Start"]
     cases = []
@@ -282,7 +282,7 @@ def test_cli_bake_verb_with_jobs(fp, tmp_path, capsys):
         {"character": "CMU", "goal": "Start", "start": "Goal", "name": "back", "frame_start": 400,
          "report": str(tmp_path / "c.json")},
     ]))
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     capsys.readouterr()
     out_blend = str(tmp_path / "baked.blend")
     assert cli(["bake", path, "--job", str(jobs), "--out", out_blend]) == 1  # one job failed
@@ -305,8 +305,8 @@ def test_body_on_the_root_bone(fp):
     import bpy
 
     scene, ob = _scene(fp, "obstacles")
-    bake = import_module(fp.__name__ + ".blender.bake")
-    errors = import_module(fp.__name__ + ".core.errors")
+    bake = import_module(fp.__name__ + ".blender.write.bake")
+    errors = import_module(fp.__name__ + ".core.base.errors")
     with pytest.raises(errors.FootstepError, match="no root bone"):
         _run(fp, scene, ob, name="no root", body_on="ROOT")
     assert not bake.owned_tracks(ob)
@@ -339,7 +339,7 @@ def test_more_bad_input_legs_library_and_frame_rate(fp):
 
     scene, ob = _scene(fp, "obstacles", fps=24)
     planning = import_module(fp.__name__ + ".blender.planning")
-    errors = import_module(fp.__name__ + ".core.errors")
+    errors = import_module(fp.__name__ + ".core.base.errors")
     goal = np.array(scene.objects["Goal"].location)
     start = scene.objects["Start"]
     n_actions = len(bpy.data.actions)
@@ -355,7 +355,7 @@ def test_more_bad_input_legs_library_and_frame_rate(fp):
     with pytest.raises(errors.FootstepError, match="'Snake'"):
         planning.run(scene, snake, goal, start_marker=start)
     # every clip excluded from the library
-    character = import_module(fp.__name__ + ".blender.character")
+    character = import_module(fp.__name__ + ".blender.read.character")
     clips = character.analyze_character(ob)
     character.write_library(ob, character.library_for(ob, clips), clips.analyses)
     for item in ob.data.footstep.clips:

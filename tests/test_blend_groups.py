@@ -1,4 +1,4 @@
-"""Property tests of footstep_planner.core.blend_groups (thesis 3.7): the path curvature tau
+"""Property tests of footstep_planner.core.synth.blend_groups (thesis 3.7): the path curvature tau
 (three-point circumcircle, then a smoothing spline), the turning group weights, the walk/run
 parameter s and its mixing. Pure core, no Blender.
 
@@ -26,10 +26,10 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.blend_groups import (
+from footstep_planner.core.synth.blend_groups import (
     circumcurvature, curvature, group_weights, mix_speed, smooth_signal, speed_parameter,
 )
-from footstep_planner.core.library import GroupClip, TurnGroup
+from footstep_planner.core.clips.library import GroupClip, TurnGroup
 
 HYP = dict(deadline=None, database=None)
 FPS_CHOICES = (24, 25, 30, 50, 60, 120)

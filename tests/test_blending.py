@@ -1,4 +1,4 @@
-"""Properties of footstep_planner.core.blending (thesis 3.4): the blend point, the
+"""Properties of footstep_planner.core.synth.blending (thesis 3.4): the blend point, the
 schedule and the playback, on hand-made tracks and on synthetic gaits (tests/synth.py)."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.analysis import analyze_clip
-from footstep_planner.core.blending import (BlendError, ClipTrack, PlanStep, Schedule, blend_point_alpha,
+from footstep_planner.core.clips.analysis import analyze_clip
+from footstep_planner.core.synth.blending import (BlendError, ClipTrack, PlanStep, Schedule, blend_point_alpha,
                                             build_schedule, make_track, playback)
-from footstep_planner.core.steps import clip_steps
+from footstep_planner.core.clips.steps import clip_steps
 from synth import synthetic_gait
 
 HYP = dict(deadline=None, database=None, max_examples=60)
@@ -219,8 +219,8 @@ def test_a_cycle_is_keyed_on_whole_stances_whichever_foot_leads(lead, tau):
     # a clip of two cycles that starts and ends inside a stance of its first foot holds no
     # whole left-right-left triple when the right foot leads: its phase must not be keyed
     # on the stance the clip's start cuts (that made steps of 0.1 s and thigh pops)
-    from footstep_planner.core import gait, mannequin
-    from footstep_planner.core.clip import clip_motion
+    from footstep_planner.core.sample import gait, mannequin
+    from footstep_planner.core.clips.clip import clip_motion
 
     rig = mannequin.rig()
     spec = gait.ClipSpec("w", gait.WALK, tau=tau, lead=lead)

@@ -11,7 +11,7 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from footstep_planner.core.settings import REFERENCE_LEG, Settings
+from footstep_planner.core.base.settings import REFERENCE_LEG, Settings
 
 #: the sample character's height (m), and the sizes tried
 HEIGHT = 1.75
@@ -25,7 +25,7 @@ def _scaled_scene(fp, name: str, k: float):
     from mathutils import Matrix
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
+    import_module(fp.__name__ + ".blender.sample.sample_scenes").build(name)
     scene = bpy.context.scene
     scene.render.fps = 30
     s = Matrix.Scale(k, 4)
@@ -42,7 +42,7 @@ def _character(fp, scene, k: float, object_scale: float = 1.0):
     handles) times ``k``, their timing kept; then analysed."""
     from mathutils import Matrix
 
-    mod = import_module(fp.__name__ + ".blender.mannequin")
+    mod = import_module(fp.__name__ + ".blender.sample.mannequin")
     start = scene.objects["Start"]
     ob, body = mod.build(scene.collection, location=tuple(start.location))
     ob.rotation_euler.z = start.rotation_euler.z
@@ -61,7 +61,7 @@ def _character(fp, scene, k: float, object_scale: float = 1.0):
     ob.data.transform(Matrix.Scale(k, 4))
     body.data.transform(Matrix.Scale(k, 4))
     ob.scale = (object_scale,) * 3
-    import_module(fp.__name__ + ".blender.character").analyze_and_propose(ob)
+    import_module(fp.__name__ + ".blender.read.character").analyze_and_propose(ob)
     scene.footstep.character = ob
     return ob
 
@@ -81,8 +81,8 @@ def human(fp):
 
 
 def test_the_body_scale_is_read_from_the_rig(fp):
-    from footstep_planner.core import mannequin
-    from footstep_planner.core.body import body_scale, leg_length, scaled_rig
+    from footstep_planner.core.sample import mannequin
+    from footstep_planner.core.clips.body import body_scale, leg_length, scaled_rig
 
     rig = mannequin.rig()
     assert leg_length(rig) == pytest.approx(REFERENCE_LEG, rel=0.01) and body_scale(rig) == 1.0
@@ -156,7 +156,7 @@ def test_an_unevenly_scaled_object_is_refused_in_one_line_naming_the_scale(fp):
     ob.scale = (1.0, 1.0, 0.5)
     planning = import_module(fp.__name__ + ".blender.planning")
     goal, heading = planning.goal_of(scene, "Goal")
-    errors = import_module(fp.__name__ + ".core.errors")
+    errors = import_module(fp.__name__ + ".core.base.errors")
     with pytest.raises(errors.FootstepError) as ex:
         planning.run(scene, ob, goal, heading, scene.objects["Start"], name="uneven", frame_start=1)
     msg = str(ex.value)

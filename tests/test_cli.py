@@ -15,7 +15,7 @@ from conftest import ROOT, cmu, needs_cmu
 
 @pytest.fixture
 def cli(fp, empty_scene):
-    return import_module(fp.__name__ + ".blender.cli").cli_main
+    return import_module(fp.__name__ + ".blender.command.cli").cli_main
 
 
 @pytest.mark.parametrize("verb", [[], ["import-clips"], ["analyze"], ["demo"]])

@@ -16,7 +16,7 @@ from conftest import ROOT
 
 @pytest.fixture
 def cli(fp, empty_scene):
-    return import_module(fp.__name__ + ".blender.cli").cli_main
+    return import_module(fp.__name__ + ".blender.command.cli").cli_main
 
 
 @pytest.fixture(scope="module")
@@ -24,8 +24,8 @@ def scene_file(tmp_path_factory, fp):
     """The Turns sample scene with the sample character, saved: the input of every case."""
     import bpy
 
-    mannequin = import_module(fp.__name__ + ".blender.mannequin")
-    sample = import_module(fp.__name__ + ".blender.sample_scenes")
+    mannequin = import_module(fp.__name__ + ".blender.sample.mannequin")
+    sample = import_module(fp.__name__ + ".blender.sample.sample_scenes")
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = sample.build("turns")
     scene.render.fps = 30
@@ -152,7 +152,7 @@ def test_an_unwritable_folder_is_one_message_before_any_work(cli, capsys, shot):
 
 def test_a_write_failing_midway_leaves_everything_as_it_was(cli, capsys, shot, monkeypatch, fp):
     """The report is written, then the scene can't be (a full disk): neither lands."""
-    cli_mod = import_module(fp.__name__ + ".blender.cli")
+    cli_mod = import_module(fp.__name__ + ".blender.command.cli")
 
     def full_disk(final):
         def write(tmp):
@@ -170,7 +170,7 @@ def test_a_write_failing_midway_leaves_everything_as_it_was(cli, capsys, shot, m
 # -- one message, never a traceback ---------------------------------------------------------
 
 def test_ctrl_c_is_exit_130_and_nothing_written(cli, capsys, shot, monkeypatch, fp):
-    batch = import_module(fp.__name__ + ".blender.batch")
+    batch = import_module(fp.__name__ + ".blender.command.batch")
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
@@ -209,7 +209,7 @@ def test_ctrl_c_of_a_real_process(shot):
 
 
 def test_a_bug_shows_its_traceback_and_asks_to_be_reported(cli, capsys, shot, monkeypatch, fp):
-    batch = import_module(fp.__name__ + ".blender.batch")
+    batch = import_module(fp.__name__ + ".blender.command.batch")
     monkeypatch.setattr(batch, "bake_job", lambda *a, **k: 1 / 0)
     before = digest(shot)
     assert cli(bake_args(str(shot / "shot.blend"), "--out", str(shot / "x.blend"))) == 70
@@ -284,7 +284,7 @@ def test_bad_jobs_are_reported_and_the_good_ones_run(cli, capsys, shot):
 def test_a_job_failing_at_run_time_is_rolled_back_and_the_rest_run(cli, capsys, shot, monkeypatch, fp):
     import bpy
 
-    batch = import_module(fp.__name__ + ".blender.batch")
+    batch = import_module(fp.__name__ + ".blender.command.batch")
     real = batch.bake_job
 
     def flaky(scene, job, common, settings):

@@ -13,8 +13,8 @@ pytestmark = needs_cmu
 
 
 def _mods(fp):
-    return (import_module(fp.__name__ + ".blender.clips"), import_module(fp.__name__ + ".blender.scene"),
-            import_module(fp.__name__ + ".core.rig"))
+    return (import_module(fp.__name__ + ".blender.read.clips"), import_module(fp.__name__ + ".blender.read.scene"),
+            import_module(fp.__name__ + ".core.clips.rig"))
 
 
 def _snapshot():
@@ -154,7 +154,7 @@ def test_a_file_of_another_skeleton_is_refused_and_nothing_changes(fp, empty_sce
 
 def test_a_clip_whose_feet_never_touch_down_is_reported_by_name(fp, empty_scene, tmp_path):
     clips, scene_mod, _ = _mods(fp)
-    character = import_module(fp.__name__ + ".blender.character")
+    character = import_module(fp.__name__ + ".blender.read.character")
     high = edit_frames(cmu("16_16"), str(tmp_path / "floating.bvh"),
                        lambda d: d + np.r_[0, 60.0, 0, np.zeros(d.shape[1] - 3)])
     ob, _ = clips.import_clips([cmu("16_16"), high], name="Mixed")

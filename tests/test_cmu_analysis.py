@@ -18,8 +18,8 @@ def _analyse(fp, paths, fps):
     """Analyse BVH files at a scene rate; plain results only (no bpy references kept)."""
     import bpy
 
-    clips = import_module(fp.__name__ + ".blender.clips")
-    character = import_module(fp.__name__ + ".blender.character")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
+    character = import_module(fp.__name__ + ".blender.read.character")
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.context.scene.render.fps = fps
     bpy.context.scene.render.fps_base = 1.0
@@ -140,7 +140,7 @@ def _threshold_contacts(fp, path):
     Blender's own pose evaluation (frame_set), not from the analysis."""
     import bpy
 
-    clips = import_module(fp.__name__ + ".blender.clips")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.render.fps = 120
@@ -209,7 +209,7 @@ def test_figures_do_not_depend_on_the_frame_rate(fp, at120, fps):
 
 
 def test_proposed_library(fp, at120):
-    lib = import_module(fp.__name__ + ".core.library").propose_library(
+    lib = import_module(fp.__name__ + ".core.clips.library").propose_library(
         [at120[f[:-4]] for f in SUBJECT16])
     walk = [c.clip for c in lib.turn_groups["walk"].clips]
     run = [c.clip for c in lib.turn_groups["run"].clips]

@@ -17,8 +17,8 @@ CHAR = "Footstep Mannequin"
 def _turns_scene(fp, name: str = "turns"):
     """The Turns (or another) sample scene at 30 fps with the sample character at Start:
     (scene, the character, the planning module, the goal, its heading)."""
-    mannequin = import_module(fp.__name__ + ".blender.mannequin")
-    sample = import_module(fp.__name__ + ".blender.sample_scenes")
+    mannequin = import_module(fp.__name__ + ".blender.sample.mannequin")
+    sample = import_module(fp.__name__ + ".blender.sample.sample_scenes")
     planning = import_module(fp.__name__ + ".blender.planning")
     scene = sample.build(name)
     scene.render.fps, scene.render.fps_base = 30, 1.0
@@ -29,7 +29,7 @@ def _turns_scene(fp, name: str = "turns"):
 @pytest.fixture
 def turns(fp, empty_scene):
     """The Turns sample scene with the sample character, baked once from frame 1."""
-    handles = import_module(fp.__name__ + ".blender.handles")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
     scene, ob, planning, goal, heading = _turns_scene(fp)
     planned = planning.plan_and_synthesize(scene, ob, goal, heading, scene.objects["Start"])
     doc = planning.run(scene, ob, goal, heading, scene.objects["Start"], name="turns", frame_start=1)
@@ -54,7 +54,7 @@ def _played(fp, scene, ob, first, last):
 def _move_middle_footprint(fp, ob, dy: float):
     """Lock the footprints three either side of the middle one and move it ``dy`` m in y:
     (its index, where it now stands)."""
-    handles = import_module(fp.__name__ + ".blender.handles")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
     hs = handles.handles(ob)
     k = len(hs) // 2
     handles.set_locked([hs[k - 3], hs[k + 3]], True)
@@ -66,8 +66,8 @@ def test_moving_one_footprint_rebakes_only_its_span(fp, turns):
     import bpy
 
     scene, ob, doc = turns
-    handles = import_module(fp.__name__ + ".blender.handles")
-    directing = import_module(fp.__name__ + ".blender.directing")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
+    directing = import_module(fp.__name__ + ".blender.ui.directing")
     k, target = _move_middle_footprint(fp, ob, 0.12)
     first, last = doc["frame_start"], doc["frame_end"]
     before = _played(fp, scene, ob, first, last)
@@ -101,8 +101,8 @@ def test_an_edited_plan_that_turns_in_place_rebakes_with_its_turn(fp, empty_scen
     the goal is reached without a sliding foot."""
     import math
 
-    handles = import_module(fp.__name__ + ".blender.handles")
-    directing = import_module(fp.__name__ + ".blender.directing")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
+    directing = import_module(fp.__name__ + ".blender.ui.directing")
     scene, ob, planning, goal, heading = _turns_scene(fp)
     start = scene.objects["Start"]
     start.rotation_euler.z += math.pi
@@ -127,7 +127,7 @@ def test_an_edit_too_big_to_splice_without_a_slide_is_baked_whole(fp, turns):
     two bakes' keys slides the planted foot: the re-bake keys the whole path, says so,
     and no foot slides."""
     scene, ob, doc = turns
-    directing = import_module(fp.__name__ + ".blender.directing")
+    directing = import_module(fp.__name__ + ".blender.ui.directing")
     _move_middle_footprint(fp, ob, 0.35)
     doc2, route, splice = directing.rebake_handles(scene, ob)
     assert splice.span is None and "the whole path was re-baked" in doc2["rebaked_whole"]
@@ -141,7 +141,7 @@ def test_the_panels_edit_lock_replan_and_undo(fp, empty_scene):
     reason in the panel and nothing baked."""
     import bpy
 
-    handles = import_module(fp.__name__ + ".blender.handles")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
     scene, ob, *_ = _turns_scene(fp, "obstacles")
     fs = scene.footstep
     fs.character, fs.goal, fs.start = ob, scene.objects["Goal"], scene.objects["Start"]
@@ -192,7 +192,7 @@ def shot(fp, empty_scene, tmp_path):
 
 
 def test_a_bake_through_waypoints_visits_them_in_order(fp, shot, capsys):
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     folder, path = shot
     assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
                 "--report", str(folder / "r.json")]) == 0
@@ -215,7 +215,7 @@ def test_an_edited_plan_round_trips_through_bake_plan(fp, shot, capsys):
     """plan --out-plan writes the footprints; unedited, bake --plan bakes exactly them;
     edited (one footprint moved, two locked), bake --plan keeps the edit and re-plans only
     between the locks, re-keying only that span of the earlier bake."""
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     folder, path = shot
     plan_path = folder / "plan.json"
     common = [path, "--character", CHAR, "--start", "Start", "--goal", "Goal"]
@@ -243,7 +243,7 @@ def test_an_edited_plan_round_trips_through_bake_plan(fp, shot, capsys):
 
 
 def test_a_bad_plan_file_is_one_message(fp, shot, capsys):
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     folder, path = shot
     (folder / "bad.json").write_text(json.dumps({"format": "footstep-plan", "version": 1, "character": CHAR,
                                                   "forward": [0, -1, 0], "footprints": [{"foot": "L"}]}))
@@ -299,8 +299,8 @@ def test_arrival_frames_are_met_and_a_pause_stands_still(fp, shot, capsys):
     """Three waypoints: A with a 1.5 s pause, B on frame 560 and the goal on frame 800 (the
     walk paced to them): each met within one frame as Blender plays the saved scene,
     read independently of the report; at A the body stands still for the pause."""
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
-    directed = import_module(fp.__name__ + ".core.directed")
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
+    directed = import_module(fp.__name__ + ".core.perform.directed")
     folder, path = shot
     out = folder / "timed.blend"
     assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
@@ -336,7 +336,7 @@ def test_arrival_frames_are_met_and_a_pause_stands_still(fp, shot, capsys):
 
 
 def test_a_frame_too_soon_is_refused_with_the_earliest_which_is_then_met(fp, shot, capsys):
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     folder, path = shot
     common = [path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B"]
     assert cli(["bake", *common, "--arrive", "B=200", "--out", str(folder / "x.blend")]) == 2
@@ -354,7 +354,7 @@ def test_a_frame_too_soon_is_refused_with_the_earliest_which_is_then_met(fp, sho
 def test_a_frame_too_soon_for_walking_is_met_running(fp, shot, capsys):
     """B on a frame the walk can't make at its fastest pace: the way to it is planned
     again, running where that is quicker (the library's run), and the frame is met."""
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     folder, path = shot
     assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
                 "--arrive", "B=380", "--report", str(folder / "run.json")]) == 0
@@ -371,7 +371,7 @@ def test_a_frame_too_soon_for_walking_is_met_running(fp, shot, capsys):
 def test_early_with_nowhere_to_wait_stops_at_the_waypoint_before(fp, shot, capsys):
     """A on frame 300, B much later than the slowest walk from A gets there: the path
     stops at A (it had no pause) and waits there."""
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     folder, path = shot
     assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
                 "--arrive", "A=300,B=900", "--report", str(folder / "stop.json")]) == 0
@@ -383,7 +383,7 @@ def test_early_with_nowhere_to_wait_stops_at_the_waypoint_before(fp, shot, capsy
 def test_early_arrival_waits_standing_at_the_start(fp, shot, capsys):
     """A goal frame later than the slowest pace reaches it: the character waits at the
     start, standing, and leaves in time."""
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     folder, path = shot
     assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--arrive", "Goal=1300",
                 "--report", str(folder / "w.json")]) == 0
@@ -401,7 +401,7 @@ def test_early_arrival_waits_standing_at_the_start(fp, shot, capsys):
     (["--arrive", "Goal=200000"], "would wait 6"),
 ])
 def test_bad_timing_options_are_one_message(fp, shot, capsys, args, says):
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     folder, path = shot
     assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
                 *args]) == 2
@@ -429,7 +429,7 @@ def test_the_panel_takes_a_pause_and_an_arrival_frame(fp, shot):
     rows = {w["name"]: w for w in json.loads(fs.plan_json)["waypoints"]}
     assert rows["A"]["pause"] == 1.0 and rows["A"]["stops"]
     assert abs(rows["Goal"]["achieved"] - 900) <= 1.0
-    overlay = import_module(fp.__name__ + ".blender.overlay")
+    overlay = import_module(fp.__name__ + ".blender.ui.overlay")
     labels = [text for _, text in overlay.LAST[scene.name]["labels"]]
     assert labels[0].startswith("A: frame ") and "stands 1 s" in labels[0]
     assert labels[-1].startswith("Goal: frame ") and labels[-1].endswith("(asked 900)")
@@ -444,7 +444,7 @@ def test_real_capture_pauses_and_meets_its_frames(fp, empty_scene):
 
     scene, ob = scene_with_cmu(fp, "turns")
     planning = import_module(fp.__name__ + ".blender.planning")
-    directing = import_module(fp.__name__ + ".blender.directing")
+    directing = import_module(fp.__name__ + ".blender.ui.directing")
     goal, heading = planning.goal_of(scene, "Goal")
     direct = planning.plan(scene, ob, goal, heading, scene.objects["Start"])[0].footprints
     e = bpy.data.objects.new("A", None)

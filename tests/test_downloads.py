@@ -29,11 +29,11 @@ def _bake(fp, files, scene_name: str):
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    import_module(fp.__name__ + ".blender.sample_scenes").build(scene_name)
+    import_module(fp.__name__ + ".blender.sample.sample_scenes").build(scene_name)
     scene = bpy.context.scene
     scene.render.fps = 30
-    ob, _ = import_module(fp.__name__ + ".blender.clips").import_clips(files, name="Mixamo")
-    clips = import_module(fp.__name__ + ".blender.character").analyze_character(ob)
+    ob, _ = import_module(fp.__name__ + ".blender.read.clips").import_clips(files, name="Mixamo")
+    clips = import_module(fp.__name__ + ".blender.read.character").analyze_character(ob)
     planning = import_module(fp.__name__ + ".blender.planning")
     goal, heading = planning.goal_of(scene, "Goal")
     doc = planning.run(scene, ob, goal, heading, scene.objects["Start"], name="dl", frame_start=1)
@@ -45,10 +45,10 @@ def test_one_cycle_downloads_are_read_as_loops_of_both_feet(fp, libraries):
 
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.context.scene.render.fps = 30
-    ob, acts = import_module(fp.__name__ + ".blender.clips").import_clips(libraries["one_cycle"], name="Mixamo")
+    ob, acts = import_module(fp.__name__ + ".blender.read.clips").import_clips(libraries["one_cycle"], name="Mixamo")
     walk = next(a for a in acts if a.name.startswith("walk_in_place"))
     assert walk.frame_range[1] - walk.frame_range[0] == 32  # (33 frames: the first pose again at the end)
-    clips = import_module(fp.__name__ + ".blender.character").analyze_character(ob)
+    clips = import_module(fp.__name__ + ".blender.read.character").analyze_character(ob)
     assert not clips.errors, clips.errors
     by = {a.name.removesuffix("_in_place"): a for a in clips.analyses}
     for name in CLIPS[:-1]:

@@ -38,7 +38,7 @@ def _mixamo_skeleton():
 
 @pytest.mark.parametrize("prefix", ["mixamorig:", "mixamorig1:", "mixamorig12:", ""])
 def test_mixamo_names_map_to_roles_with_or_without_the_prefix(prefix):
-    from footstep_planner.core.roles import map_roles
+    from footstep_planner.core.clips.roles import map_roles
 
     names, parents = _mixamo_skeleton()
     roles = map_roles([prefix + n for n in names], parents)
@@ -89,8 +89,8 @@ def mixamo(fp, tmp_path_factory):
     in-place walk, and what the originals give: {"files", "heads", "analysis"}."""
     import bpy
 
-    mannequin = import_module(fp.__name__ + ".blender.mannequin")
-    character = import_module(fp.__name__ + ".blender.character")
+    mannequin = import_module(fp.__name__ + ".blender.sample.mannequin")
+    character = import_module(fp.__name__ + ".blender.read.character")
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.render.fps, scene.render.fps_base = 24, 1.0
@@ -155,7 +155,7 @@ def mixamo(fp, tmp_path_factory):
 
 
 def _clips(fp):
-    return import_module(fp.__name__ + ".blender.clips")
+    return import_module(fp.__name__ + ".blender.read.clips")
 
 
 def _data():
@@ -212,7 +212,7 @@ def test_import_gives_one_armature_in_metres_z_up_and_leaves_the_users_data(fp, 
     import bpy
 
     clips = _clips(fp)
-    scene_mod = import_module(fp.__name__ + ".blender.scene")
+    scene_mod = import_module(fp.__name__ + ".blender.read.scene")
     empty, arm, mine = _users_things(empty_scene)
     before = _data()
     files = mixamo["files"]
@@ -265,7 +265,7 @@ def test_import_gives_one_armature_in_metres_z_up_and_leaves_the_users_data(fp, 
 
 def test_the_walk_analyses_as_the_original_does(fp, empty_scene, mixamo):
     clips = _clips(fp)
-    character = import_module(fp.__name__ + ".blender.character")
+    character = import_module(fp.__name__ + ".blender.read.character")
     files = mixamo["files"]
     ob, _ = clips.import_clips([files[n] for n in CLIPS])
     result = character.analyze_character(ob)
@@ -295,7 +295,7 @@ def test_a_scene_at_another_rate_keys_the_clip_at_its_rate(fp, empty_scene, mixa
 
 
 def test_import_clips_and_analyze_from_the_command_line(fp, empty_scene, mixamo, tmp_path, capsys):
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     files = mixamo["files"]
     lib = str(tmp_path / "lib.blend")
     assert cli(["import-clips", "--out", lib, "--name", "Mixamo", files["walk"], files["run"]]) == 0
@@ -351,7 +351,7 @@ def test_bad_input_is_one_clear_message_and_changes_nothing(fp, empty_scene, mix
     empty, arm, mine = _users_things(empty_scene)
     target = None
     if case == "other":  # a file of another skeleton, into the user's character
-        target, _ = import_module(fp.__name__ + ".blender.mannequin").build()
+        target, _ = import_module(fp.__name__ + ".blender.sample.mannequin").build()
         paths = [mixamo["files"]["walk"]]
     else:  # a bad file after a good one: the good one's import is undone too
         paths = [mixamo["files"]["run"], mixamo["files"][case]]
@@ -395,11 +395,11 @@ def test_a_mixamo_character_with_in_place_clips_bakes_from_the_command_line(fp, 
     import bpy
 
     files = mixamo_like.write_character(str(tmp_path))
-    import_module(fp.__name__ + ".blender.sample_scenes").build("turns")
+    import_module(fp.__name__ + ".blender.sample.sample_scenes").build("turns")
     bpy.context.scene.render.fps = 30
     scene_path = str(tmp_path / "turns.blend")
     bpy.ops.wm.save_as_mainfile(filepath=scene_path)
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     with_clips, baked, report = (str(tmp_path / n) for n in ("with_clips.blend", "baked.blend", "r.json"))
     assert cli(["import-clips", "--blend", scene_path, "--name", "Mixamo", "--out", with_clips, *files]) == 0
     capsys.readouterr()

@@ -22,7 +22,7 @@ def _scene(fp, name: str):
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
+    import_module(fp.__name__ + ".blender.sample.sample_scenes").build(name)
     scene = bpy.context.scene
     scene.render.fps = 30
     return scene
@@ -37,9 +37,9 @@ def _bake(fp, scene, ob):
 
 
 def _quaternius(fp, scene):
-    clips = import_module(fp.__name__ + ".blender.clips")
-    scene_mod = import_module(fp.__name__ + ".blender.scene")
-    body = import_module(fp.__name__ + ".core.body")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
+    scene_mod = import_module(fp.__name__ + ".blender.read.scene")
+    body = import_module(fp.__name__ + ".core.clips.body")
     ob, _ = clips.import_clips([QUATERNIUS], name="Quaternius")
     ob.scale = (1.0 / body.body_scale(scene_mod.rig_from_armature(ob)),) * 3
     return ob
@@ -72,7 +72,7 @@ def test_the_quaternius_character_as_downloaded_bakes_the_sample_scenes(fp, name
 
 def test_the_sample_character_keeps_its_toes_out_of_the_floor(fp):
     scene = _scene(fp, "stairs")
-    ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     _check(_bake(fp, scene, ob))
 
 
@@ -81,5 +81,5 @@ def test_the_cmu_library_keeps_its_toes_out_of_the_floor(fp):
     from benchmarks.library import LIBRARY, cmu_files
 
     scene = _scene(fp, "obstacles")
-    ob, _ = import_module(fp.__name__ + ".blender.clips").import_clips(cmu_files(CMU, LIBRARY), name="CMU")
+    ob, _ = import_module(fp.__name__ + ".blender.read.clips").import_clips(cmu_files(CMU, LIBRARY), name="CMU")
     _check(_bake(fp, scene, ob), (1.0, 10.0))

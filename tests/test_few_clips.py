@@ -10,13 +10,14 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from footstep_planner.core.analysis import analyze_clip
-from footstep_planner.core.library import propose_library
-from footstep_planner.core.navgraph import PathFootprint, PlanError, Planner
-from footstep_planner.core.pipeline import label_weights, surface_snap, synthesize
-from footstep_planner.core.settings import Settings
-from footstep_planner.core.steps import bend_chain, bent_step, library_steps
-from footstep_planner.core.surface import FootShape, MeshGround, TriMesh, footprint_support
+from footstep_planner.core.clips.analysis import analyze_clip
+from footstep_planner.core.clips.library import propose_library
+from footstep_planner.core.footprint import PathFootprint
+from footstep_planner.core.plan.navgraph import PlanError, Planner
+from footstep_planner.core.synth.pipeline import label_weights, surface_snap, synthesize
+from footstep_planner.core.base.settings import Settings
+from footstep_planner.core.clips.steps import bend_chain, bent_step, library_steps
+from footstep_planner.core.plan.surface import FootShape, MeshGround, TriMesh, footprint_support
 from conftest import plane, standing
 from synth import synthetic_gait
 
@@ -227,12 +228,12 @@ def test_the_sample_character_with_only_its_walk_reaches_the_goal_of_the_turns_s
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("turns", bpy.context.scene)
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("turns", bpy.context.scene)
     scene.render.fps = 30
-    m = import_module(fp.__name__ + ".blender.mannequin")
+    m = import_module(fp.__name__ + ".blender.sample.mannequin")
     ob, _ = m.add_to_scene(scene, "Start", clips=False)
     m.generate_clips(ob, names=["walk"])
-    clips = import_module(fp.__name__ + ".blender.character").analyze_and_propose(ob)
+    clips = import_module(fp.__name__ + ".blender.read.character").analyze_and_propose(ob)
     assert [a.name for a in clips.analyses] == ["walk"]
     planning = import_module(fp.__name__ + ".blender.planning")
     doc = planning.run(scene, ob, np.array(scene.objects["Goal"].location), start_marker=scene.objects["Start"])

@@ -1,11 +1,11 @@
-"""Outputs written as one transaction (core/files.py): all files land, or none."""
+"""Outputs written as one transaction (core/base/files.py): all files land, or none."""
 
 import os
 
 import pytest
 
-from footstep_planner.core import files
-from footstep_planner.core.files import OutputError, Outputs
+from footstep_planner.core.base import files
+from footstep_planner.core.base.files import OutputError, Outputs
 
 
 def test_all_outputs_land_together(tmp_path):

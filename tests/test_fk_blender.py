@@ -27,8 +27,8 @@ def _blender_pose(ob, frames):
 def _numpy_pose(fp, ob, action, frames):
     from importlib import import_module
 
-    scene_mod = import_module(fp.__name__ + ".blender.scene")
-    rig_mod = import_module(fp.__name__ + ".core.rig")
+    scene_mod = import_module(fp.__name__ + ".blender.read.scene")
+    rig_mod = import_module(fp.__name__ + ".core.clips.rig")
     rig = scene_mod.rig_from_armature(ob)
     basis = scene_mod.sample_basis(ob, action, frames)
     pose = rig_mod.forward_kinematics(rig, basis)
@@ -44,7 +44,7 @@ def _numpy_pose(fp, ob, action, frames):
 def test_fk_matches_blender_on_every_frame_of_cmu(fp, empty_scene, path):
     from importlib import import_module
 
-    clips = import_module(fp.__name__ + ".blender.clips")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
     empty_scene.render.fps = 120
     ob, (act,) = clips.import_clips([path])
     ob.animation_data_create()
@@ -114,7 +114,7 @@ def test_sampling_leaves_the_users_pose_as_it_was(fp, empty_scene):
     import bpy
     from importlib import import_module
 
-    scene_mod = import_module(fp.__name__ + ".blender.scene")
+    scene_mod = import_module(fp.__name__ + ".blender.read.scene")
     arm = bpy.data.armatures.new("A")
     ob = bpy.data.objects.new("A", arm)
     empty_scene.collection.objects.link(ob)

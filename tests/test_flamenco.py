@@ -12,7 +12,7 @@ import pytest
 
 from conftest import ROOT
 from footstep_planner.core.jobs import check_job, job_argv, normalised
-from footstep_planner.core.settings import Settings
+from footstep_planner.core.base.settings import Settings
 
 NODE = shutil.which("node") or shutil.which("nodejs")
 pytestmark = pytest.mark.skipif(NODE is None, reason="node (Node.js) is not installed: the Flamenco job type is "

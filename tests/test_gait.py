@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from footstep_planner.core import gait, mannequin
-from footstep_planner.core.analysis import analyze_clip
-from footstep_planner.core.clip import clip_motion
-from footstep_planner.core.rig import forward_kinematics
+from footstep_planner.core.sample import gait, mannequin
+from footstep_planner.core.clips.analysis import analyze_clip
+from footstep_planner.core.clips.clip import clip_motion
+from footstep_planner.core.clips.rig import forward_kinematics
 
 FPS = 30.0
 RIG = mannequin.rig()
@@ -160,7 +160,7 @@ def test_the_numpy_rig_matches_blenders_bone_matrices():
 
 def _scaled_rig(s: float):
     """The mannequin's skeleton scaled by s (a child, a tall adult)."""
-    from footstep_planner.core.rig import Rig
+    from footstep_planner.core.clips.rig import Rig
 
     rest = RIG.rest.copy()
     rest[:, :3, 3] *= s
@@ -190,7 +190,7 @@ def test_a_rig_of_other_proportions_gets_the_gait_scaled_to_its_legs(s, name):
 
 
 def test_a_rig_without_the_metarig_legs_or_with_feet_off_the_ground_is_refused_by_name():
-    from footstep_planner.core.rig import Rig
+    from footstep_planner.core.clips.rig import Rig
 
     names = [n.replace("thigh", "UpLeg") for n in RIG.names]
     other = Rig.build("Hero", names, RIG.parents, RIG.rest, RIG.tails)
@@ -204,7 +204,7 @@ def test_a_rig_without_the_metarig_legs_or_with_feet_off_the_ground_is_refused_b
 
 
 def test_the_reference_proportions_are_the_mannequins():
-    from footstep_planner.core.ik import leg_lengths
+    from footstep_planner.core.solve.ik import leg_lengths
 
     assert sum(leg_lengths(RIG, "l")) == pytest.approx(gait.REF_LEG, abs=1e-9)
     assert RIG.rest[RIG.role_index("hips"), 2, 3] == pytest.approx(gait.REF_HIPS, abs=1e-9)

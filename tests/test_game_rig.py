@@ -17,12 +17,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from conftest import SHARED
+from conftest import QUATERNIUS, needs_quaternius
 
-QUATERNIUS = os.path.join(SHARED, "clips", "quaternius_male_casual", "Male_Casual.fbx")
-needs_quaternius = pytest.mark.skipif(
-    not os.path.isfile(QUATERNIUS),
-    reason=f"the Quaternius character is not at {QUATERNIUS} (../shared beside the project; CI has it)")
 
 # bone: (parent, head, tail) of the left side and the middle; the right side mirrors X
 GAME = {
@@ -41,8 +37,8 @@ GAME = {
 
 
 def _mods(fp):
-    return (import_module(fp.__name__ + ".blender.scene"), import_module(fp.__name__ + ".core.rig"),
-            import_module(fp.__name__ + ".blender.bake"))
+    return (import_module(fp.__name__ + ".blender.read.scene"), import_module(fp.__name__ + ".core.clips.rig"),
+            import_module(fp.__name__ + ".blender.write.bake"))
 
 
 def _game_armature(scene, roll=0.3):
@@ -144,7 +140,7 @@ def test_inherit_flags_are_checked_along_the_armatures_own_chain_of_a_foot(fp, e
 
 
 def _ik_result(fp, rig, basis, rng):
-    ik = import_module(fp.__name__ + ".core.ik")
+    ik = import_module(fp.__name__ + ".core.solve.ik")
     F = len(basis)
     pos = np.c_[np.linspace(0.0, 1.2, F), rng.normal(size=F) * 0.05, np.zeros(F)]
     return ik.IKResult(body_pos=pos, body_heading=np.linspace(0.0, 0.8, F), basis=basis, targets=None,
@@ -152,8 +148,8 @@ def _ik_result(fp, rig, basis, rng):
 
 
 def _planned_world(fp, ob, rig, res, spin):
-    ik = import_module(fp.__name__ + ".core.ik")
-    rig_mod = import_module(fp.__name__ + ".core.rig")
+    ik = import_module(fp.__name__ + ".core.solve.ik")
+    rig_mod = import_module(fp.__name__ + ".core.clips.rig")
     return ik.body_frames(res.body_pos, spin + res.body_heading)[:, None] @ rig_mod.forward_kinematics(rig, res.basis)
 
 
@@ -247,7 +243,7 @@ def test_quaternius_sole_from_its_mesh(fp, quaternius):
     bone ends at the ball; the file has no toe bone), all three on the sole, the two feet
     mirror images."""
     scene_mod, _, _ = _mods(fp)
-    ik = import_module(fp.__name__ + ".core.ik")
+    ik = import_module(fp.__name__ + ".core.solve.ik")
     rig = scene_mod.rig_from_armature(quaternius, sole="mesh")
     pts = []
     for k, side in enumerate("lr"):

@@ -10,7 +10,7 @@ import pytest
 
 @pytest.fixture
 def mods(fp, empty_scene):
-    return (import_module(fp.__name__ + ".blender.handles"), import_module(fp.__name__ + ".core.navgraph"))
+    return (import_module(fp.__name__ + ".blender.ui.handles"), import_module(fp.__name__ + ".core.plan.navgraph"))
 
 
 def _path(nav, n=8, forward=(0.0, -1.0, 0.0)):

@@ -20,11 +20,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from benchmarks import mixamo_like
-from conftest import MOD, SHARED
+from conftest import MOD, QUATERNIUS, SHARED, needs_quaternius
 
-QUATERNIUS = os.path.join(SHARED, "clips", "quaternius_male_casual", "Male_Casual.fbx")
-needs_quaternius = pytest.mark.skipif(not os.path.isfile(QUATERNIUS),
-                                      reason=f"the Quaternius character is not at {QUATERNIUS} (../shared)")
 TAKES = ("run", "walk", "walk_turn_left_wide")
 ROOT_MOTION = ("Walk_Straight", "Walk_Turn", "Walk_Turn_180")
 
@@ -81,7 +78,7 @@ def _export_all(folder, objects, stem, kinds=("fbx", "glb", "gltf")):
 def _hips_world(ob, act, frames):
     """The world matrices (F, 4, 4) of the root bone "spine" (the mannequin's hips) as
     ``act`` keys it, the armature object at the identity."""
-    sample_basis = import_module(MOD + ".blender.scene").sample_basis
+    sample_basis = import_module(MOD + ".blender.read.scene").sample_basis
     rest = np.array(ob.data.bones["spine"].matrix_local)
     return rest @ sample_basis(ob, act, frames)[:, ob.pose.bones.find("spine")]
 
@@ -94,8 +91,8 @@ def _key_object(ob, act, name, world, move_hips):
     import bpy
     from scipy.spatial.transform import Rotation
 
-    write_rotation = import_module(MOD + ".blender.clips")._write_rotation
-    fill_keys = import_module(MOD + ".blender.scene").fill_keys
+    write_rotation = import_module(MOD + ".blender.read.clips")._write_rotation
+    fill_keys = import_module(MOD + ".blender.write.keys").fill_keys
     new = act.copy()
     new.name = name
     cb = new.layers[0].strips[0].channelbags[0]
@@ -151,7 +148,7 @@ def made(fp, tmp_path_factory):
     metre up: no foot touches the ground), junk files; and what the originals play."""
     import bpy
 
-    mannequin = _mod(fp, "mannequin")
+    mannequin = _mod(fp, "sample.mannequin")
     folder = str(tmp_path_factory.mktemp("formats"))
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
@@ -178,7 +175,7 @@ def made(fp, tmp_path_factory):
         _key_object(ob, mixamo_like.in_place(ob, walk, "spine"), "Walk_Turn_180", _semicircle(len(frames)), False)]
     grow = walk.copy()
     grow.name = "Grow"  # (the clip scales the object, 1 -> 1.5)
-    fill_keys = _mod(fp, "scene").fill_keys
+    fill_keys = _mod(fp, "write.keys").fill_keys
     for i in range(3):
         fill_keys(grow.layers[0].strips[0].channelbags[0].fcurves.new("scale", index=i), frames,
                   np.linspace(1.0, 1.5, len(frames)))
@@ -255,7 +252,7 @@ def test_a_file_of_several_takes_gives_one_clip_per_take(fp, empty_scene, made, 
     the skinned body kept; the importer's NLA tracks and scene data not left behind."""
     import bpy
 
-    clips = _mod(fp, "clips")
+    clips = _mod(fp, "read.clips")
     tracks = lambda: [t.name for t in getattr(empty_scene, "gltf2_animation_tracks", [])]  # noqa: E731
     before = tracks()
     mine = bpy.data.objects.new("UserEmpty", None)
@@ -296,7 +293,7 @@ def test_a_file_of_several_takes_gives_one_clip_per_take(fp, empty_scene, made, 
 def test_takes_whose_names_the_armature_has_are_reported(fp, empty_scene, made, kind):
     """The same file imported again into the armature: its clips keep Blender's numbered
     names, each one named in the report, and play as the first ones do."""
-    clips = _mod(fp, "clips")
+    clips = _mod(fp, "read.clips")
     ob, first = clips.import_clips([made["files"]["takes"]["fbx"]], name="Mannequin")
     done = clips.import_clip_files([made["files"]["takes"][kind]], target=ob)
     report = done.report()
@@ -312,7 +309,7 @@ def test_takes_whose_names_the_armature_has_are_reported(fp, empty_scene, made, 
 def test_a_take_that_cannot_be_read_is_refused_and_the_others_imported(fp, empty_scene, made):
     import bpy
 
-    clips = _mod(fp, "clips")
+    clips = _mod(fp, "read.clips")
     path = made["files"]["nan_take"]
     done = clips.import_clip_files([path])
     assert [a.name for a in done.actions] == ["run", "walk_turn_left_wide"]
@@ -338,7 +335,7 @@ def test_the_quaternius_character_gives_its_eleven_takes(fp, empty_scene, monkey
     aside as well."""
     import bpy
 
-    clips = _mod(fp, "clips")
+    clips = _mod(fp, "read.clips")
     frames = {"Man_Idle": 101, "Man_Walk": 26, "Man_Run": 22, "Man_Jump": 26, "Man_RunningJump": 31}
     done = clips.import_clip_files([QUATERNIUS])
     if done.refused:  # (the role mapper does not map feet parented to the root)
@@ -367,7 +364,7 @@ def test_the_quaternius_character_gives_its_eleven_takes(fp, empty_scene, monkey
 
 def test_a_glb_in_a_scene_at_another_rate_keys_its_clips_at_that_rate(fp, empty_scene, made):
     """glTF keys times in seconds: a 24 fps file in a 30 fps scene plays in time."""
-    clips = _mod(fp, "clips")
+    clips = _mod(fp, "read.clips")
     empty_scene.render.fps = 30
     assert clips.clip_fps(made["files"]["takes"]["glb"]) == 24
     ob, acts = clips.import_clips([made["files"]["takes"]["glb"]])
@@ -387,7 +384,7 @@ def test_a_glb_in_a_scene_at_another_rate_keys_its_clips_at_that_rate(fp, empty_
 def test_files_that_only_look_like_a_format_are_refused_by_name(fp, empty_scene, made, name, message):
     import bpy
 
-    clips = _mod(fp, "clips")
+    clips = _mod(fp, "read.clips")
     done = clips.import_clip_files([made["files"][name]])
     (o,) = done.refused
     assert not done.actions and done.armature is None and not bpy.data.objects
@@ -403,7 +400,7 @@ def test_the_objects_motion_is_moved_onto_the_hips(fp, empty_scene, made, kind):
     carry the travel and turn, and every bone follows the world path the exported
     object and hips gave it, within 1 mm, through the depsgraph; the report says so for
     each clip, and a clip that scales the object is refused."""
-    clips = _mod(fp, "clips")
+    clips = _mod(fp, "read.clips")
     path = made["files"]["root_motion"][kind]
     done = clips.import_clip_files([path], name="Mover")
     report = done.report()
@@ -431,7 +428,7 @@ def test_the_objects_motion_is_moved_onto_the_hips(fp, empty_scene, made, kind):
 def test_clips_moving_the_object_added_to_an_armature_play_the_same_path(fp, empty_scene, made):
     """The same files added to an armature made from another file of the rig: the clips,
     folded on the file's own armature, then retargeted bone by bone, play the same path."""
-    clips = _mod(fp, "clips")
+    clips = _mod(fp, "read.clips")
     ob, _ = clips.import_clips([made["files"]["takes"]["glb"]], name="Mannequin")
     done = clips.import_clip_files([made["files"]["root_motion"]["fbx"]], target=ob)
     assert [a.name for a in done.actions] == list(ROOT_MOTION) and len(done.refused) == 1
@@ -444,8 +441,8 @@ def test_clips_whose_object_travels_analyse_as_the_path_it_took(fp, empty_scene,
     """Folded onto the hips, the object's travel is the clips' root motion: the straight
     walk analyses as the original walk, the turn as the original turn, and the walk on a
     half circle of 1.2 m as a turn of curvature 1/1.2 at its arc's speed."""
-    clips = _mod(fp, "clips")
-    character = _mod(fp, "character")
+    clips = _mod(fp, "read.clips")
+    character = _mod(fp, "read.character")
     ob, _ = clips.import_clips([made["files"]["takes"]["fbx"]])
     original = {a.name: a for a in character.analyze_character(ob).analyses}
     done = clips.import_clip_files([made["files"]["root_motion"]["fbx"]], name="Mover")
@@ -466,7 +463,7 @@ def test_clips_whose_object_travels_analyse_as_the_path_it_took(fp, empty_scene,
 
 @pytest.fixture
 def cli(fp, empty_scene):
-    return _mod(fp, "cli").cli_main
+    return _mod(fp, "command.cli").cli_main
 
 
 def test_import_clips_imports_every_file_it_can_and_counts_the_refused(cli, capsys, made, tmp_path):

@@ -1,4 +1,4 @@
-"""In-place clips (footstep_planner.core.inplace): a clip whose hips stay over one spot while
+"""In-place clips (footstep_planner.core.clips.inplace): a clip whose hips stay over one spot while
 its feet step is recognised, its root motion is reconstructed from its planted feet, and
 its analysis gives the figures of the travelling clip it was made from.
 
@@ -17,10 +17,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core import inplace
-from footstep_planner.core.analysis import AnalysisError, _analyze, analyze_clip
-from footstep_planner.core.errors import FootstepError
-from footstep_planner.core.settings import Settings
+from footstep_planner.core.clips import inplace
+from footstep_planner.core.clips.analysis import AnalysisError, _analyze, analyze_clip
+from footstep_planner.core.base.errors import FootstepError
+from footstep_planner.core.base.settings import Settings
 from synth import synthetic_gait
 
 from conftest import cmu, needs_cmu

@@ -2,7 +2,7 @@
 their seam, with the figures of the long clip they were cut from, played as a cycle.
 
 Test data, made as users get it:
-- the sample character's clips as ``core.gait`` makes them (what ``blender.mannequin.
+- the sample character's clips as ``core.gait`` makes them (what ``blender.sample.mannequin.
   generate_clips`` keys into its actions), cut to exactly one period (the last frame
   repeating the first, or the one before it), travelling and in place (in place the way
   ``benchmarks/mixamo_like.py:in_place`` makes a Mixamo download: the hips' horizontal
@@ -25,23 +25,21 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from footstep_planner.core import gait, loops, mannequin
-from footstep_planner.core.analysis import AnalysisError, analyze_clip
-from footstep_planner.core.blending import make_track, special_window
-from footstep_planner.core.clip import clip_motion
-from footstep_planner.core.errors import FootstepError
-from footstep_planner.core.library import propose_library
-from footstep_planner.core.steps import library_steps
-from footstep_planner.core.tables import format_table
+from footstep_planner.core.sample import gait, mannequin
+from footstep_planner.core.clips import loops
+from footstep_planner.core.clips.analysis import AnalysisError, analyze_clip
+from footstep_planner.core.synth.blending import make_track, special_window
+from footstep_planner.core.clips.clip import clip_motion
+from footstep_planner.core.base.errors import FootstepError
+from footstep_planner.core.clips.library import propose_library
+from footstep_planner.core.clips.steps import library_steps
+from footstep_planner.core.report.tables import format_table
 
-from conftest import SHARED, cmu, needs_cmu
+from conftest import QUATERNIUS, SHARED, cmu, needs_cmu, needs_quaternius
 
 RIG = mannequin.rig()
 SPECS = {s.name: s for s in gait.library_specs()}
 RATES = (24, 25, 30, 60, 120)
-QUATERNIUS = os.path.join(SHARED, "clips", "quaternius_male_casual", "Male_Casual.fbx")
-needs_quaternius = pytest.mark.skipif(not os.path.isfile(QUATERNIUS),
-                                      reason=f"the Quaternius character is not at {QUATERNIUS} (../shared)")
 
 
 @functools.lru_cache(maxsize=None)
@@ -297,8 +295,8 @@ def cmu_loops(fp):
     its pose repeats best, read through Blender as any clip is."""
     import bpy
 
-    clips = import_module(fp.__name__ + ".blender.clips")
-    scene = import_module(fp.__name__ + ".blender.scene")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
+    scene = import_module(fp.__name__ + ".blender.read.scene")
     out = {}
     for fps in (120, 30):
         bpy.ops.wm.read_homefile(use_empty=True)
@@ -362,7 +360,7 @@ def quaternius(fp):
     add-on reads clips."""
     import bpy
 
-    scene = import_module(fp.__name__ + ".blender.scene")
+    scene = import_module(fp.__name__ + ".blender.read.scene")
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.import_scene.fbx(filepath=QUATERNIUS)
     ob = next(o for o in bpy.context.scene.objects if o.type == "ARMATURE")

@@ -19,7 +19,7 @@ def test_adult_proportions_metarig_names_and_every_role_mapped(fp, mannequin):
     ob, body = mannequin
     names = {b.name for b in ob.data.bones}
     assert {"spine", "spine.006", "thigh.L", "shin.R", "foot.L", "toe.R", "upper_arm.L"} <= names
-    scene = import_module(fp.__name__ + ".blender.scene")
+    scene = import_module(fp.__name__ + ".blender.read.scene")
     rig = scene.rig_from_armature(ob)
     rig.require_legs()
     assert rig.roles.bone("hips") == "spine" and rig.roles.bone("thigh_l") == "thigh.L"
@@ -60,15 +60,15 @@ def test_nothing_of_the_users_is_touched(fp, empty_scene):
     bpy.ops.mesh.primitive_cube_add()
     cube = bpy.context.active_object
     before = {o.name for o in bpy.data.objects}
-    import_module(fp.__name__ + ".blender.mannequin").build()
+    import_module(fp.__name__ + ".blender.sample.mannequin").build()
     after = {o.name for o in bpy.data.objects}
     assert before <= after and len(after - before) == 2 and cube.name in after
 
 
 def test_the_numpy_rig_is_the_armature_blender_builds(fp, mannequin):
     ob, _ = mannequin
-    scene = import_module(fp.__name__ + ".blender.scene")
-    core = import_module(fp.__name__ + ".core.mannequin").rig()
+    scene = import_module(fp.__name__ + ".blender.read.scene")
+    core = import_module(fp.__name__ + ".core.sample.mannequin").rig()
     rig = scene.rig_from_armature(ob)
     order = [core.names.index(n) for n in rig.names]
     np.testing.assert_allclose(core.rest[order], rig.rest, atol=1e-4)  # (Blender keeps float32)
@@ -81,8 +81,8 @@ def test_generated_clips_are_actions_the_analysis_reads_as_the_core_made_them(fp
 
     ob, _ = mannequin
     bpy.context.scene.render.fps = 30
-    m = import_module(fp.__name__ + ".blender.mannequin")
-    character = import_module(fp.__name__ + ".blender.character")
+    m = import_module(fp.__name__ + ".blender.sample.mannequin")
+    character = import_module(fp.__name__ + ".blender.read.character")
     acts = m.generate_clips(ob)
     assert len(acts) == 12 and all(a.use_fake_user for a in acts)
     assert acts[0].frame_range[0] == 1.0
@@ -115,7 +115,7 @@ def test_the_add_mannequin_operator_makes_the_clips_too(fp, empty_scene):
 
     assert bpy.ops.footstep.add_mannequin(clips=True) == {"FINISHED"}
     ob = bpy.context.view_layer.objects.active
-    scene = import_module(fp.__name__ + ".blender.scene")
+    scene = import_module(fp.__name__ + ".blender.read.scene")
     assert len(scene.armature_actions(ob)) == 12
 
 
@@ -146,8 +146,8 @@ def test_generate_clips_operator_on_the_character_and_a_clear_refusal_for_a_legl
 def test_add_to_scene_stands_on_the_marker_as_the_character_and_adds_only_itself(fp, empty_scene):
     import bpy
 
-    scenes = import_module(fp.__name__ + ".blender.sample_scenes")
-    m = import_module(fp.__name__ + ".blender.mannequin")
+    scenes = import_module(fp.__name__ + ".blender.sample.sample_scenes")
+    m = import_module(fp.__name__ + ".blender.sample.mannequin")
     scene = scenes.build("turns", bpy.context.scene)
     scene.render.fps = 30
     before = {o.name for o in bpy.data.objects}

@@ -1,4 +1,4 @@
-"""Properties of footstep_planner.core.metrics (quality figures of a baked walk)."""
+"""Properties of footstep_planner.core.report.metrics (quality figures of a baked walk)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from footstep_planner.core.metrics import (contact_point, floating, foot_skate, footprint_error,
+from footstep_planner.core.report.metrics import (contact_point, floating, foot_skate, footprint_error,
                                            goal_error, in_body_frame, pops, penetration,
                                            quality)
 

@@ -16,15 +16,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from footstep_planner.core import mannequin
-from footstep_planner.core.analysis import analyze_clip
-from footstep_planner.core.blending import make_track, special_window
-from footstep_planner.core.clip import clip_motion, root_frames
-from footstep_planner.core.library import Library, SpecialClip
-from footstep_planner.core.mirror import (Mirror, bone_mirror, mirror_analysis, mirror_motion, mirrored_jumps,
+from footstep_planner.core.sample import mannequin
+from footstep_planner.core.clips.analysis import analyze_clip
+from footstep_planner.core.synth.blending import make_track, special_window
+from footstep_planner.core.clips.clip import clip_motion, root_frames
+from footstep_planner.core.clips.library import Library, SpecialClip
+from footstep_planner.core.clips.mirror import (Mirror, bone_mirror, mirror_analysis, mirror_motion, mirrored_jumps,
                                           mirrored_name, take_off_foot)
-from footstep_planner.core.rig import Rig, forward_kinematics
-from footstep_planner.core.steps import library_steps
+from footstep_planner.core.clips.rig import Rig, forward_kinematics
+from footstep_planner.core.clips.steps import library_steps
 from conftest import needs_cmu
 from synth import synthetic_gait
 
@@ -156,7 +156,7 @@ def test_mirroring_a_clip_twice_gives_it_back(yaw, rig_seed, pose_seed, mirrored
 
 
 def test_a_rig_whose_sides_cannot_be_paired_is_refused_by_name():
-    from footstep_planner.core.mirror import MirrorError
+    from footstep_planner.core.clips.mirror import MirrorError
 
     rig = mannequin.rig()
     names = list(rig.names)
@@ -313,9 +313,9 @@ def cmu_setup(fp):
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.render.fps = 30
-    clips = import_module(fp.__name__ + ".blender.clips")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
     ob, _ = clips.import_clips([cmu(n) for n in LIBRARY], name="CMU")
-    character = import_module(fp.__name__ + ".blender.character")
+    character = import_module(fp.__name__ + ".blender.read.character")
     before = {k: len(getattr(bpy.data, k)) for k in ("actions", "objects", "meshes", "armatures", "collections")}
     res = character.analyze_character(ob, mirrors=True)
     after = {k: len(getattr(bpy.data, k)) for k in before}
@@ -326,8 +326,8 @@ def cmu_setup(fp):
 def runway_planner(setup):
     """A core Planner on a 3 m wide runway north, cut by a 1 m gap at y = 8..9, with the
     CMU library's steps, and the heading (rad) that faces north."""
-    from footstep_planner.core.navgraph import Planner
-    from footstep_planner.core.surface import MeshGround, TriMesh
+    from footstep_planner.core.plan.navgraph import Planner
+    from footstep_planner.core.plan.surface import MeshGround, TriMesh
     from conftest import plane
 
     analyses = setup["clips"].analyses
@@ -386,7 +386,7 @@ def test_a_gap_can_be_jumped_from_either_foot(cmu_setup):
     """On a straight runway with a gap, the plans from starts 0.2 m apart take off from
     either foot, with the leap or its mirror; with the leap alone (the mirror's steps
     left out) they all take off from the leap's foot."""
-    from footstep_planner.core.navgraph import PlanError
+    from footstep_planner.core.plan.navgraph import PlanError
     from conftest import standing
 
     planner, steps, north = runway_planner(cmu_setup)
@@ -456,7 +456,7 @@ def test_the_jumps_scene_planned_and_synthesized_with_the_mirror(fp, monkeypatch
     from conftest import plan_sample
 
     planning = import_module(fp.__name__ + ".blender.planning")
-    character = import_module(fp.__name__ + ".blender.character")
+    character = import_module(fp.__name__ + ".blender.read.character")
     monkeypatch.setattr(planning, "analyze_character", functools.partial(character.analyze_character, mirrors=True))
     scene, result, setup, goal = plan_sample(fp, "jumps")
     leap = "cmu_49_05_run_leap_run"
@@ -473,7 +473,7 @@ def test_the_jumps_scene_planned_and_synthesized_with_the_mirror(fp, monkeypatch
     for j in jumps:
         inside = (S.t >= S.footprint_times[j]) & (S.t <= S.footprint_times[j + 1])
         assert inside.any() and np.all(S.weights[inside, S.clips.index(fs[j + 1].label)] == 1.0)
-    core = import_module(fp.__name__ + ".core.surface")
+    core = import_module(fp.__name__ + ".core.plan.surface")
     pl = setup.planner
     pos, head = syn.footprints
     assert core.footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot,
@@ -493,7 +493,7 @@ def both_feet(setup) -> dict[str, int]:
 
 def _without(steps, suffix):
     """The StepSet ``steps`` without the rows whose label ends with ``suffix``."""
-    from footstep_planner.core.steps import StepSet
+    from footstep_planner.core.clips.steps import StepSet
 
     keep = np.array([not str(lb).endswith(suffix) for lb in steps.label])
     return StepSet(*(getattr(steps, f)[keep] for f in ("fwd", "left", "turn", "duration", "foot", "gait", "jump",

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from footstep_planner.core.navgraph import PlanError, Planner
-from footstep_planner.core.settings import Settings
-from footstep_planner.core.steps import StepSet
-from footstep_planner.core.surface import FootShape, MeshGround, TriMesh, footprint_support
+from footstep_planner.core.plan.navgraph import PlanError, Planner
+from footstep_planner.core.base.settings import Settings
+from footstep_planner.core.clips.steps import StepSet
+from footstep_planner.core.plan.surface import FootShape, MeshGround, TriMesh, footprint_support
 from conftest import box, plane, standing
 
 FWD = np.array([0.0, -1.0])
@@ -145,7 +145,7 @@ def test_the_support_cache_serves_the_next_plan():
 
 
 def test_a_changed_object_drops_only_the_answers_near_it():
-    from footstep_planner.core.navgraph import FootprintCache
+    from footstep_planner.core.plan.navgraph import FootprintCache
 
     c = FootprintCache()
     c.update({"floor": ("a", np.array([0, 0, 0.0]), np.array([20, 20, 0.0])),
@@ -214,8 +214,7 @@ def test_a_step_up_or_down_goes_no_further_than_the_walks_straight_step(rise, mo
     too."""
     from dataclasses import replace
 
-    from footstep_planner.core import navgraph
-
+    from footstep_planner.core.plan import navgraph
     lo, hi = (0.0, rise) if rise > 0 else (-rise, 0.0)
     g = MeshGround(TriMesh.concat([plane(-2, 4.0, -3, 3, z=lo, name="near"),
                                    plane(4.0, 10, -3, 3, z=hi, name="far")]))
@@ -241,7 +240,7 @@ def test_a_step_up_or_down_goes_no_further_than_the_walks_straight_step(rise, mo
 def test_a_step_edge_is_explained_with_its_height():
     """The "uneven" refusal (a step edge under the foot) says where and how high the
     edge is (it named a helper that did not exist: the message raised NameError)."""
-    from footstep_planner.core.navgraph import _explain
+    from footstep_planner.core.plan.navgraph import _explain
 
     g = MeshGround(TriMesh.concat([plane(-2, 4.0, -3, 3, name="near"), plane(4.0, 10, -3, 3, z=0.15, name="far")]))
     pl = Planner(g, None, steps(), FWD)

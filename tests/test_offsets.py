@@ -1,4 +1,4 @@
-"""Properties of footstep_planner.core.offsets (thesis 3.8.1 and the multilevel B-spline)."""
+"""Properties of footstep_planner.core.solve.offsets (thesis 3.8.1 and the multilevel B-spline)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.offsets import (
+from footstep_planner.core.solve.offsets import (
     LEVER_EPS,
     body_offsets,
     fit_multilevel,

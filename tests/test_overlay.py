@@ -1,9 +1,9 @@
-"""The overlay's geometry (core/overlay.py): what the viewport draws, as arrays."""
+"""The overlay's geometry (core/report/overlay.py): what the viewport draws, as arrays."""
 
 import numpy as np
 
-from footstep_planner.core import overlay as geo
-from footstep_planner.core.surface import FootShape
+from footstep_planner.core.report import overlay as geo
+from footstep_planner.core.plan.surface import FootShape
 
 
 def test_footprint_triangles_cover_each_foot_and_sit_just_above_it():
@@ -45,7 +45,7 @@ def test_polyline_and_crosses():
 
 
 def test_the_facing_arrow_points_along_minus_y_turned_by_the_z_rotation():
-    from footstep_planner.core.overlay import facing_arrow
+    from footstep_planner.core.report.overlay import facing_arrow
 
     for z, want in ((0.0, (0, -1)), (np.pi / 2, (1, 0)), (np.pi, (0, 1)), (-np.pi / 2, (-1, 0))):
         seg = facing_arrow([1.0, 2.0, 0.5], z, length=0.6)
@@ -59,7 +59,7 @@ def test_the_facing_arrow_points_along_minus_y_turned_by_the_z_rotation():
 
 
 def test_rings_lie_flat_round_each_point():
-    from footstep_planner.core.overlay import LIFT, rings
+    from footstep_planner.core.report.overlay import LIFT, rings
 
     pts = np.array([[0.0, 0.0, 0.0], [2.0, 1.0, 0.5]])
     seg = rings(pts, radius=0.2, segments=12)

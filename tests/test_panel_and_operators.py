@@ -10,7 +10,7 @@ from conftest import Recorder, cmu, needs_cmu
 def _draw(fp, context):
     import bpy
 
-    panel = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_PT_main
+    panel = import_module(fp.__name__ + ".blender.ui.panel").FOOTSTEP_PT_main
     stub = Recorder()
     panel.draw(type("P", (), {"layout": stub})(), context)
     return stub.log
@@ -45,7 +45,7 @@ def test_import_analyze_edit_and_reset_the_library(fp, empty_scene):
     searched = [a[1] for name, a, _ in log if name == "prop_search"]
     assert "role_thigh_l" in searched and "role_foot_r" in searched
     assert any(name == "template_list" for name, _, _ in log)
-    ul = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_UL_clips
+    ul = import_module(fp.__name__ + ".blender.ui.panel").FOOTSTEP_UL_clips
     for item in props.clips:
         rows = Recorder()
         ul.draw_item(None, bpy.context, rows, props, item, 0, props, "clip_index", 0)
@@ -56,7 +56,7 @@ def test_import_analyze_edit_and_reset_the_library(fp, empty_scene):
     assert props.library_edited
     assert bpy.ops.footstep.analyze_clips() == {"FINISHED"}
     assert props.clips["cmu_49_05_run_leap_run"].usage == "EXCLUDED"
-    character = import_module(fp.__name__ + ".blender.character")
+    character = import_module(fp.__name__ + ".blender.read.character")
     lib = character.read_library(ob)
     assert lib.excluded == ["cmu_49_05_run_leap_run"] and lib.edited
     # ... until reset to the proposal
@@ -66,8 +66,8 @@ def test_import_analyze_edit_and_reset_the_library(fp, empty_scene):
 
 @needs_cmu
 def test_roles_set_by_hand_override_the_mapping(fp, empty_scene):
-    scene_mod = import_module(fp.__name__ + ".blender.scene")
-    clips = import_module(fp.__name__ + ".blender.clips")
+    scene_mod = import_module(fp.__name__ + ".blender.read.scene")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
     ob, _ = clips.import_clips([cmu("16_16")])
     assert scene_mod.rig_from_armature(ob).roles.roles["toe_l"] == "LeftToeBase"
     ob.data.footstep.set_override("toe_l", "LeftFoot")
@@ -81,8 +81,8 @@ def test_roles_set_by_hand_override_the_mapping(fp, empty_scene):
 
 
 def test_settings_props_mirror_the_dataclass(fp, empty_scene):
-    props = import_module(fp.__name__ + ".blender.props")
-    Settings = import_module(fp.__name__ + ".core.settings").Settings
+    props = import_module(fp.__name__ + ".blender.ui.props")
+    Settings = import_module(fp.__name__ + ".core.base.settings").Settings
     pg = empty_scene.footstep.settings
     s = props.settings_from_props(pg)
     assert s == Settings()

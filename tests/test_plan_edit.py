@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings as hsettings, strategies as st
 
-from footstep_planner.core.navgraph import PathFootprint, PlanError, Planner
-from footstep_planner.core.plan_edit import edited_path, problems_of
-from footstep_planner.core.plan_file import PlanFile, PlanFileError, plan_from_dict, read_plan
-from footstep_planner.core.settings import Settings
-from footstep_planner.core.surface import MeshGround, TriMesh, footprint_support
+from footstep_planner.core.footprint import PathFootprint
+from footstep_planner.core.plan.navgraph import PlanError, Planner
+from footstep_planner.core.plan.plan_edit import edited_path, problems_of
+from footstep_planner.core.plan.plan_file import PlanFile, PlanFileError, plan_from_dict, read_plan
+from footstep_planner.core.base.settings import Settings
+from footstep_planner.core.plan.surface import MeshGround, TriMesh, footprint_support
 from conftest import box, plane
 from test_navgraph import FWD, start, steps
 
@@ -187,7 +188,7 @@ def test_headings_follow_the_plans_own_forward(planner, planned):
 # -- waypoints ----------------------------------------------------------------------------------
 
 def test_a_path_through_three_waypoints_visits_them_in_order(planner):
-    from footstep_planner.core.waypoints import Waypoint, plan_via
+    from footstep_planner.core.perform.waypoints import Waypoint, plan_via
 
     wps = [Waypoint("A", np.array([3.0, -2.0, 0.0])), Waypoint("B", np.array([9.0, -2.0, 0.0]), heading=np.pi / 2),
            Waypoint("C", np.array([12.0, 2.0, 0.0]))]
@@ -206,7 +207,7 @@ def test_a_path_through_three_waypoints_visits_them_in_order(planner):
 
 
 def test_a_leg_that_cannot_be_found_is_named(planner):
-    from footstep_planner.core.waypoints import Waypoint, plan_via
+    from footstep_planner.core.perform.waypoints import Waypoint, plan_via
 
     wps = [Waypoint("A", np.array([3.0, -2.0, 0.0])), Waypoint("Lake", np.array([40.0, 0.0, 0.0]))]
     with pytest.raises(PlanError, match="no way from waypoint 'A' to waypoint 'Lake'"):

@@ -12,7 +12,7 @@ from conftest import needs_cmu, plan_sample as _plan, scene_with_cmu as _scene_w
 pytestmark = needs_cmu
 
 def _check(fp, result, setup, goal):
-    core = import_module(fp.__name__ + ".core.surface")
+    core = import_module(fp.__name__ + ".core.plan.surface")
     pl = setup.planner
     fs = result.footprints
     assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= pl.settings.goal_radius
@@ -64,7 +64,7 @@ def test_a_gap_wider_than_any_jump_is_refused(fp):
     goal = scene.objects["Goal"]
     goal.location.x += 1.5
     planning = import_module(fp.__name__ + ".blender.planning")
-    errors = import_module(fp.__name__ + ".core.navgraph")
+    errors = import_module(fp.__name__ + ".core.plan.navgraph")
     with pytest.raises(errors.PlanError, match="cannot be reached.*nearest reachable point is \\(1[45]\\."):
         planning.plan(scene, ob, np.array(goal.location), start_marker=scene.objects["Start"])
     del bpy
@@ -91,7 +91,7 @@ def test_plan_verb(fp, capsys, tmp_path):
     scene, ob = _scene_with_character(fp, "turns")
     path = str(tmp_path / "turns.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     capsys.readouterr()
     assert cli(["plan", path, "--character", "CMU", "--goal", "Goal", "--start", "Start", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
@@ -145,7 +145,7 @@ def test_plan_operator_and_panel(fp):
     assert bpy.ops.footstep.plan() == {"FINISHED"}
     doc = json.loads(scene.footstep.plan_json)
     assert len(doc["footprints"]) > 20 and "footprints" in scene.footstep.last_report
-    panel = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_PT_main
+    panel = import_module(fp.__name__ + ".blender.ui.panel").FOOTSTEP_PT_main
     stub = Recorder()
     panel.draw(type("P", (), {"layout": stub})(), bpy.context)
     assert any(a and a[0] == "footstep.plan" for name, a, _ in stub.log if name == "operator")
@@ -211,8 +211,8 @@ def test_the_goal_empty_faces_the_way_to_arrive(fp, turn):
 def test_the_overlay_draws_the_way_start_and_goal_face(fp):
     """The overlay's arrows for Start and Goal point along each empty's -Y axis turned by
     its rotation: the headings the path starts and arrives with."""
-    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("obstacles")
-    overlay = import_module(fp.__name__ + ".blender.overlay")
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("obstacles")
+    overlay = import_module(fp.__name__ + ".blender.ui.overlay")
     fs = scene.footstep
     fs.start, fs.goal = scene.objects["Start"], scene.objects["Goal"]
     seg = overlay._facing_arrows(scene, fs)

@@ -50,9 +50,9 @@ def test_the_sample_character_makes_no_new_pops_on_turns(fp):
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("turns")
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("turns")
     scene.render.fps = FPS
-    ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     _check(_bake(fp, scene, ob), count=2, excess=2.0, skate_mm=0.2, footprint_mm=0.2, goal_cm=1.0)
 
 
@@ -60,9 +60,9 @@ def test_a_held_out_mixamo_like_library_makes_no_new_pops_on_turns(fp, tmp_path)
     from benchmarks import mixamo_like
 
     files = mixamo_like.write_character(str(tmp_path))
-    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("turns")
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("turns")
     scene.render.fps = FPS
-    ob, _ = import_module(fp.__name__ + ".blender.clips").import_clips(files, name="Mixamo")
+    ob, _ = import_module(fp.__name__ + ".blender.read.clips").import_clips(files, name="Mixamo")
     _at_start(scene, ob)
     # (a dozen steps at most, none 5 degrees over: what is left are the legs' IK on a few
     # stances, not the clips' loops)

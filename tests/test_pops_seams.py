@@ -20,8 +20,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from footstep_planner.core.analysis import analyze_clip
-from footstep_planner.core.blending import (ClipTrack, PlanStep, _seam_closing, build_schedule, loop_seam,
+from footstep_planner.core.clips.analysis import analyze_clip
+from footstep_planner.core.synth.blending import (ClipTrack, PlanStep, _seam_closing, build_schedule, loop_seam,
                                             make_track)
 from synth import synthetic_gait
 

@@ -21,7 +21,7 @@ COMMON = {"markers": False, "keep_frame_range": False, "body_on": "object", "tra
 
 @pytest.fixture(scope="module")
 def rb(fp):
-    return import_module(fp.__name__ + ".blender.ray_batch")
+    return import_module(fp.__name__ + ".blender.command.ray_batch")
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +50,7 @@ def ray_up(rb):
 def bake(fp, rb, scene, jobs, folder, address="local:2", **kw):
     """run_on_ray as the command line calls it: every job's scene and report claimed in
     ``folder``, committed at the end. Returns (outcomes, the outcomes as progress saw them)."""
-    files = import_module(fp.__name__ + ".core.files")
+    files = import_module(fp.__name__ + ".core.base.files")
     seen = []
     with files.Outputs([scene]) as outs:
         dest = {n: {"out": outs.claim(str(folder / f"job_{n}.blend"), f"scene of job {n}"),
@@ -84,7 +84,7 @@ def written(folder) -> list:
 # -- before any instance is up: the messages ------------------------------------------------
 
 def test_without_ray_one_message_says_how_to_install_it(fp, rb, batch, tmp_path, monkeypatch):
-    errors = import_module(fp.__name__ + ".core.errors")
+    errors = import_module(fp.__name__ + ".core.base.errors")
     monkeypatch.setitem(__import__("sys").modules, "ray", None)
     with pytest.raises(errors.FootstepError, match=r"pip install 'ray=="):
         rb.run_on_ray("local", batch[0], batch[1], COMMON, {}, None)
@@ -97,7 +97,7 @@ def test_a_bad_or_absent_cluster_is_one_message(fp, rb, batch, address, words):
         pytest.skip("a Ray instance is up in this process: run_on_ray would use it")
     if address == "auto" and os.path.exists(os.path.join(tempfile.gettempdir(), "ray", "ray_current_cluster")):
         pytest.skip("a Ray cluster runs on this machine (ray start): 'auto' would join it")
-    errors = import_module(fp.__name__ + ".core.errors")
+    errors = import_module(fp.__name__ + ".core.base.errors")
     env = {k: os.environ.pop(k) for k in ("RAY_ADDRESS",) if k in os.environ}
     try:
         with pytest.raises(errors.FootstepError, match=words):

@@ -1,4 +1,4 @@
-"""Properties of footstep_planner.core.refinement (thesis 3.5)."""
+"""Properties of footstep_planner.core.synth.refinement (thesis 3.5)."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.refinement import local_targets, mismatch, refine
-from footstep_planner.core.smoothing import smooth_footprints
+from footstep_planner.core.synth.refinement import local_targets, mismatch, refine
+from footstep_planner.core.synth.smoothing import smooth_footprints
 
 HYP = dict(deadline=None, database=None, max_examples=60)
 

@@ -15,7 +15,7 @@ def _wall(bpy, x, y, sx, sy):
 def test_the_character_camera_goes_round_a_wall_and_hides_what_walls_it_in(fp):
     import bpy
 
-    review = import_module(fp.__name__ + ".blender.review")
+    review = import_module(fp.__name__ + ".blender.command.review")
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     hips = np.array([0.0, 0.0, 1.0])

@@ -15,7 +15,7 @@ def rigify_turns(fp):
 
     bpy.ops.wm.read_homefile(use_empty=True)
     addon_utils.enable("rigify", default_set=True)
-    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("turns")
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("turns")
     scene.render.fps = 30
     bpy.ops.object.armature_human_metarig_add()
     meta = bpy.context.object
@@ -28,9 +28,9 @@ def rigify_turns(fp):
 
 def test_a_rigify_metarig_is_refused_until_generated(fp, rigify_turns):
     scene, rig, meta = rigify_turns
-    errors = import_module(fp.__name__ + ".core.errors")
+    errors = import_module(fp.__name__ + ".core.base.errors")
     with pytest.raises(errors.FootstepError, match="is a Rigify metarig: generate the rig"):
-        import_module(fp.__name__ + ".blender.scene").rig_from_armature(meta)
+        import_module(fp.__name__ + ".blender.read.scene").rig_from_armature(meta)
 
 
 def test_a_generated_rigify_rig_walks_the_turns_as_played(fp, rigify_turns):
@@ -41,30 +41,30 @@ def test_a_generated_rigify_rig_walks_the_turns_as_played(fp, rigify_turns):
     import bpy
 
     scene, rig, meta = rigify_turns
-    sc = import_module(fp.__name__ + ".blender.scene")
+    sc = import_module(fp.__name__ + ".blender.read.scene")
     r = sc.rig_from_armature(rig)
     assert r.roles.ok and r.roles.bone("foot_l") == "DEF-foot.L" and r.roles.bone("hips") == "DEF-spine"
-    mannequin = import_module(fp.__name__ + ".blender.mannequin")
+    mannequin = import_module(fp.__name__ + ".blender.sample.mannequin")
     acts = mannequin.generate_clips(rig, names=["walk", "walk_turn_left_wide", "walk_turn_right_wide"])
     paths = {c.data_path for layer in acts[0].layers for st in layer.strips for cb in st.channelbags
              for c in cb.fcurves}
     assert 'pose.bones["thigh_fk.L"].rotation_quaternion' in paths  # the controls an animator keys
     assert not [p for p in paths if "DEF-" in p or "ORG-" in p]
-    clips = import_module(fp.__name__ + ".blender.character").analyze_and_propose(rig)
+    clips = import_module(fp.__name__ + ".blender.read.character").analyze_and_propose(rig)
     walk = next(a for a in clips.analyses if a.name == "walk")
     assert walk.kind == "cycle" and walk.gait == "walk" and 1.2 < walk.speed < 1.7
 
     planning = import_module(fp.__name__ + ".blender.planning")
-    settings = import_module(fp.__name__ + ".core.settings").Settings()
+    settings = import_module(fp.__name__ + ".core.base.settings").Settings()
     goal, heading = planning.goal_of(scene, "Goal")
     planned = planning.plan_and_synthesize(scene, rig, goal, heading, None, settings)
     solved = planning.solve(planned, settings)
-    bake = import_module(fp.__name__ + ".blender.bake")
+    bake = import_module(fp.__name__ + ".blender.write.bake")
     bake.bake(rig, scene, planned.setup.rig, solved.ik, solved.spin, "rigify", 1, planned.result.footprints,
               planned.synthesis.planted())
     world = bake.evaluate_played(scene, rig, r, 1, solved.ik.frames)[0]
-    rig_mod = import_module(fp.__name__ + ".core.rig")
-    ik_mod = import_module(fp.__name__ + ".core.ik")
+    rig_mod = import_module(fp.__name__ + ".core.clips.rig")
+    ik_mod = import_module(fp.__name__ + ".core.solve.ik")
     want = ik_mod.body_frames(solved.ik.body_pos, solved.spin + solved.ik.body_heading)[:, None] @ \
         rig_mod.forward_kinematics(r, solved.ik.basis)
     assert np.abs(world[..., :3, 3] - want[..., :3, 3]).max() < 1e-3  # every DEF bone within 1 mm
@@ -87,11 +87,11 @@ def test_only_the_hips_and_legs_need_default_inheritance(fp):
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    ob, _ = import_module(fp.__name__ + ".blender.mannequin").build(bpy.context.scene.collection)
-    sc = import_module(fp.__name__ + ".blender.scene")
+    ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").build(bpy.context.scene.collection)
+    sc = import_module(fp.__name__ + ".blender.read.scene")
     ob.data.bones["forearm.L"].inherit_scale = "NONE"
     assert sc.rig_from_armature(ob).roles.ok
     ob.data.bones["thigh.R"].use_inherit_rotation = False
-    errors = import_module(fp.__name__ + ".core.errors")
+    errors = import_module(fp.__name__ + ".core.base.errors")
     with pytest.raises(errors.FootstepError, match="thigh.R use non-default inherit flags"):
         sc.rig_from_armature(ob)

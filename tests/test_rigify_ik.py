@@ -51,9 +51,9 @@ def walk(fp):
     assert bpy.ops.pose.rigify_generate() == {"FINISHED"}
     rig = bpy.data.objects["rig"]
     rig.rotation_euler.z = np.pi / 2
-    _mod(fp, "blender.mannequin").generate_clips(rig, names=["walk"])
+    _mod(fp, "blender.sample.mannequin").generate_clips(rig, names=["walk"])
     planning = _mod(fp, "blender.planning")
-    settings = _mod(fp, "core.settings").Settings(rigify_ik_feet=True)
+    settings = _mod(fp, "core.base.settings").Settings(rigify_ik_feet=True)
     goal, heading = planning.goal_of(scene, "Goal")
     planned = planning.plan_and_synthesize(scene, rig, goal, heading, scene.objects["Start"], settings)
     yield scene, rig, planned, planning.solve(planned, settings), settings
@@ -64,12 +64,12 @@ def _bake(fp, walk, ik_feet: bool):
     """Bake the solved plan (IK or FK legs): (action, DEF world matrices as played, the
     plan's DEF world matrices, the quality measured as played)."""
     scene, rig, planned, solved, settings = walk
-    bake, planning = _mod(fp, "blender.bake"), _mod(fp, "blender.planning")
+    bake, planning = _mod(fp, "blender.write.bake"), _mod(fp, "blender.planning")
     r = planned.setup.rig
     act, _ = bake.bake(rig, scene, r, solved.ik, solved.spin, "ik" if ik_feet else "fk", 1,
                        planned.result.footprints, planned.synthesis.planted(), rigify_ik_feet=ik_feet)
     world = bake.evaluate_played(scene, rig, r, 1, solved.ik.frames)[0]
-    fk, body = _mod(fp, "core.rig").forward_kinematics, _mod(fp, "core.ik").body_frames
+    fk, body = _mod(fp, "core.clips.rig").forward_kinematics, _mod(fp, "core.solve.ik").body_frames
     want = body(solved.ik.body_pos, solved.spin + solved.ik.body_heading)[:, None] @ fk(r, solved.ik.basis)
     q = planning.measure(scene, rig, planned, solved, 1, planning.goal_of(scene, "Goal")[0],
                          planned.goal_heading, 30.0)
@@ -84,18 +84,18 @@ def _fcurves(act):
 def test_the_setting_parses_and_reaches_the_panel(fp, walk):
     import bpy
 
-    Settings = _mod(fp, "core.settings").Settings
+    Settings = _mod(fp, "core.base.settings").Settings
     assert Settings().rigify_ik_feet is False
     assert Settings.parse("rigify_ik_feet", "true") is True
     assert Settings.from_pairs(["rigify_ik_feet=on"]).rigify_ik_feet is True
-    assert _mod(fp, "blender.cli").settings_from_args(["rigify_ik_feet=yes"]).rigify_ik_feet is True
-    with pytest.raises(_mod(fp, "core.settings").SettingsError, match="rigify_ik_feet"):
+    assert _mod(fp, "blender.command.cli").settings_from_args(["rigify_ik_feet=yes"]).rigify_ik_feet is True
+    with pytest.raises(_mod(fp, "core.base.settings").SettingsError, match="rigify_ik_feet"):
         Settings.parse("rigify_ik_feet", "IK")
     pg = bpy.context.scene.footstep.settings
     assert pg.rigify_ik_feet is False
     pg.rigify_ik_feet = True
     try:
-        assert _mod(fp, "blender.props").settings_from_props(pg).rigify_ik_feet is True
+        assert _mod(fp, "blender.ui.props").settings_from_props(pg).rigify_ik_feet is True
     finally:
         pg.rigify_ik_feet = False
 

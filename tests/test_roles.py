@@ -1,4 +1,4 @@
-"""Tests for footstep_planner.core.roles (automatic bone -> locomotion role mapping)."""
+"""Tests for footstep_planner.core.clips.roles (automatic bone -> locomotion role mapping)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.roles import (
+from footstep_planner.core.clips.roles import (
     ALL_ROLES,
     OPTIONAL_ROLES,
     REQUIRED_ROLES,

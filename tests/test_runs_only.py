@@ -18,7 +18,7 @@ STOP = "16_57"
 def _runs_only(fp, scene, names):
     from benchmarks.library import cmu_files
 
-    ob, _ = import_module(fp.__name__ + ".blender.clips").import_clips(cmu_files(CMU, names), name="CMU")
+    ob, _ = import_module(fp.__name__ + ".blender.read.clips").import_clips(cmu_files(CMU, names), name="CMU")
     start = scene.objects["Start"]
     ob.location, ob.rotation_euler.z = start.location, start.rotation_euler.z
     return ob
@@ -48,7 +48,7 @@ def test_a_runs_only_library_bakes_the_sample_scenes(fp, name):
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
+    import_module(fp.__name__ + ".blender.sample.sample_scenes").build(name)
     scene = bpy.context.scene
     scene.render.fps = 30
     ob = _runs_only(fp, scene, RUNS)

@@ -9,7 +9,7 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, needs_cmu
 
 FWD = np.array([0.0, -1.0])
 
@@ -17,10 +17,10 @@ FWD = np.array([0.0, -1.0])
 def _scene(fp, name):
     import bpy
 
-    import_module(fp.__name__ + ".blender.sample_scenes").build(name)
-    surf = import_module(fp.__name__ + ".blender.surfaces")
+    import_module(fp.__name__ + ".blender.sample.sample_scenes").build(name)
+    surf = import_module(fp.__name__ + ".blender.read.surfaces")
     ground, obstacles = surf.scene_surfaces(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
-    return bpy.context.scene, ground, obstacles, import_module(fp.__name__ + ".core.surface")
+    return bpy.context.scene, ground, obstacles, import_module(fp.__name__ + ".core.plan.surface")
 
 
 def _heading_xy(ob):
@@ -61,7 +61,7 @@ def test_stairs_are_real_stairs_and_the_only_way_up(fp):
     ground under a foot on each tread its tread's height (not the underside of the box
     below it), and walls all round: the stairs are the way from one floor to the other."""
     scene, ground, obstacles, core = _scene(fp, "stairs")
-    sc = import_module(fp.__name__ + ".blender.sample_scenes")
+    sc = import_module(fp.__name__ + ".blender.sample.sample_scenes")
     x = 3.0 + (np.arange(4) + 0.5) * sc.TREAD  # the middle of each tread of the flight up
     hit = ground.ray_down(np.c_[x, np.zeros(4), np.full(4, 0.3)], 2.0)  # (inside the higher treads' boxes)
     top = (np.arange(4) + 1) * sc.RISER
@@ -150,7 +150,7 @@ def _climbs_the_stairs(fp, scene, ob):
     assert q["foot_skate"]["max_mm"] < 5.0
     assert q["goal"]["distance_m"] < 0.05 and q["goal"]["heading_deg"] < 5.0
     rig = setup.rig
-    world, body, _, _ = import_module(fp.__name__ + ".blender.bake").evaluate_played(
+    world, body, _, _ = import_module(fp.__name__ + ".blender.write.bake").evaluate_played(
         scene, ob, rig, doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1)
     for side in "lr":  # the toe tips (the toe bones' tails), as played: in no riser, through no tread
         toe = rig.foot_chain(side)[1]
@@ -167,15 +167,14 @@ def _climbs_the_stairs(fp, scene, ob):
 def test_the_sample_character_climbs_the_stairs_tread_by_tread(fp):
     """Adapted strides (``Settings.stride_min``): one walk stride fits no run of 28 cm
     treads; shortened steps of the same clips do."""
-    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("stairs")
-    ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("stairs")
+    ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     _climbs_the_stairs(fp, scene, ob)
 
 
+@needs_cmu
 def test_cmu_climbs_the_stairs_tread_by_tread(fp):
     """Real capture (CMU subject 16, flat-ground walks only) climbs the Stairs too."""
-    if not os.path.isdir(os.path.join(ROOT, "..", "shared", "mocap", "cmu")):
-        pytest.skip("../shared/mocap/cmu (the CMU library) is not beside the repository")
     from conftest import scene_with_cmu
 
     scene, ob = scene_with_cmu(fp, "stairs")
@@ -191,8 +190,8 @@ def test_a_mixamo_style_character_with_long_toes_climbs_the_stairs(fp, tmp_path)
     from benchmarks import mixamo_like
 
     files = mixamo_like.write_character(str(tmp_path))
-    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("stairs")
-    ob, _ = import_module(fp.__name__ + ".blender.clips").import_clips(files, name="Mixamo")
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("stairs")
+    ob, _ = import_module(fp.__name__ + ".blender.read.clips").import_clips(files, name="Mixamo")
     ob.location = scene.objects["Start"].location
     ob.rotation_euler = scene.objects["Start"].rotation_euler
     setup = import_module(fp.__name__ + ".blender.planning").plan_setup(scene, ob)
@@ -205,11 +204,11 @@ def test_without_adapted_strides_the_stairs_are_refused_from_one(fp):
     place on the stairs, saying what blocks it, never found under them."""
     import bpy
 
-    scene = import_module(fp.__name__ + ".blender.sample_scenes").build("stairs")
-    ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("stairs")
+    ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     planning = import_module(fp.__name__ + ".blender.planning")
-    navgraph = import_module(fp.__name__ + ".core.navgraph")
-    settings = import_module(fp.__name__ + ".core.settings").Settings(stride_min=1.0)
+    navgraph = import_module(fp.__name__ + ".core.plan.navgraph")
+    settings = import_module(fp.__name__ + ".core.base.settings").Settings(stride_min=1.0)
     bpy.context.view_layer.update()
     goal, heading = planning.goal_of(scene, "Goal")
     with pytest.raises(navgraph.PlanError) as err:

@@ -10,8 +10,8 @@ import pytest
 from benchmarks.bench_planner import loops
 from benchmarks.scene_generator import benchmark_scenes, corridor, make_planner, plan_scene, stairs
 from conftest import needs_cmu
-from footstep_planner.core.navgraph import PlanError
-from footstep_planner.core.settings import Settings, SettingsError
+from footstep_planner.core.plan.navgraph import PlanError
+from footstep_planner.core.base.settings import Settings, SettingsError
 
 pytestmark = needs_cmu
 

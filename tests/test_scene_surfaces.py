@@ -7,7 +7,7 @@ import pytest
 
 
 def _mods(fp):
-    return (import_module(fp.__name__ + ".blender.surfaces"), import_module(fp.__name__ + ".core.surface"))
+    return (import_module(fp.__name__ + ".blender.read.surfaces"), import_module(fp.__name__ + ".core.plan.surface"))
 
 
 def _mesh_object(scene, name, verts, faces, collection=None):
@@ -121,7 +121,7 @@ def test_object_panel_draws(fp, empty_scene):
 
     from conftest import Recorder
 
-    panel = import_module(fp.__name__ + ".blender.panel").FOOTSTEP_PT_object_surface
+    panel = import_module(fp.__name__ + ".blender.ui.panel").FOOTSTEP_PT_object_surface
     coll = bpy.data.collections.new("Ground")
     empty_scene.collection.children.link(coll)
     coll.footstep.surface = "TRAVERSABLE"

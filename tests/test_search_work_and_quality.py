@@ -13,10 +13,10 @@ import pytest
 from benchmarks.bench_planner import fingerprint, read_character, save_character
 from benchmarks.scene_generator import Character, benchmark_scenes, make_planner, plan_scene
 from conftest import needs_cmu
-from footstep_planner.core import navgraph
-from footstep_planner.core.settings import Settings
-from footstep_planner.core.steps import StepSet
-from footstep_planner.core.surface import FootShape
+from footstep_planner.core.plan import navgraph
+from footstep_planner.core.base.settings import Settings
+from footstep_planner.core.clips.steps import StepSet
+from footstep_planner.core.plan.surface import FootShape
 
 SCENES = {s.name: s for s in benchmark_scenes()}
 

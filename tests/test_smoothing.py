@@ -1,4 +1,4 @@
-"""Property tests of footstep_planner.core.smoothing (Granberg 2017, 3.3): the binomial
+"""Property tests of footstep_planner.core.synth.smoothing (Granberg 2017, 3.3): the binomial
 kernel on positions, the corrected rotation kernel, the end padding, fixed footprints,
 snapping, heading wrap-around, invariances and input validation. Pure core, no Blender.
 
@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from footstep_planner.core.smoothing import (
+from footstep_planner.core.synth.smoothing import (
     Smoothed, heading_of, smooth_footprints, smooth_headings, smooth_positions,
     smooth_rotations, yaw_rotation)
 

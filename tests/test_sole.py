@@ -1,5 +1,5 @@
 """The feet's soles from a skinned mesh (``core.sole``), and the planner's use of them
-(``core.clip.clip_motion``'s heel and ball, ``core.ik.toe_tip``): pure numpy, on a rig
+(``core.clips.clip.clip_motion``'s heel and ball, ``core.solve.ik.toe_tip``): pure numpy, on a rig
 and a box-shaped foot mesh made here."""
 
 import numpy as np
@@ -7,10 +7,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from footstep_planner.core.clip import clip_motion
-from footstep_planner.core.ik import toe_tip
-from footstep_planner.core.rig import Rig, forward_kinematics
-from footstep_planner.core.sole import SOLE_WEIGHT, sole_from_mesh
+from footstep_planner.core.clips.clip import clip_motion
+from footstep_planner.core.solve.ik import toe_tip
+from footstep_planner.core.clips.rig import Rig, forward_kinematics
+from footstep_planner.core.clips.sole import SOLE_WEIGHT, sole_from_mesh
 
 HEADS = {"Hips": (0, 0, 0.9), "LeftUpLeg": (0.1, 0, 0.88), "LeftLeg": (0.1, 0, 0.46), "LeftFoot": (0.1, 0, 0.08),
          "LeftToeBase": (0.1, -0.14, 0.03), "Spine": (0, 0, 1.0)}

@@ -5,7 +5,7 @@ length); inside, the new keys, faded in and out."""
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from footstep_planner.core.splice import SpanMap, splice_curve
+from footstep_planner.core.solve.splice import SpanMap, splice_curve
 
 
 @settings(max_examples=200, deadline=None)

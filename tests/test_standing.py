@@ -18,9 +18,9 @@ def _sample_scene(fp, name):
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    scene = import_module(fp.__name__ + ".blender.sample_scenes").build(name)
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build(name)
     scene.render.fps = FPS
-    ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     return scene, ob
 
 
@@ -36,8 +36,8 @@ def _played(fp, scene, ob, doc):
     """(foot points (4, F, 3): left heel, right heel, left ball, right ball; their heights
     over the ground (4, F); body positions (F, 3); body yaw (F,)) as Blender plays it."""
     planning = import_module(fp.__name__ + ".blender.planning")
-    bake = import_module(fp.__name__ + ".blender.bake")
-    report = import_module(fp.__name__ + ".core.report")
+    bake = import_module(fp.__name__ + ".blender.write.bake")
+    report = import_module(fp.__name__ + ".core.report.document")
     setup = planning.plan_setup(scene, ob)
     n = doc["frame_end"] - doc["frame_start"] + 1
     world, body, yaw, _ = bake.evaluate_played(scene, ob, setup.rig, doc["frame_start"], n)
@@ -107,7 +107,7 @@ def _standing_frames(doc) -> int:
 
 
 def test_the_hold_at_the_goal_is_a_setting(fp, sample_turns):
-    settings = import_module(fp.__name__ + ".core.settings")
+    settings = import_module(fp.__name__ + ".core.base.settings")
     scene, ob, doc, heading = sample_turns
     longer, _ = _bake(fp, scene, ob, settings.Settings(stand_hold=2.0))
     assert _standing_frames(longer) - _standing_frames(doc) == pytest.approx(FPS, abs=1)

@@ -13,12 +13,12 @@ import pytest
 from conftest import CMU, needs_cmu
 from test_standing import FPS, _played
 
-from footstep_planner.core import gait, mannequin
-from footstep_planner.core.analysis import analyze_clip
-from footstep_planner.core.blending import make_track
-from footstep_planner.core.clip import clip_motion
-from footstep_planner.core.mirror import Mirror, lead_foot
-from footstep_planner.core.pipeline import end_windows
+from footstep_planner.core.sample import gait, mannequin
+from footstep_planner.core.clips.analysis import analyze_clip
+from footstep_planner.core.synth.blending import make_track
+from footstep_planner.core.clips.clip import clip_motion
+from footstep_planner.core.clips.mirror import Mirror, lead_foot
+from footstep_planner.core.synth.pipeline import end_windows
 
 
 @pytest.fixture(scope="module")
@@ -72,8 +72,7 @@ def _straight_scene(length=14.0):
     facing the same way."""
     import bpy
 
-    from footstep_planner.blender import sample_scenes as ss
-
+    from footstep_planner.blender.sample import sample_scenes as ss
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.render.fps = FPS
@@ -126,7 +125,7 @@ def _check_own_ends(fp, scene, ob, doc, heading, start: str, stop: str):
 
 def test_the_sample_character_starts_and_stops_with_its_own_clips(fp):
     scene = _straight_scene()
-    ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     doc, heading = _bake_straight(fp, ob, scene)
     _check_own_ends(fp, scene, ob, doc, heading, "walk_start", "walk_stop")
     assert "idle" in doc["synthesis"]["clips"]  # (and its idle stands at either end)
@@ -141,7 +140,7 @@ def test_the_cmu_library_starts_and_stops_with_its_own_clips(fp):
     from benchmarks.library import ENDS, LIBRARY, cmu_files
 
     scene = _straight_scene()
-    ob, _ = import_module(fp.__name__ + ".blender.clips").import_clips(cmu_files(CMU, LIBRARY + ENDS), name="CMU")
+    ob, _ = import_module(fp.__name__ + ".blender.read.clips").import_clips(cmu_files(CMU, LIBRARY + ENDS), name="CMU")
     start = scene.objects["Start"]
     ob.location, ob.rotation_euler.z = start.location, start.rotation_euler.z
     doc, heading = _bake_straight(fp, ob, scene)
@@ -153,10 +152,10 @@ def test_a_library_without_start_and_stop_clips_synthesizes_them(fp):
     """The sample character with its walk and idle clips only: the start speeds the walk up
     from the idle pose, the stop slows it down to it, as before."""
     scene = _straight_scene()
-    mod = import_module(fp.__name__ + ".blender.mannequin")
+    mod = import_module(fp.__name__ + ".blender.sample.mannequin")
     ob, _ = mod.add_to_scene(scene, "Start", clips=False)
     mod.generate_clips(ob, names=["walk", "idle"])
-    import_module(fp.__name__ + ".blender.character").analyze_and_propose(ob)
+    import_module(fp.__name__ + ".blender.read.character").analyze_and_propose(ob)
     doc, heading = _bake_straight(fp, ob, scene)
     clips = doc["synthesis"]["clips"]
     assert not any(c.startswith(("walk_start", "walk_stop")) for c in clips) and "idle" in clips
@@ -169,7 +168,7 @@ def test_a_start_that_turns_at_once_is_synthesized(fp):
     is its own."""
     scene = _straight_scene()
     scene.objects["Start"].rotation_euler.z = math.radians(60.0)
-    ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+    ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     doc, heading = _bake_straight(fp, ob, scene)
     clips = doc["synthesis"]["clips"]
     assert not any(c.startswith("walk_start") for c in clips)

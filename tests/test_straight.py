@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import needs_cmu
-from footstep_planner.core.steps import StepSet, straight_steps
+from footstep_planner.core.clips.steps import StepSet, straight_steps
 
 
 def _walk(toe, half, fwd=0.6, extra=None):
@@ -101,7 +101,7 @@ def test_a_character_walks_a_straight_strip_straight(fp, kind, penalty):
 
     from importlib import import_module
 
-    Settings = import_module(fp.__name__ + ".core.settings").Settings
+    Settings = import_module(fp.__name__ + ".core.base.settings").Settings
     r = measure(kind, 10.0, Settings(curvature_penalty=penalty), fp.__name__)
     assert r["off_label"] == 0, r
     assert r["tau_max"] <= 0.05 and r["drift_max_cm"] < 3.0 and r["goal_cm"] < 5.0, r
@@ -112,9 +112,9 @@ def test_a_walk_that_veers_gets_a_straightened_step_when_straightness_is_asked()
     do) gets, with ``straighten``, that walk's steps straightened, labelled its group at
     tau 0 and neither veering nor crabbing; without it, nothing (the default plans keep
     their steps); a library whose walk is straight needs none."""
-    from footstep_planner.core.analysis import analyze_clip
-    from footstep_planner.core.library import propose_library
-    from footstep_planner.core.steps import library_steps
+    from footstep_planner.core.clips.analysis import analyze_clip
+    from footstep_planner.core.clips.library import propose_library
+    from footstep_planner.core.clips.steps import library_steps
     from synth import synthetic_gait
 
     walk = dict(speed=1.3, stride=1.4, duty=0.62)
@@ -166,9 +166,9 @@ def test_a_straight_way_is_not_walked_in_sharp_turns_left_and_right(quick):
     from dataclasses import replace
 
     from conftest import plane, standing
-    from footstep_planner.core.navgraph import Planner
-    from footstep_planner.core.settings import Settings
-    from footstep_planner.core.surface import MeshGround
+    from footstep_planner.core.plan.navgraph import Planner
+    from footstep_planner.core.base.settings import Settings
+    from footstep_planner.core.plan.surface import MeshGround
 
     fwd = np.array([1.0, 0.0])
     ground = MeshGround(plane(-2.0, 13.0, -3.0, 3.0))

@@ -5,8 +5,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.refinement import refine
-from footstep_planner.core.steps import STRIDE_RATIO, StepSet, stride_factors, stride_steps
+from footstep_planner.core.synth.refinement import refine
+from footstep_planner.core.clips.steps import STRIDE_RATIO, StepSet, stride_factors, stride_steps
 
 
 @given(st.floats(0.1, 1.0), st.floats(1.0, 2.0))
@@ -74,7 +74,7 @@ def test_refinement_never_moves_a_footprint_across_a_step_edge(shift, n):
 def test_the_distance_maps_stair_treads_are_a_flight_not_a_kerb():
     """``_Grid.flight_cells``: cells with a riser on two sides (a flight's treads) are a
     flight; a single kerb's top and foot, and level floor, are not."""
-    from footstep_planner.core.navgraph import _Grid
+    from footstep_planner.core.plan.navgraph import _Grid
 
     nx, ny = 14, 3
     z = np.zeros((1, nx, ny))
@@ -96,7 +96,7 @@ def test_a_step_up_or_down_is_played_slower_by_its_height(dz, climb_time, pace):
     on level ground the pace is left as it was (None stays None)."""
     from types import SimpleNamespace
 
-    from footstep_planner.core.pipeline import _climb_pace
+    from footstep_planner.core.synth.pipeline import _climb_pace
 
     z = np.cumsum([0.0] + dz)
     path = [SimpleNamespace(position=np.array([0.3 * i, 0.0, h])) for i, h in enumerate(z)]

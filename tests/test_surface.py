@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import box, plane
-from footstep_planner.core.surface import FootShape, MeshGround, TriMesh, footprint_support
+from footstep_planner.core.plan.surface import FootShape, MeshGround, TriMesh, footprint_support
 
 FWD = np.array([0.0, -1.0])
 
@@ -124,7 +124,7 @@ def test_a_heel_may_hang_over_a_nosing_and_a_long_toe_keeps_out_of_a_riser():
     the front half must stand on it. On the floor facing the step, a long toe's tip
     (``FootShape.tip``) and TIP_ROOM ahead of it must be clear of the riser; facing
     down off the step it may hang over the floor."""
-    from footstep_planner.core.surface import TIP_ROOM
+    from footstep_planner.core.plan.surface import TIP_ROOM
 
     g = MeshGround(TriMesh.concat([plane(-5, 5, -5, 5), plane(-5, 5, -5, 0.0, 0.17, name="step")]))
     long_toe = FootShape(back=0.1, front=0.16, half_width=0.05, tip=0.25)

@@ -27,7 +27,7 @@ def _synth(fp, name):
 
 
 def _supported(fp, setup, pos, head):
-    core = import_module(fp.__name__ + ".core.surface")
+    core = import_module(fp.__name__ + ".core.plan.surface")
     pl = setup.planner
     return core.footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot,
                                   clearance=pl.clearance)
@@ -44,7 +44,7 @@ def test_jumps_runs_into_each_leap_and_walks_away(fp, jumps):
     leaps = [j for j in range(len(fs) - 1) if fs[j + 1].jump]
     assert len(leaps) == 2
     S = syn.final.schedule
-    bg = import_module(fp.__name__ + ".core.blend_groups")
+    bg = import_module(fp.__name__ + ".core.synth.blend_groups")
     pins_u, pins_s = zip(*syn.speed_pins)
     s_at = lambda u: float(bg.speed_parameter(np.array([u]), pins_u, pins_s, syn.settings.speed_sigma)[0])  # noqa: E731
     np.testing.assert_allclose(syn.s_final, [s_at(u) for u in S.u], atol=1e-9)  # the frames' s
@@ -111,8 +111,8 @@ def test_obstacles_footprints_keep_to_the_step_and_clear_the_pillars(fp):
 
 def test_plan_report_and_plot_verb(fp, jumps, tmp_path, capsys):
     scene, result, setup, syn = jumps
-    cli = import_module(fp.__name__ + ".blender.cli")
-    doc = import_module(fp.__name__ + ".core.report").plan_report(result, syn, "CMU", [0, 0, 0], 1.0)
+    cli = import_module(fp.__name__ + ".blender.command.cli")
+    doc = import_module(fp.__name__ + ".core.report.document").plan_report(result, syn, "CMU", [0, 0, 0], 1.0)
     path = tmp_path / "jumps.json"
     path.write_text(json.dumps(doc))
     assert {"smoothing_ms", "refinement_ms", "body_trajectory_ms", "blend_groups_ms", "frames",

@@ -1,4 +1,4 @@
-"""Property tests of footstep_planner.core.trajectory (thesis 3.6, body trajectory): the
+"""Property tests of footstep_planner.core.synth.trajectory (thesis 3.6, body trajectory): the
 centripetal Catmull-Rom spline (interpolation, C1, straight lines, no overshoot, linear
 extrapolation, degenerate chords), the midpoints, and the body transfer (identity, rigid
 motion equivariance, sway kept on a bent path, headings across +-pi, vectorisation).
@@ -18,8 +18,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.interpolate import CubicHermiteSpline
 
-from footstep_planner.core import trajectory
-from footstep_planner.core.trajectory import (
+from footstep_planner.core.synth import trajectory
+from footstep_planner.core.synth.trajectory import (
     body_offset, centripetal_catmull_rom, footprint_spline, midpoints, transfer_body,
 )
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings as hsettings, strategies as st
 
-from footstep_planner.core import turn_in_place as tip
-from footstep_planner.core.navgraph import PathFootprint
-from footstep_planner.core.surface import FootShape
+from footstep_planner.core.perform import turn_in_place as tip
+from footstep_planner.core.footprint import PathFootprint
+from footstep_planner.core.plan.surface import FootShape
 
 from conftest import needs_cmu
 
@@ -169,7 +169,7 @@ def test_a_start_facing_a_narrow_corridors_wall_turns_to_walk_along_it(bench_cha
     turn in place first, then a straight walk."""
     from benchmarks.bench_planner import loops
     from benchmarks.scene_generator import benchmark_scenes, make_planner
-    from footstep_planner.core.navgraph import PlanError
+    from footstep_planner.core.plan.navgraph import PlanError
 
     scene = next(s for s in benchmark_scenes() if s.name == "corridor1.2_across")
     pl, start, goal = make_planner(scene, bench_character)

@@ -25,9 +25,9 @@ def _turns_saved(fp, tmp_path, char: str = "mannequin", start_turn: float = 0.0,
 
     if char == "mannequin":
         bpy.ops.wm.read_homefile(use_empty=True)
-        scene = import_module(fp.__name__ + ".blender.sample_scenes").build("turns")
+        scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("turns")
         scene.render.fps, scene.render.fps_base = FPS, 1.0
-        ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+        ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     else:
         scene, ob = scene_with_cmu(fp, "turns", FPS)
     scene.objects["Start"].rotation_euler.z += start_turn
@@ -39,7 +39,7 @@ def _turns_saved(fp, tmp_path, char: str = "mannequin", start_turn: float = 0.0,
 
 
 def _bake(fp, path, char, tmp_path, *extra):
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     out, rep = str(tmp_path / "baked.blend"), str(tmp_path / "baked.json")
     assert cli(["bake", path, "--character", char, "--start", "Start", "--goal", "Goal", "--out", out,
                 "--report", rep, *extra]) == 0
@@ -53,7 +53,7 @@ def _played(fp, out, doc):
     the heel and toe points (2, F, 3) each)."""
     import bpy
 
-    metrics = import_module(fp.__name__ + ".core.metrics")
+    metrics = import_module(fp.__name__ + ".core.report.metrics")
     bpy.ops.wm.open_mainfile(filepath=out)
     scene = bpy.context.scene
     ob = scene.objects[doc["character"]]
@@ -141,8 +141,8 @@ def test_turning_in_place_off_has_no_room_to_walk_round(fp, empty_scene, tmp_pat
 
     path, char = _turns_saved(fp, tmp_path, start_turn=math.pi)
     planning = import_module(fp.__name__ + ".blender.planning")
-    navgraph = import_module(fp.__name__ + ".core.navgraph")
-    settings = import_module(fp.__name__ + ".core.settings").Settings(turn_in_place_angle=0.0)
+    navgraph = import_module(fp.__name__ + ".core.plan.navgraph")
+    settings = import_module(fp.__name__ + ".core.base.settings").Settings(turn_in_place_angle=0.0)
     scene = bpy.context.scene
     goal, heading = planning.goal_of(scene, "Goal")
     with pytest.raises(navgraph.PlanError, match="cannot be reached"):
@@ -153,7 +153,7 @@ def test_turning_in_place_off_has_no_room_to_walk_round(fp, empty_scene, tmp_pat
 
 def test_a_turning_plan_saved_and_baked_turns_again(fp, empty_scene, tmp_path):
     """``plan --out-plan`` keeps the pivot steps; ``bake --plan`` plays them as a turn."""
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     path, char = _turns_saved(fp, tmp_path, start_turn=math.pi)
     plan = str(tmp_path / "plan.json")
     assert cli(["plan", path, "--character", char, "--start", "Start", "--goal", "Goal", "--out-plan", plan]) == 0
@@ -179,7 +179,7 @@ def test_a_job_back_to_the_start_turns_at_both_ends_and_the_panel_says_so(fp, em
     rep = tmp_path / "back.json"
     jobs.write_text(json.dumps([{"character": char, "goal": "Start", "start": "Goal", "name": "back",
                                  "report": str(rep)}]))
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     assert cli(["bake", path, "--job", str(jobs), "--out", str(tmp_path / "jobs.blend")]) == 0
     doc = json.loads(rep.read_text())
     assert [t["where"] for t in doc["turns_in_place"]] == ["start", "end"]
@@ -210,7 +210,7 @@ def test_a_pause_where_the_way_turns_back_turns_in_place_there(fp, empty_scene, 
         e.location = at
         scene.collection.objects.link(e)
     bpy.ops.wm.save_as_mainfile(filepath=path)
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     out, rep = str(tmp_path / "via.blend"), str(tmp_path / "via.json")
     assert cli(["bake", path, "--character", char, "--start", "Start", "--goal", "Back", "--via", "A",
                 "--pause", "A=0.5", "--arrive", "Back=440", "--out", out, "--report", rep]) == 0
@@ -234,7 +234,7 @@ def _hairpin_saved(fp, tmp_path, char: str = "mannequin"):
     character name)."""
     import bpy
 
-    ss = import_module(fp.__name__ + ".blender.sample_scenes")
+    ss = import_module(fp.__name__ + ".blender.sample.sample_scenes")
     if char == "mannequin":
         bpy.ops.wm.read_homefile(use_empty=True)
         scene = bpy.context.scene
@@ -252,7 +252,7 @@ def _hairpin_saved(fp, tmp_path, char: str = "mannequin"):
     ss._marker(scene, "Start", (0.0, 0.0, 0.0), ss.EAST)
     ss._marker(scene, "Goal", (0.0, 1.0, 0.0), ss.WEST)
     if char == "mannequin":
-        ob, _ = import_module(fp.__name__ + ".blender.mannequin").add_to_scene(scene, "Start")
+        ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
     else:
         ob.location, ob.rotation_euler.z = (0.0, 0.0, 0.0), ss.EAST
     bpy.context.view_layer.update()
@@ -284,7 +284,7 @@ def test_a_hairpin_bend_is_turned_in_place(fp, empty_scene, tmp_path, char):
     assert q["goal"]["distance_m"] < 0.05 and abs(q["goal"]["heading_deg"]) < 5.0
     intro = q["pops"]["introduced"]
     assert intro["count"] <= 5 and intro["max_excess_deg"] <= 5.0
-    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     rep = str(tmp_path / "walked.json")
     rc = cli(["bake", path, "--character", name, "--start", "Start", "--goal", "Goal", "--out",
               str(tmp_path / "walked.blend"), "--report", rep, "--set", "turn_in_place_angle=0"])
@@ -303,7 +303,7 @@ def test_a_hairpin_on_the_way_to_a_waypoint_is_turned_in_place(fp, empty_scene, 
     path, name = _hairpin_saved(fp, tmp_path)
     bpy.ops.wm.open_mainfile(filepath=path)
     scene = bpy.context.scene
-    ss = import_module(fp.__name__ + ".blender.sample_scenes")
+    ss = import_module(fp.__name__ + ".blender.sample.sample_scenes")
     ss._marker(scene, "Via", (3.0, 1.0, 0.0), ss.WEST)
     bpy.ops.wm.save_as_mainfile(filepath=path)
     out, doc = _bake(fp, path, name, tmp_path, "--via", "Via")

@@ -65,8 +65,8 @@ def _bake(fp, scene, ob):
     """Plan, synthesize, solve and bake ``ob`` from Start to Goal: (the report, its rig,
     the scene as Blender plays it: world bone matrices (F, B, 4, 4))."""
     planning = import_module(fp.__name__ + ".blender.planning")
-    bake = import_module(fp.__name__ + ".blender.bake")
-    scene_mod = import_module(fp.__name__ + ".blender.scene")
+    bake = import_module(fp.__name__ + ".blender.write.bake")
+    scene_mod = import_module(fp.__name__ + ".blender.read.scene")
     goal, heading = planning.goal_of(scene, "Goal")
     doc = planning.run(scene, ob, goal, heading, scene.objects["Start"], name="hills", frame_start=1)
     rig = scene_mod.rig_from_armature(ob)
@@ -79,7 +79,7 @@ def _sole(fp, doc, rig, world):
     """(3, 2, F, 3) world heel, ball and toe tip of each foot as played: the report's heel
     and ball points in the foot bones, and the tip ahead of the ball by the toe's length,
     bent with the toe (``ik.toe_tip``)."""
-    ik = import_module(fp.__name__ + ".core.ik")
+    ik = import_module(fp.__name__ + ".core.solve.ik")
     heel_l, ball_l = np.asarray(doc["feet"]["heel_local"]), np.asarray(doc["feet"]["toe_local"])
     out = np.zeros((3, 2, len(world), 3))
     for k, side in enumerate("lr"):
@@ -134,7 +134,7 @@ def test_the_hills_are_as_steep_as_the_issue_says(fp):
 
 
 def test_sample_character_walks_the_hills_with_feet_above_the_surface(fp):
-    mannequin = import_module(fp.__name__ + ".blender.mannequin")
+    mannequin = import_module(fp.__name__ + ".blender.sample.mannequin")
     scene = rolling_scene(fp)
     ob = mannequin.add_to_scene(scene, "Start")[0]
     doc, rig, world = _bake(fp, scene, ob)
@@ -145,7 +145,7 @@ def test_sample_character_walks_the_hills_with_feet_above_the_surface(fp):
 
 @needs_cmu
 def test_cmu_library_walks_the_hills_with_feet_above_the_surface(fp):
-    clips = import_module(fp.__name__ + ".blender.clips")
+    clips = import_module(fp.__name__ + ".blender.read.clips")
     scene = rolling_scene(fp)
     ob, _ = clips.import_clips([cmu(n) for n in LIBRARY], name="CMU")
     doc, rig, world = _bake(fp, scene, ob)
@@ -157,9 +157,9 @@ def test_sharp_turns_lower_the_hips_at_most_3_cm(fp):
     """Turns, level everywhere, with the sample character: the hips (the body, which
     carries them) never more than 3 cm under the blended clips' own height."""
     planning = import_module(fp.__name__ + ".blender.planning")
-    mannequin = import_module(fp.__name__ + ".blender.mannequin")
-    sample_scenes = import_module(fp.__name__ + ".blender.sample_scenes")
-    settings = import_module(fp.__name__ + ".core.settings")
+    mannequin = import_module(fp.__name__ + ".blender.sample.mannequin")
+    sample_scenes = import_module(fp.__name__ + ".blender.sample.sample_scenes")
+    settings = import_module(fp.__name__ + ".core.base.settings")
     scene = sample_scenes.build("turns")
     scene.render.fps = 30
     ob = mannequin.add_to_scene(scene, "Start")[0]

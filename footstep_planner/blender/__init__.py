@@ -1,7 +1,9 @@
 """The Blender layer: everything that touches bpy. It reads scene data into plain arrays,
 calls the core, and writes results back."""
 
-from . import cli, mannequin, operators, overlay, panel, props
+from .command import cli
+from .sample import mannequin
+from .ui import operators, overlay, panel, props
 
 # registration order: properties before the operators and panels that use them
 _MODULES = (props, operators, mannequin, panel, overlay, cli)

@@ -1,5 +1,5 @@
 """Planning in a Blender scene: the character's footprints and clips, the tagged
-surfaces, the goal -> core.navgraph.Planner -> a footstep path.
+surfaces, the goal -> core.plan.navgraph.Planner -> a footstep path.
 
 Headings in the result are yaws (radians) relative to the character's rest-pose forward
 as it stands in the world (its armature's rest forward turned by the object's rotation).
@@ -14,24 +14,25 @@ import bpy
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..core import report, turn_in_place
-from ..core.analysis import ClipAnalysis
-from ..core.body import body_scale
-from ..core.directed import Performance, TimingError, arrival_frames, arrival_times, perform
-from ..core.ik import IKResult, solve_ik
-from ..core.library import Library
-from ..core.rig import Rig, forward_kinematics
-from ..core.navgraph import FootprintCache, PathFootprint, PlanError, PlanResult, Planner
-from ..core.pipeline import Synthesis, stage_row, standing_body, surface_snap
-from ..core.pipeline import synthesize as _synthesize
-from ..core.settings import Settings
-from ..core.steps import library_steps
-from ..core.pose import blend_pose, pose_bases
-from ..core.surface import FootShape, footprint_support
-from ..core.timing import StageTimer
-from .character import analyze_character, library_for
-from .scene import scene_fps
-from .surfaces import scene_surfaces
+from ..core.report import document as report
+from ..core.perform import turn_in_place
+from ..core.clips.analysis import ClipAnalysis
+from ..core.clips.body import body_scale
+from ..core.perform.directed import Performance, TimingError, arrival_frames, arrival_times, perform
+from ..core.solve.ik import IKResult, solve_ik
+from ..core.clips.library import Library
+from ..core.clips.rig import Rig, forward_kinematics
+from ..core.plan.navgraph import FootprintCache, PathFootprint, PlanError, PlanResult, Planner
+from ..core.synth.pipeline import Synthesis, stage_row, standing_body, surface_snap
+from ..core.synth.pipeline import synthesize as _synthesize
+from ..core.base.settings import Settings
+from ..core.clips.steps import library_steps
+from ..core.solve.pose import blend_pose, pose_bases
+from ..core.plan.surface import FootShape, footprint_support
+from ..core.base.timing import StageTimer
+from .read.character import analyze_character, library_for
+from .read.scene import facing_rotation, rotation_heading, scene_fps
+from .read.surfaces import scene_surfaces
 
 #: Support answers per scene, reused while its tagged geometry is unchanged.
 _CACHES: dict[tuple[str, FootShape], FootprintCache] = {}
@@ -53,7 +54,7 @@ class PlanSetup:
 def world_forward(ob, analyses) -> np.ndarray:
     """The character's heading-0 direction in the world, checking its object transform
     (its own one: a bake of the planner's animates the object, and does not count)."""
-    from .bake import own_frame
+    from .write.bake import own_frame
 
     m = own_frame(ob)  # (an even scale is the rig's, read in world units: ``scene.object_scale``)
     if abs(m[2, 2] - 1) > 1e-3:
@@ -158,7 +159,7 @@ def character_footprints(ob, setup: PlanSetup) -> list[PathFootprint]:
     its object's own transform (not the one a bake of the planner's animates it to, nor
     the pose its active clip has at the current frame), facing its forward. The same
     scene gives the same start, so re-baking gives the same footprints."""
-    from .bake import own_frame
+    from .write.bake import own_frame
 
     m = own_frame(ob)  # (the rig is in world units)
     hips = setup.rig.rest[setup.rig.role_index("hips")][:, 3]
@@ -201,27 +202,6 @@ def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
                             "surface: move it onto a traversable mesh, or pick a Start")
         out.append(PathFootprint(k, np.array([q[0], q[1], hit.z[0]]), heading + sign * toe, 0.0, "start", "walk"))
     return out
-
-
-#: Empties (Start, Goal) and the character face their local -Y axis, as Blender's
-#: characters do: an empty turned by ``z`` about Z faces the way a character at rest
-#: turned by ``z`` faces.
-FACING = "-Y"
-
-
-def facing_rotation(ob) -> float:
-    """The Z rotation (rad) of the way ``ob`` faces: the yaw of its local -Y axis in the
-    world, plus a quarter turn (0 when it faces -Y, pi/2 facing +X)."""
-    m = ob.matrix_world
-    if abs(m[2][2] - 1.0) < 1e-6:  # upright: its Z rotation as it was set
-        return float(m.to_euler().z)
-    return float(np.arctan2(-m[1][1], -m[0][1]) + np.pi / 2)
-
-
-def rotation_heading(z_rotation: float, forward) -> float:
-    """The planner's heading (rad, from the character's ``forward``) of the way something
-    turned ``z_rotation`` about Z from facing -Y faces."""
-    return float(z_rotation) - np.pi / 2 - float(np.arctan2(forward[1], forward[0]))
 
 
 def marker_footprints(marker, setup: PlanSetup) -> list[PathFootprint]:
@@ -273,8 +253,8 @@ def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=
 
 
 def legs_of(scene, setup: PlanSetup, settings: Settings):
-    """``core.directed.SynthFn`` on this scene: a leg from standing to standing (a path
-    that turns in place: its turns and walk, ``core.turn_in_place.synthesize``)."""
+    """``core.perform.directed.SynthFn`` on this scene: a leg from standing to standing (a path
+    that turns in place: its turns and walk, ``core.perform.turn_in_place.synthesize``)."""
     pl = setup.planner
     settings = settings.for_body(pl.settings.body_scale)  # (a human's lengths, for this character)
     snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
@@ -315,8 +295,8 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     """Plan the footprints to ``goal`` and synthesize the motion along them; the overlay
     shows the result. A route through waypoints (``directing.ViaRoute``) that stops at
     some or has arrival frames (scene frames, the first frame being ``frame_start``,
-    default the current one) is performed leg by leg (``core.directed.perform``)."""
-    from . import overlay
+    default the current one) is performed leg by leg (``core.perform.directed.perform``)."""
+    from .ui import overlay
 
     settings = settings or Settings()
     result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles, route)
@@ -476,9 +456,9 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
             body_on: str = "OBJECT", planted=None, frames: int | None = None, played: dict | None = None) -> dict:
     """The quality of the scene as Blender plays it (``bake.evaluate_played``: the bake
     with every other track and the active action as they are), measured by
-    ``core.report.measure_bake``; ``planted`` and ``frames`` when the bake's timing is
+    ``core.report.document.measure_bake``; ``planted`` and ``frames`` when the bake's timing is
     not the synthesis's (a re-bake's splice)."""
-    from . import bake as baking
+    from .write import bake as baking
 
     setup, syn = planned.setup, planned.synthesis
     frames = solved.ik.frames if frames is None else frames
@@ -502,9 +482,9 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
 
 
 def toe_tips(rig: Rig, world: np.ndarray, heel_local: np.ndarray, toe_local: np.ndarray) -> np.ndarray:
-    """(2, F, 3) each foot's toe tip in the world (``core.ik.toe_tip``: the toe bone's end,
+    """(2, F, 3) each foot's toe tip in the world (``core.solve.ik.toe_tip``: the toe bone's end,
     bent as it is, or the mesh's tip) of bone matrices ``world`` (F, B, 4, 4)."""
-    from ..core.ik import toe_tip
+    from ..core.solve.ik import toe_tip
 
     out = []
     for k, side in enumerate(("l", "r")):
@@ -545,8 +525,8 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     the baked keys before they are measured and returns the timing they then have
     ((strike, stance, liftoff) s per footprint from ``frame_start``, and the number of
     frames). Every bake records its footprints and their frames (``rebake.record``)."""
-    from . import bake as baking
-    from . import rebake
+    from .write import bake as baking
+    from .write import rebake
 
     settings = settings or Settings()
     fps = scene_fps(scene)
@@ -598,8 +578,8 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     if planned.performance is not None:
         doc["waypoints"] = waypoint_rows(planned, frame_start, fps, played.get("body"))
     walk, rig = _walk_motion(planned.setup), planned.setup.rig
-    from ..core.body import scaled_points
-    from .scene import object_scale
+    from ..core.clips.body import scaled_points
+    from .read.scene import object_scale
 
     own = 1.0 / object_scale(ob)  # (in the armature's own units: as an independent read of the file has them)
     doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")],

@@ -77,7 +77,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from .scene import CONSTANT, LINEAR, fill_keys
+from .write.keys import CONSTANT, LINEAR, fill_keys
 
 __all__ = ["is_rigify", "rigify_metarig", "deform_chain", "deform_bone_names",
            "key_controls", "sample_deform", "heads_tails"]

@@ -4,7 +4,7 @@ command line that bakes it alone, and how a batch's outcomes are summed up.
 Pure Python. Every job of a list is checked (types, ranges, the settings' own ranges)
 before any runs; a job that fails the check is reported by number and name and the
 others still run. The same job runs the same way one after another in one Blender, as a
-Ray task (``blender/ray_batch.py``) or as a Flamenco task (``flamenco/footstep_bake.js``,
+Ray task (``blender/command/ray_batch.py``) or as a Flamenco task (``flamenco/footstep_bake.js``,
 which builds the command ``job_argv`` builds).
 """
 
@@ -13,8 +13,8 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass, field
 
-from .errors import FootstepError
-from .settings import Settings
+from .base.errors import FootstepError
+from .base.settings import Settings
 
 #: the fields of a job and what each must be; all may be missing or null but the character
 JOB_FIELDS = {

@@ -1,0 +1,202 @@
+"""Bake jobs one after another in this Blender (``bake --job JOBS.json``): each job is
+checked against the scene before any runs, each runs on its own, and one that fails (for
+any reason, a bug too) is rolled back, reported by number and name, and does not stop
+the others. ``core/jobs.py`` holds what a job is; ``ray_batch.py`` runs jobs elsewhere.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+import traceback
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+from ...core.base.errors import FootstepError
+from ...core.base.files import Outputs, describe_os_error
+from ...core.jobs import JobOutcome, check_job, job_label, normalised
+from ...core.base.settings import Settings
+
+BUG_LINE = ("footstep: this is a bug in Footstep Planner, not a problem with your files: please report "
+            "it with the command line and the traceback above")
+
+
+@dataclass
+class Job:
+    """A checked job: its number (from 1), label, fields (``core.jobs.normalised``) and the
+    paths its report and scene go to (claimed outputs, or None)."""
+    number: int
+    label: str
+    fields: dict
+    report: str | None = None
+    out: str | None = None
+
+
+def scene_problems(scene, job: dict) -> list[str]:
+    """What in the scene a job names and the scene lacks: the armature, the goal and start
+    objects."""
+    problems = []
+    ob = bpy.data.objects.get(job["character"])
+    if ob is None:
+        problems.append(f"no object named {job['character']!r} in {bpy.data.filepath or 'the scene'}")
+    elif ob.type != "ARMATURE":
+        problems.append(f"object {job['character']!r} is a {ob.type.lower()}, not an armature")
+    for key in ("goal", "start"):
+        if job.get(key) and scene.objects.get(job[key]) is None:
+            problems.append(f"no object named {job[key]!r} for the {key}")
+    for name in job.get("via") or ():
+        if scene.objects.get(name) is None:
+            problems.append(f"no object named {name!r} for a waypoint")
+    return problems
+
+
+def check_jobs(scene, raw: list) -> tuple[list[tuple[int, str, dict]], list[JobOutcome]]:
+    """(runnable (number, label, normalised job)), invalid outcomes): every job checked
+    for its fields, its settings' ranges and the scene's objects before any runs."""
+    runnable, invalid = [], []
+    for n, job in enumerate(raw, 1):
+        label = job_label(n, job)
+        problems = check_job(n, job)
+        if not problems:
+            problems = scene_problems(scene, job)
+        if problems:
+            invalid.append(JobOutcome(n, label, "invalid", error="; ".join(problems)))
+        else:
+            runnable.append((n, label, normalised(job)))
+    return runnable, invalid
+
+
+class Snapshot:
+    """What a job may change in the scene, to roll a failed job back: the actions, the
+    character's NLA tracks and active action, the timeline markers and the frame range."""
+
+    def __init__(self, scene, ob):
+        self.scene, self.ob = scene, ob
+        self.actions = set(bpy.data.actions)
+        ad = ob.animation_data
+        self.tracks = set(t.name for t in ad.nla_tracks) if ad else set()
+        self.active = (ad.action, ad.action_slot) if ad else (None, None)
+        self.markers = set(m.name for m in scene.timeline_markers)
+        self.range = (scene.frame_start, scene.frame_end)
+        self.matrix = ob.matrix_basis.copy()
+
+    def restore(self) -> None:
+        ad = self.ob.animation_data
+        if ad is not None:
+            for t in [t for t in ad.nla_tracks if t.name not in self.tracks]:
+                ad.nla_tracks.remove(t)
+            if ad.action != self.active[0]:
+                ad.action = self.active[0]
+                if self.active[1] is not None:
+                    ad.action_slot = self.active[1]
+        for act in [a for a in bpy.data.actions if a not in self.actions]:
+            bpy.data.actions.remove(act)
+        for m in [m for m in self.scene.timeline_markers if m.name not in self.markers]:
+            self.scene.timeline_markers.remove(m)
+        self.scene.frame_start, self.scene.frame_end = self.range
+        self.ob.matrix_basis = self.matrix
+
+
+def goal_and_start(scene, goal: str | None, heading_deg, start: str | None):
+    """(goal position, goal heading (a Z rotation, rad) or None, start object or None)
+    from the names a command or a job gives (``heading_deg``, when given, overrides the
+    goal empty's own heading)."""
+    from .. import planning
+
+    position, heading = planning.goal_of(scene, goal)
+    if heading_deg is not None:
+        heading = math.radians(float(heading_deg))
+    marker = None
+    if start:
+        marker = scene.objects.get(start)
+        if marker is None:
+            raise FootstepError(f"no object named {start!r} to start at")
+    return position, heading, marker
+
+
+def bake_job(scene, job: dict, common: dict, settings: Settings, plan=None) -> dict:
+    """Bake one checked job into ``scene``; returns its report. Through the job's ``via``
+    waypoints (object names) in order, or along ``plan`` (a ``core.plan.plan_file.PlanFile``:
+    its locked and moved footprints kept, only what changed re-planned and, over an
+    earlier bake of that plan, re-keyed)."""
+    from .. import planning
+
+    ob = bpy.data.objects[job["character"]]
+    position, heading, start = goal_and_start(scene, job.get("goal"), job.get("goal_heading"), job.get("start"))
+    route, splice = _route(scene, job, plan, ob, position, heading)
+    if plan is not None and job.get("goal") is None and plan.goal is not None:
+        position = plan.goal
+    doc = planning.run(scene, ob, position, heading, start, settings.replace(**job.get("settings", {})),
+                       common.get("traversable", ()), common.get("obstacles", ()), name=job.get("name"),
+                       frame_start=job.get("frame_start"), markers=bool(common.get("markers")),
+                       body_on=str(job.get("body_on") or common.get("body_on") or "object").upper(),
+                       frame_range=not common.get("keep_frame_range"), route=route, splice=splice)
+    _route_report(doc, route, splice, job)
+    return doc
+
+
+def _route(scene, job: dict, plan, ob, position, heading):
+    """(route, splice) for ``planning.run``: waypoints, an edited plan, or (None, None)."""
+    from ..ui import directing
+
+    if plan is not None:
+        route = directing.EditedRoute(plan)
+        return route, directing.Splice.of(ob, route)
+    return directing.via_route(scene, job.get("via"), job.get("goal") or "the goal", position, heading,
+                               job.get("pause"), job.get("arrive")), None
+
+
+def _route_report(doc: dict, route, splice, job: dict) -> None:
+    """What a route adds to the report: each waypoint's footprint and frame, or the
+    re-planned spans and the frames re-keyed."""
+    from ..ui import directing
+
+    if isinstance(route, directing.ViaRoute):
+        rows = doc.get("waypoints") or [{"name": w[0]} for w in route.waypoints]
+        for row, i in zip(rows, route.route.arrivals):
+            i += 1  # (the baked path begins with the other standing foot)
+            row.update({"footprint": i, "frame": doc["footprints"][i]["frame"],
+                        "position": doc["synthesis"]["footprints"][i]["planned"]})
+        doc["waypoints"] = rows
+    elif isinstance(route, directing.EditedRoute) and route.edited is not None:
+        directing.edit_report(doc, route, splice)
+
+
+def _failure(ex: BaseException) -> str:
+    """The message of a failed job: the expected problem's own, or a bug's traceback on
+    stderr and its last line."""
+    if isinstance(ex, FootstepError):
+        return str(ex)
+    if isinstance(ex, OSError):
+        return describe_os_error(ex)
+    traceback.print_exception(ex, file=sys.stderr)
+    print(BUG_LINE, file=sys.stderr)
+    return f"internal error: {type(ex).__name__}: {ex}"
+
+
+def run_job(scene, job: Job, common: dict, settings: Settings, outputs: Outputs, save) -> JobOutcome:
+    """Run one job, rolled back if it fails; its report (and scene, when it names an
+    ``out``) are staged in ``outputs``. ``save(path)`` saves the scene to a path."""
+    ob = bpy.data.objects[job.fields["character"]]
+    snap = Snapshot(scene, ob)
+    t0 = time.perf_counter()
+    staged = []
+    try:
+        doc = bake_job(scene, job.fields, common, settings)
+        if job.report:
+            staged.append(outputs.write_json(job.report, doc))
+        if job.out:
+            staged.append(outputs.stage(job.out, save))
+    except Exception as ex:  # one job's failure, whatever it is, stops only that job
+        for tmp in staged:
+            outputs.unstage(tmp)
+        snap.restore()
+        return JobOutcome(job.number, job.label, "failed", time.perf_counter() - t0, error=_failure(ex))
+    return JobOutcome.from_report(job.number, job.label, doc, time.perf_counter() - t0,
+                                  [p for p in (job.report, job.out) if p])
+
+
+__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "goal_and_start", "run_job", "scene_problems"]

@@ -1,0 +1,158 @@
+"""Tagged meshes -> world-space triangles, and ground queries on mathutils.bvhtree.
+
+A mesh object is traversable or an obstacle by its own tag (``obj.footstep.surface``),
+or else by the tag of the nearest tagged collection it belongs to (collections inherit
+from their parents). Headless runs can add tags for one run by name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+from mathutils.bvhtree import BVHTree
+
+from ...core.plan.surface import GroundHit, SurfaceError, TriMesh
+
+TAGS = ("NONE", "TRAVERSABLE", "OBSTACLE")
+
+
+def _collection_tag(coll, parents) -> str:
+    seen = set()
+    while coll is not None and coll.name not in seen:
+        seen.add(coll.name)
+        tag = coll.footstep.surface
+        if tag != "NONE":
+            return tag
+        coll = parents.get(coll.name)
+    return "NONE"
+
+
+def _parents(scene) -> dict:
+    out = {}
+
+    def walk(c):
+        for ch in c.children:
+            out.setdefault(ch.name, c)
+            walk(ch)
+    walk(scene.collection)
+    return out
+
+
+def effective_tag(ob, scene=None, parents=None) -> str:
+    """The object's own tag, else the first tag found up its collections."""
+    own = ob.footstep.surface
+    if own != "NONE":
+        return own
+    parents = parents if parents is not None else _parents(scene or bpy.context.scene)
+    for coll in ob.users_collection:
+        tag = _collection_tag(coll, parents)
+        if tag != "NONE":
+            return tag
+    return "NONE"
+
+
+def tagged_objects(scene, traversable=(), obstacles=()) -> tuple[list, list]:
+    """(traversable, obstacle) mesh objects of ``scene``, with ``traversable`` and
+    ``obstacles`` naming extra objects tagged for this run only. Unknown names, and
+    named objects that are not meshes, raise SurfaceError naming them."""
+    extra = {}
+    for names, tag in ((traversable, "TRAVERSABLE"), (obstacles, "OBSTACLE")):
+        for name in names:
+            ob = scene.objects.get(name)
+            if ob is None:
+                raise SurfaceError(f"no object named {name!r} in scene {scene.name!r}")
+            if ob.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
+                raise SurfaceError(f"object {name!r} is a {ob.type.lower()}, not a mesh; "
+                                   "only meshes can be walked on or avoided")
+            extra[name] = tag
+    parents = _parents(scene)
+    trav, obst = [], []
+    for ob in scene.objects:
+        if ob.type != "MESH" and ob.name not in extra:
+            continue
+        tag = extra.get(ob.name) or effective_tag(ob, scene, parents)
+        if tag == "TRAVERSABLE":
+            trav.append(ob)
+        elif tag == "OBSTACLE":
+            obst.append(ob)
+    return sorted(trav, key=lambda o: o.name), sorted(obst, key=lambda o: o.name)
+
+
+def mesh_of(objects, depsgraph) -> TriMesh:
+    """World-space triangles of the objects as evaluated (modifiers applied)."""
+    parts = []
+    for i, ob in enumerate(objects):
+        ev = ob.evaluated_get(depsgraph)
+        me = ev.to_mesh()
+        try:
+            me.calc_loop_triangles()
+            nv, nt = len(me.vertices), len(me.loop_triangles)
+            co = np.empty(nv * 3)
+            me.vertices.foreach_get("co", co)
+            tri = np.empty(nt * 3, dtype=np.int64)
+            me.loop_triangles.foreach_get("vertices", tri)
+        finally:
+            ev.to_mesh_clear()
+        m = np.array(ev.matrix_world)
+        co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+        parts.append(TriMesh(co, tri.reshape(-1, 3), np.zeros(nt, np.int64), (ob.name,)))
+    return TriMesh.concat(parts)
+
+
+@dataclass
+class BvhGround:
+    """Ground queries (core.plan.surface.Ground) on a mathutils BVH tree: one C call a point."""
+
+    mesh: TriMesh
+    tree: BVHTree = field(init=False, repr=False)
+    _up: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        if self.mesh.n:
+            self.tree = BVHTree.FromPolygons(self.mesh.verts.tolist(), self.mesh.tris.tolist(),
+                                             all_triangles=True)
+        else:
+            self.tree = None
+
+    def ray_down(self, points, max_dist: float) -> GroundHit:
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        n = len(p)
+        z = np.full(n, np.nan)
+        nor = np.full((n, 3), np.nan)
+        owner = np.full(n, -1)
+        if self.tree is not None and n:
+            cast, down, dist = self.tree.ray_cast, (0.0, 0.0, -1.0), max_dist + 1e-9
+            res = [cast(q, down, dist) for q in p.tolist()]  # mathutils takes plain sequences
+            got = [i for i, r in enumerate(res) if r[0] is not None]
+            if got:
+                z[got] = [res[i][0][2] for i in got]
+                nn = np.array([res[i][1][:] for i in got])
+                nor[got] = nn * np.where(nn[:, 2:3] < 0, -1.0, 1.0)
+                owner[got] = self.mesh.owner[[res[i][2] for i in got]]
+        return GroundHit(owner >= 0, z, nor, owner)
+
+    def nearest(self, points, max_dist: float = np.inf):
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        out = np.full((len(p), 3), np.nan)
+        dist = np.full(len(p), np.inf)
+        if self.tree is not None and len(p):
+            find = self.tree.find_nearest
+            lim = 1e30 if not np.isfinite(max_dist) else float(max_dist)
+            res = [find(q, lim) for q in p.tolist()]
+            got = [i for i, r in enumerate(res) if r[0] is not None]
+            if got:
+                out[got] = [res[i][0][:] for i in got]
+                dist[got] = [res[i][3] for i in got]
+        return out, dist
+
+
+def scene_surfaces(scene, depsgraph, traversable=(), obstacles=()):
+    """(ground, obstacles) ground queries for a scene; SurfaceError when nothing is
+    traversable."""
+    trav, obst = tagged_objects(scene, traversable, obstacles)
+    if not trav:
+        raise SurfaceError(f"scene {scene.name!r} has no traversable mesh: tag the floors "
+                           "in Object Properties > Footstep, or pass --traversable NAME")
+    return BvhGround(mesh_of(trav, depsgraph).without_undersides()), BvhGround(mesh_of(obst, depsgraph))

@@ -1,0 +1,3 @@
+"""The sample content in Blender: the Footstep Mannequin armature and body and its clips
+(``mannequin``), and the sample scenes (``sample_scenes``).
+"""

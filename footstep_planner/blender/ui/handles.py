@@ -1,0 +1,139 @@
+"""Footprints you can edit in the viewport: after a plan, each footprint is a small empty
+(a handle) in a collection the planner owns, ``Footprints: <character>``. Move or rotate
+a handle (G, R, or the gizmo), lock or unlock it (``footstep_locked``, the Lock and
+Unlock operators); ``read_plan`` turns the handles back into a plan
+(``core.plan.plan_file.PlanFile``) for ``core.plan.plan_edit.edited_path`` to make whole.
+
+A handle faces the way its footprint does (``read.scene.FACING``: its local -Y axis, as the
+Start and Goal empties). Each keeps its planned pose in custom properties at full
+precision, so an untouched footprint reads back exactly as it was planned (object
+transforms are single precision). The planner owns the collection and its handles
+(``OWNED``) and removes them with Clear or a new plan; nothing else is touched.
+"""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ...core.footprint import PathFootprint
+from ...core.plan.plan_file import PlanFile
+
+OWNED = "footstep_handles"  # on the collection and each handle: the character's name
+INDEX, FOOT, LOCKED = "footstep_index", "footstep_foot", "footstep_locked"
+PLANNED = "footstep_planned"  # [x, y, z, heading, time] as planned (doubles)
+STEP = "footstep_step"  # [label, gait, "1" if jump]
+META = "footstep_plan"  # on the collection: [forward x, y, z, goal x, y, z, goal heading] (nan: none)
+#: m and rad a handle may differ from its planned pose and still count as untouched
+TOUCH = 1e-4
+SIZE = 0.08
+
+
+def collection_name(ob) -> str:
+    return f"Footprints: {ob.name}"
+
+
+def owned_collection(ob):
+    coll = bpy.data.collections.get(collection_name(ob))
+    return coll if coll is not None and coll.get(OWNED) == ob.name else None
+
+
+def clear_handles(ob) -> int:
+    """Remove the character's handles and their collection (only what the planner made)."""
+    coll = owned_collection(ob)
+    if coll is None:
+        return 0
+    n = 0
+    for h in [o for o in coll.objects if o.get(OWNED) == ob.name]:
+        bpy.data.objects.remove(h)
+        n += 1
+    if not coll.objects and not coll.children:
+        bpy.data.collections.remove(coll)
+    return n
+
+
+def _yaw(forward) -> float:
+    return float(np.arctan2(forward[1], forward[0]))
+
+
+def make_handles(scene, ob, footprints: list[PathFootprint], forward, goal=None, goal_heading=None,
+                 locked=None) -> list:
+    """A handle per footprint (replacing the character's earlier ones), locked as
+    ``locked`` (N,) says (default: none)."""
+    clear_handles(ob)
+    coll = bpy.data.collections.new(collection_name(ob))
+    coll[OWNED] = ob.name
+    nan = float("nan")
+    g = list(np.asarray(goal, float)) if goal is not None else [nan] * 3
+    f3 = [float(forward[0]), float(forward[1]), 0.0]  # (the planner's forward is (x, y))
+    coll[META] = [*f3, *map(float, g), nan if goal_heading is None else float(goal_heading)]
+    scene.collection.children.link(coll)
+    locked = np.zeros(len(footprints), bool) if locked is None else np.asarray(locked, bool)
+    return [_handle(coll, ob, i, f, forward, bool(lk)) for i, (f, lk) in enumerate(zip(footprints, locked))]
+
+
+def _handle(coll, ob, i: int, f: PathFootprint, forward, locked: bool):
+    h = bpy.data.objects.new(f"FP {i:03d} {'LR'[f.foot]}", None)
+    h.empty_display_type = "SINGLE_ARROW"
+    h.empty_display_size = SIZE
+    h.location = [float(v) for v in f.position]
+    # a handle faces its footprint's way with its -Y axis: Z rotation = yaw + pi/2
+    h.rotation_euler = (0.0, 0.0, float(f.heading + _yaw(forward) + np.pi / 2))
+    h[OWNED], h[INDEX], h[FOOT], h[LOCKED] = ob.name, i, "LR"[f.foot], locked
+    h[PLANNED] = [*map(float, f.position), float(f.heading), float(f.time)]
+    h[STEP] = [f.label, f.gait, "1" if f.jump else ""]
+    h.lock_rotation = (True, True, False)  # footprints turn about Z only
+    coll.objects.link(h)
+    return h
+
+
+def handles(ob) -> list:
+    """The character's handles, in path order."""
+    coll = owned_collection(ob)
+    if coll is None:
+        return []
+    return sorted((o for o in coll.objects if o.get(OWNED) == ob.name), key=lambda o: int(o[INDEX]))
+
+
+def _pose(h, forward) -> tuple[np.ndarray, float, bool]:
+    """(position, heading, touched) of a handle: its planned pose, exactly, unless it was
+    moved or turned."""
+    planned = list(h[PLANNED])
+    m = h.matrix_world if h.parent is not None else h.matrix_basis  # (no depsgraph update needed)
+    pos, heading = np.array(m.translation, float), float(m.to_euler().z) - np.pi / 2 - _yaw(forward)
+    turn = abs((heading - planned[3] + np.pi) % (2 * np.pi) - np.pi)
+    if np.abs(pos - planned[:3]).max() <= TOUCH and turn <= TOUCH:
+        return np.array(planned[:3], float), float(planned[3]), False
+    return pos, heading, True
+
+
+def read_plan(ob) -> tuple[PlanFile, np.ndarray]:
+    """The handles as a plan, and which of them were moved or turned (N,) bool; a moved
+    handle counts as locked (the animator put it there)."""
+    hs = handles(ob)
+    meta = list(owned_collection(ob)[META]) if hs else []
+    forward = np.array(meta[:3], float) if meta else np.array([0.0, -1.0, 0.0])
+    fps, locked, touched = [], [], []
+    for h in hs:
+        pos, heading, moved = _pose(h, forward)
+        label, gait, jump = list(h[STEP])
+        fps.append(PathFootprint("LR".index(h[FOOT]), pos, heading, float(h[PLANNED][4]), label, gait, bool(jump)))
+        locked.append(bool(h[LOCKED]) or moved)
+        touched.append(moved)
+    goal = np.array(meta[3:6], float) if meta and np.isfinite(meta[3]) else None
+    gh = float(meta[6]) if meta and np.isfinite(meta[6]) else None
+    touched = np.array(touched, bool)
+    return PlanFile(ob.name, forward, fps, np.array(locked, bool), goal, gh, touched), touched
+
+
+def set_locked(objs, state: bool) -> int:
+    """Lock (or unlock) the handles among ``objs``; returns how many."""
+    n = 0
+    for o in objs:
+        if o.get(OWNED) is not None and o.get(INDEX) is not None:
+            o[LOCKED] = bool(state)
+            n += 1
+    return n
+
+
+__all__ = ["clear_handles", "handles", "make_handles", "owned_collection", "read_plan", "set_locked"]

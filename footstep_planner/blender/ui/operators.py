@@ -1,0 +1,447 @@
+"""Operators: import clips, analyse them, reset the clip library, set a role by hand.
+
+Each reports expected problems in the status bar (naming the file, bone or clip) and
+returns CANCELLED with the user's data untouched."""
+
+from __future__ import annotations
+
+import os
+
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, CollectionProperty, EnumProperty, StringProperty
+from bpy_extras.io_utils import ImportHelper
+
+from ...core.base.errors import FootstepError
+
+
+def character(context):
+    ob = context.scene.footstep.character
+    if ob is None and context.active_object is not None and context.active_object.type == "ARMATURE":
+        ob = context.active_object
+    return ob
+
+
+class _OnCharacter:
+    """Operators that work on the planner's character: available once there is one."""
+
+    @classmethod
+    def poll(cls, context):
+        return character(context) is not None
+
+
+class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
+    """Import BVH, FBX, glTF or GLB files (Mixamo too; a file's several takes each a clip) as
+    clips (one Action each) of the character, or of a new armature in metres, Z up"""
+
+    bl_idname = "footstep.import_clips"
+    bl_label = "Import Clips (BVH, FBX, glTF)"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filename_ext = ".bvh"
+    filter_glob: StringProperty(default="*.bvh;*.fbx;*.glb;*.gltf", options={"HIDDEN"})
+    files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
+    directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
+    target: EnumProperty(name="Into", items=[
+        ("CHARACTER", "Character", "Add the clips to the planner's character"),
+        ("NEW", "New Armature", "Make a new armature from the first file's skeleton")])
+
+    def execute(self, context):
+        from ..read.character import analyze_and_propose
+        from ..read.clips import import_clip_files
+
+        paths = [os.path.join(self.directory, f.name) for f in self.files if f.name] or [self.filepath]
+        target = character(context) if self.target == "CHARACTER" else None
+        fs = context.scene.footstep
+        try:
+            done = import_clip_files(paths, target=target)
+            fs.last_report = _import_summary(done)
+            if not done.actions:
+                self.report({"ERROR"}, fs.last_report)
+                return {"CANCELLED"}
+            ob = done.armature
+            if fs.character is None:
+                fs.character = ob
+            result = analyze_and_propose(ob, _settings(context))
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        for o in done.refused:
+            self.report({"WARNING"}, o.error)
+        for line in done.report()[1:]:
+            if line.startswith("  "):
+                self.report({"INFO"}, line.strip())
+        self.report({"INFO"}, fs.last_report)
+        for name, msg in result.errors.items():
+            self.report({"WARNING"}, msg)
+        return {"FINISHED"}
+
+
+def _import_summary(done) -> str:
+    """One line for the panel: imported N clip(s) into the armature; refused M, with reasons."""
+    head = (f"imported {len(done.actions)} clip(s) into {done.armature.name}" if done.actions
+            else "imported no clip")
+    if not done.refused:
+        return head
+    return f"{head}; refused {len(done.refused)}: " + "; ".join(o.error for o in done.refused)
+
+
+def _settings(context):
+    from .props import settings_from_props
+
+    return settings_from_props(context.scene.footstep.settings)
+
+
+class FOOTSTEP_OT_analyze_clips(_OnCharacter, bpy.types.Operator):
+    """Analyse the character's clips (contacts, speed, stride, tau, gait) and, unless the
+    clip library was edited by hand, propose its blend groups"""
+
+    bl_idname = "footstep.analyze_clips"
+    bl_label = "Analyze Clips"
+    bl_options = {"REGISTER", "UNDO"}
+
+    reset: BoolProperty(name="Reset Library", default=False,
+                                  description="Replace an edited clip library by the proposal")
+
+    def execute(self, context):
+        from ..read.character import analyze_character, library_for, summary, write_library
+
+        ob = character(context)
+        try:
+            result = analyze_character(ob, _settings(context))
+            if self.reset or not ob.data.footstep.library_edited:
+                from ...core.clips.library import propose_library
+
+                write_library(ob, propose_library(result.analyses), result.analyses)
+            else:
+                library_for(ob, result)  # checks the edited library still fits
+                by = {a.name: a for a in result.analyses}
+                for item in ob.data.footstep.clips:
+                    if item.name in by:
+                        item.summary = summary(by[item.name])
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        for msg in result.errors.values():
+            self.report({"WARNING"}, msg)
+        self.report({"INFO"}, f"{ob.name}: analysed {len(result.analyses)} clip(s)"
+                    + (f", {len(result.errors)} failed" if result.errors else ""))
+        return {"FINISHED"}
+
+
+class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
+    """Plan the footprints that take the character to the goal (the picked object, or
+    the 3D cursor) across the traversable meshes"""
+
+    bl_idname = "footstep.plan"
+    bl_label = "Plan"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        import json
+
+        from ...core.report.document import plan_report
+        from .. import planning
+
+        fs = context.scene.footstep
+        ob = character(context)
+        try:
+            goal, heading = _goal(context)
+            planned = planning.plan_and_synthesize(context.scene, ob, goal, heading, fs.start, _settings(context),
+                                                   route=_via(context, goal, heading))
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        result, syn = planned.result, planned.synthesis
+        if fs.edit_footprints:
+            from . import handles
+
+            handles.make_handles(context.scene, ob, result.footprints, planned.setup.forward, goal,
+                                 planned.goal_heading)
+        fs.edit_problem = ""
+        doc = plan_report(result, syn, ob.name, goal, context.scene.frame_current, synthesis=False)
+        if planned.performance is not None:
+            from . import overlay
+
+            doc["waypoints"] = planning.waypoint_rows(planned, context.scene.frame_current,
+                                                      planning.scene_fps(context.scene))
+            overlay.label_waypoints(context.scene, doc["waypoints"])
+        fs.plan_json = json.dumps(doc)
+        st = doc["stages"]
+        fs.last_report = (f"{len(result.footprints)} footprints, {len(syn.t)} frames; search "
+                          f"{result.seconds * 1e3:.0f} ms, synthesis {st['synthesis_ms']:.0f} ms "
+                          f"(smoothing {st['smoothing_ms']:.0f}, refinement {st['refinement_ms']:.0f}, "
+                          f"body {st['body_trajectory_ms']:.0f}, blend groups {st['blend_groups_ms']:.0f})")
+        self.report({"INFO"}, fs.last_report)
+        return {"FINISHED"}
+
+
+def _goal(context):
+    from .. import planning
+
+    fs = context.scene.footstep
+    return planning.goal_of(context.scene, fs.goal.name if fs.goal else None)
+
+
+def _via(context, goal, heading):
+    """The route through the panel's Waypoints collection (objects in name order), or None;
+    the overlay rings the waypoints."""
+    from . import overlay
+    from .directing import via_route
+
+    fs = context.scene.footstep
+    names = sorted(o.name for o in fs.waypoints.all_objects) if fs.waypoints is not None else []
+    objs = [context.scene.objects[n] for n in names] + ([fs.goal] if fs.goal else [])
+    pauses = {o.name: o.footstep.pause for o in objs[:len(names)] if o.footstep.pause > 0}
+    arrive = {o.name: o.footstep.arrive for o in objs if o.footstep.use_arrive}
+    route = via_route(context.scene, names, fs.goal.name if fs.goal else "the 3D cursor", goal, heading,
+                      pauses, arrive)
+    wps = route.waypoints[:-1] if route is not None else []
+    overlay.mark(context.scene, waypoints=np.array([w[1] for w in wps], float).reshape(-1, 3))
+    return route
+
+
+class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
+    """Analyse the character's clips and build what the search needs: the footsteps of the
+    clip library and the walking-distance map to the goal (footprints themselves are
+    sampled lazily, during the search)"""
+
+    bl_idname = "footstep.build_graph"
+    bl_label = "Build Graph"
+
+    def execute(self, context):
+        import time
+
+        from .. import planning
+
+        ob = character(context)
+        try:
+            goal, _ = _goal(context)
+            t0 = time.perf_counter()
+            setup = planning.plan_setup(context.scene, ob, _settings(context))
+            pl = setup.planner
+            field = pl.distance_field(goal)
+            secs = time.perf_counter() - t0
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        reach = int(np.isfinite(field.dist).sum())
+        context.scene.footstep.last_report = (
+            f"graph: {len(setup.analyses)} clips, {pl.steps.n} footsteps ({int(pl.steps.jump.sum())} jumps); "
+            f"distance map {reach} cells; {secs * 1e3:.0f} ms")
+        self.report({"INFO"}, context.scene.footstep.last_report)
+        return {"FINISHED"}
+
+
+class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
+    """Plan the walk to the goal, synthesize it, put the feet on the footprints and bake it
+    into an NLA track of the planner's own on the character (Esc cancels and leaves the
+    scene as it was)"""
+
+    bl_idname = "footstep.bake"
+    bl_label = "Bake"
+    bl_options = {"REGISTER", "UNDO"}
+
+    markers: BoolProperty(name="Footstep markers", default=False,
+                          description="Add a timeline marker at each footstep")
+
+    _steps = None
+    _timer = None
+
+    def _start(self, context):
+        from .. import planning
+
+        fs = context.scene.footstep
+        goal, heading = _goal(context)
+        return planning.run_steps(context.scene, character(context), goal, heading, fs.start,
+                                  _settings(context), markers=self.markers, body_on=fs.body_on,
+                                  frame_range=fs.grow_frame_range, route=_via(context, goal, heading))
+
+    def _finish(self, context, doc):
+        import json
+
+        fs = context.scene.footstep
+        fs.plan_json = json.dumps({k: doc[k] for k in ("footprints", "search", "character", "stages", "quality",
+                                                       "name", "track", "action", "frame_start", "frame_end",
+                                                       "waypoints", "turns_in_place") if k in doc})
+        q, st = doc["quality"], doc["stages"]
+        fs.last_report = (f"{doc['frames'] if 'frames' in doc else st['frames']} frames baked into "
+                          f"{doc['track']!r}; skate {q['foot_skate']['max_mm']:.1f} mm max, goal "
+                          f"{q['goal']['distance_m'] * 100:.1f} cm; synthesis {st['synthesis_ms']:.0f} ms, "
+                          f"IK {st['ik_ms']:.0f} ms, bake {st['bake_ms']:.0f} ms")
+        self.report({"INFO"}, fs.last_report)
+        if doc.get("waypoints"):
+            from . import overlay
+
+            overlay.label_waypoints(context.scene, doc["waypoints"])
+        if fs.edit_footprints:
+            _handles_of_last_plan(context)
+        stashed = doc.get("stashed_action")
+        if stashed:
+            self.report({"INFO"}, f"the character's active action {stashed!r} is stashed in a muted NLA track "
+                        "so the bake plays; Clear gives it back")
+
+    def execute(self, context):
+        try:
+            steps = self._start(context)
+            while True:
+                next(steps)
+        except StopIteration as done:
+            self._finish(context, done.value)
+            return {"FINISHED"}
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+
+    def invoke(self, context, event):
+        try:
+            self._steps = self._start(context)
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._end(context)
+            self.report({"INFO"}, "bake cancelled: nothing was changed")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            fraction, stage = next(self._steps)
+            context.window_manager.progress_update(int(fraction * 100))
+            context.workspace.status_text_set(f"Footstep: {stage}... (Esc to cancel)")
+            return {"RUNNING_MODAL"}
+        except StopIteration as done:
+            self._end(context)
+            context.workspace.status_text_set(None)
+            self._finish(context, done.value)
+            return {"FINISHED"}
+        except FootstepError as ex:
+            self._end(context)
+            context.workspace.status_text_set(None)
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+
+
+def _handles_of_last_plan(context) -> None:
+    """Footprint handles for the path the last plan or bake of this scene made."""
+    from . import handles
+    from .overlay import LAST
+
+    from ..read.scene import rotation_heading
+
+    last = LAST.get(context.scene.name)
+    if last and last.get("path"):
+        goal, heading = _goal(context)
+        heading = None if heading is None else rotation_heading(heading, last["forward"])
+        handles.make_handles(context.scene, character(context), last["path"], last["forward"], goal, heading)
+
+
+def _show_refused(context, ex) -> None:
+    """Ring in the warning colour the footprint an edit put where it can't be."""
+    from . import handles, overlay
+
+    i = getattr(ex, "footprint", None)
+    hs = handles.handles(character(context))
+    if i is not None and i < len(hs):
+        overlay.mark(context.scene, refused=[np.array(hs[i].matrix_world.translation)])
+
+
+class FOOTSTEP_OT_lock_footprints(_OnCharacter, bpy.types.Operator):
+    """Lock the selected footprints (a re-plan keeps them where they are), or unlock them"""
+
+    bl_idname = "footstep.lock_footprints"
+    bl_label = "Lock Footprints"
+    bl_options = {"REGISTER", "UNDO"}
+
+    lock: BoolProperty(name="Lock", default=True)
+
+    def execute(self, context):
+        from . import handles
+
+        n = handles.set_locked(context.selected_objects, self.lock)
+        if not n:
+            self.report({"WARNING"}, "select footprint handles (the empties in 'Footprints: ...') first")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{'locked' if self.lock else 'unlocked'} {n} footprint(s)")
+        return {"FINISHED"}
+
+
+class FOOTSTEP_OT_replan(_OnCharacter, bpy.types.Operator):
+    """Re-plan around the footprints you moved (they stay where you put them, as do the
+    locked ones) and re-bake: only the re-planned span is re-keyed"""
+
+    bl_idname = "footstep.replan"
+    bl_label = "Re-plan"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from . import directing
+
+        fs = context.scene.footstep
+        try:
+            doc, route, splice = directing.rebake_handles(context.scene, character(context), _settings(context),
+                                                          body_on=fs.body_on, frame_range=fs.grow_frame_range)
+        except FootstepError as ex:
+            fs.edit_problem = str(ex)
+            _show_refused(context, ex)
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        fs.edit_problem = ""
+        span = doc.get("rebaked_frames")
+        fs.last_report = (f"re-planned {len(route.edited.spans)} span(s); "
+                          + (f"re-keyed frames {span[0]}-{span[1]} only; " if span
+                             else f"{doc['rebaked_whole']}; " if doc.get("rebaked_whole") else "baked the whole path; ")
+                          + f"skate {doc['quality']['foot_skate']['max_mm']:.1f} mm max")
+        self.report({"INFO"}, fs.last_report)
+        return {"FINISHED"}
+
+
+class FOOTSTEP_OT_clear(_OnCharacter, bpy.types.Operator):
+    """Remove the planner's own bake from the character (its NLA track, action and
+    markers); nothing of yours is touched"""
+
+    bl_idname = "footstep.clear"
+    bl_label = "Clear"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from ..write.bake import clear
+        from .handles import clear_handles
+
+        n = clear(character(context), context.scene)
+        clear_handles(character(context))
+        self.report({"INFO"}, f"removed {n} planner track(s)" if n else "nothing of the planner's to remove")
+        return {"FINISHED"}
+
+
+CLASSES = (FOOTSTEP_OT_import_clips, FOOTSTEP_OT_analyze_clips, FOOTSTEP_OT_plan, FOOTSTEP_OT_build_graph,
+           FOOTSTEP_OT_bake, FOOTSTEP_OT_lock_footprints, FOOTSTEP_OT_replan, FOOTSTEP_OT_clear)
+
+
+def _menu_import(self, context):
+    self.layout.operator(FOOTSTEP_OT_import_clips.bl_idname,
+                         text="Clips for Footstep Planner (.bvh, .fbx, .glb, .gltf)")
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.TOPBAR_MT_file_import.append(_menu_import)
+
+
+def unregister():
+    bpy.types.TOPBAR_MT_file_import.remove(_menu_import)
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

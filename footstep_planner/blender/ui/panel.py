@@ -1,0 +1,250 @@
+"""The sidebar tab "Footstep" in the 3D View. Drawing only: all state is in props."""
+
+from __future__ import annotations
+
+import bpy
+
+from ...core.clips.roles import ALL_ROLES, REQUIRED_ROLES
+from .operators import character
+
+
+class FOOTSTEP_UL_clips(bpy.types.UIList):
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        row = layout.row(align=True)
+        row.label(text=item.name, icon="ACTION")
+        row.prop(item, "usage", text="")
+        if item.usage == "TURN":
+            row.prop(item, "gait", text="")
+            row.prop(item, "tau", text="tau")
+        elif item.usage != "EXCLUDED":
+            row.prop(item, "entry_gait", text="")
+            row.prop(item, "exit_gait", text="")
+
+
+class FOOTSTEP_PT_main(bpy.types.Panel):
+    bl_label = "Footstep Planner"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Footstep"
+
+    def draw(self, context):
+        layout = self.layout
+        fs = context.scene.footstep
+        layout.prop(fs, "character")
+        ob = character(context)
+        if ob is None:
+            layout.label(text="Pick an armature, import clips (BVH, FBX, glTF), or add the mannequin", icon="INFO")
+            layout.operator("footstep.import_clips", icon="IMPORT").target = "NEW"
+            layout.operator("footstep.add_mannequin", icon="OUTLINER_OB_ARMATURE")
+            return
+        _draw_roles(layout, ob)
+        _draw_clips(layout, ob)
+        box = layout.box()
+        box.label(text="Plan", icon="TRACKING")
+        box.prop(fs, "goal")
+        box.prop(fs, "start")
+        box.prop(fs, "waypoints")
+        _draw_waypoint(box, context, fs)
+        row = box.row(align=True)
+        row.operator("footstep.build_graph", icon="OUTLINER_DATA_LIGHTPROBE")
+        row.operator("footstep.plan", icon="TRACKING_FORWARDS")
+        box.prop(fs, "body_on")
+        box.prop(fs, "grow_frame_range")
+        row = box.row(align=True)
+        row.operator("footstep.bake", icon="REC")
+        row.operator("footstep.clear", icon="TRASH")
+        _draw_footprint_edit(box, fs)
+        row = box.row(align=True)
+        row.prop(fs, "show_overlay")
+        row.prop(fs, "show_sampled")
+        if fs.last_report:
+            col = box.column(align=True)
+            for line in _wrap(fs.last_report, 60):
+                col.label(text=line)
+        _draw_report(box, fs)
+        box = layout.box()
+        box.prop(fs, "show_settings", icon="TRIA_DOWN" if fs.show_settings else "TRIA_RIGHT",
+                 emboss=False)
+        if fs.show_settings:
+            col = box.column(align=True)
+            for name in fs.settings.bl_rna.properties.keys():
+                if name not in {"rna_type", "name"}:
+                    col.prop(fs.settings, name)
+
+
+def _draw_footprint_edit(layout, fs) -> None:
+    """Editable footprints: lock, unlock, re-plan; why an edit can't be honoured."""
+    layout.prop(fs, "edit_footprints")
+    if not fs.edit_footprints:
+        return
+    row = layout.row(align=True)
+    row.operator("footstep.lock_footprints", text="Lock", icon="LOCKED").lock = True
+    row.operator("footstep.lock_footprints", text="Unlock", icon="UNLOCKED").lock = False
+    row.operator("footstep.replan", icon="FILE_REFRESH")
+    if fs.edit_problem:
+        col = layout.column(align=True)
+        col.alert = True
+        for line in _wrap(fs.edit_problem, 60):
+            col.label(text=line, icon="ERROR" if line is fs.edit_problem else "NONE")
+
+
+def _wrap(text: str, width: int) -> list[str]:
+    out, line = [], ""
+    for word in text.split():
+        if line and len(line) + 1 + len(word) > width:
+            out.append(line)
+            line = word
+        else:
+            line = f"{line} {word}".strip()
+    return out + ([line] if line else [])
+
+
+def _draw_waypoint(layout, context, fs):
+    """The active object's pause and arrival frame, when it is a waypoint or the goal."""
+    ob = context.active_object
+    if ob is None:
+        return
+    way = fs.waypoints is not None and ob.name in fs.waypoints.all_objects
+    if not way and ob != fs.goal:
+        return
+    col = layout.column(align=True)
+    col.label(text=f"{'Waypoint' if way else 'Goal'} {ob.name}", icon="EMPTY_SINGLE_ARROW")
+    if way:
+        col.prop(ob.footstep, "pause")
+    row = col.row(align=True)
+    row.prop(ob.footstep, "use_arrive")
+    sub = row.row(align=True)
+    sub.enabled = ob.footstep.use_arrive
+    sub.prop(ob.footstep, "arrive")
+
+
+def _draw_report(layout, fs):
+    """The last bake's stage times and quality figures."""
+    import json
+
+    try:
+        doc = json.loads(fs.plan_json) if fs.plan_json else {}
+    except ValueError:
+        return
+    st, q = doc.get("stages"), doc.get("quality")
+    if not st or not q:
+        return
+    col = layout.column(align=True)
+    col.label(text="Stage times (ms)", icon="TIME")
+    for key in ("search", "smoothing", "refinement", "body_trajectory", "blend_groups", "ik", "bake"):
+        if f"{key}_ms" in st:
+            row = col.row()
+            row.label(text=key.replace("_", " "))
+            row.label(text=f"{st[key + '_ms']:.1f}")
+    col = layout.column(align=True)
+    col.label(text="Quality (measured on the bake)", icon="CHECKMARK")
+    rows = [("foot skate, mean / max", f"{q['foot_skate']['mean_mm']:.1f} / {q['foot_skate']['max_mm']:.1f} mm"),
+            ("foot to footprint, max", f"{q['footprint_error']['max_mm']:.1f} mm"),
+            ("ground penetration, max", f"{q['penetration']['max_mm']:.1f} mm"),
+            ("goal", f"{q['goal']['distance_m'] * 100:.1f} cm"),
+            ("pops made by the planner", f"{q['pops']['introduced']['count']}")]
+    for t in doc.get("turns_in_place") or ():
+        rows.append((f"turns in place at the {t['where']}",
+                     f"{t['degrees']:+.0f} deg, frames {t['frames'][0]:g}-{t['frames'][1]:g}"))
+    for w in doc.get("waypoints") or ():
+        asked = "" if w.get("arrive") is None else f" (asked {w['arrive']:.0f})"
+        got = w.get("achieved") if w.get("achieved") is not None else w.get("planned")
+        rows.append((f"at {w['name']}", f"frame {got:.1f}{asked}"))
+    for name, value in rows:
+        row = col.row()
+        row.label(text=name)
+        row.label(text=value)
+
+
+def _draw_roles(layout, ob):
+    from ..read.scene import rig_from_armature
+
+    box = layout.box()
+    box.label(text="Bone roles", icon="ARMATURE_DATA")
+    try:
+        roles = rig_from_armature(ob).roles
+    except Exception as ex:  # a rig we can't read: say so in the panel, never raise in draw
+        box.label(text=str(ex), icon="ERROR")
+        return
+    if not roles.ok:
+        box.label(text="Could not map: " + ", ".join(roles.missing), icon="ERROR")
+    col = box.column(align=True)
+    props = ob.data.footstep
+    for role in ALL_ROLES:
+        row = col.row(align=True)
+        bone = roles.roles.get(role, "")
+        split = row.split(factor=0.28, align=True)
+        split.label(text=role + ("" if role in REQUIRED_ROLES else " (opt.)"),
+                    icon="CHECKMARK" if bone else ("ERROR" if role in REQUIRED_ROLES else "BLANK1"))
+        split = split.split(factor=0.5, align=True)
+        split.label(text=f"{bone or '-'} ({roles.how.get(role, 'unmapped')})")
+        # picking a bone here overrides the automatic choice; clearing it restores it
+        split.prop_search(props, f"role_{role}", ob.data, "bones", text="")
+
+
+def _draw_clips(layout, ob):
+    box = layout.box()
+    props = ob.data.footstep
+    row = box.row()
+    row.label(text="Clip library" + (" (edited)" if props.library_edited else ""), icon="NLA")
+    row.operator("footstep.import_clips", text="", icon="IMPORT").target = "CHARACTER"
+    row.operator("footstep.generate_clips", text="", icon="ANIM")
+    row.operator("footstep.analyze_clips", text="", icon="FILE_REFRESH")
+    box.template_list("FOOTSTEP_UL_clips", "", props, "clips", props, "clip_index", rows=4)
+    if 0 <= props.clip_index < len(props.clips):
+        box.label(text=props.clips[props.clip_index].summary or "not analysed")
+    if props.library_edited:
+        box.operator("footstep.analyze_clips", text="Reset to Proposal").reset = True
+
+
+class FOOTSTEP_PT_object_surface(bpy.types.Panel):
+    """Object Properties > Footstep: tag a mesh as traversable or an obstacle."""
+
+    bl_label = "Footstep"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "object"
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.object.type == "MESH"
+
+    def draw(self, context):
+        from ..read.surfaces import effective_tag
+
+        ob = context.object
+        self.layout.prop(ob.footstep, "surface", text="Surface")
+        if ob.footstep.surface == "NONE":
+            tag = effective_tag(ob, context.scene)
+            if tag != "NONE":
+                self.layout.label(text=f"{tag.capitalize()} by its collection", icon="INFO")
+
+
+class FOOTSTEP_PT_collection_surface(bpy.types.Panel):
+    """Collection Properties > Footstep: a tag its objects inherit."""
+
+    bl_label = "Footstep"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "collection"
+
+    @classmethod
+    def poll(cls, context):
+        return getattr(context, "collection", None) is not None
+
+    def draw(self, context):
+        self.layout.prop(context.collection.footstep, "surface", text="Surface")
+
+
+CLASSES = (FOOTSTEP_UL_clips, FOOTSTEP_PT_main, FOOTSTEP_PT_object_surface,
+           FOOTSTEP_PT_collection_surface)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,449 @@
+"""The result baked into the character: one slotted Action per bake, in an NLA track the
+planner owns, and the scene read back as Blender plays it.
+
+What the planner owns is marked: its actions carry the custom property ``OWNED_PROP``
+(the character's name) and its NLA tracks are named ``TRACK_PREFIX`` + the plan's name,
+holding only such actions; its timeline markers start with ``MARKER_PREFIX``. A re-bake
+removes those and nothing else: the user's actions, tracks, strips, keyframes and
+markers are never touched.
+
+So that what plays is what was baked: Blender plays a character's active action over
+its NLA stack, so a bake *stashes* the active action the way Blender does (a muted NLA
+track ``[Action Stash]`` holding it, the active slot cleared) and records it on its own
+action; ``clear`` gives it back as it was. The scene's frame range grows to cover the
+bake (never shrinks), and ``clear`` puts it back when it is still as the bake left it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import bpy
+from scipy.spatial.transform import Rotation
+
+from ...core.base.errors import FootstepError
+from ...core.solve.ik import IKResult, body_frames
+from ...core.base.quat import continuous
+from ...core.clips.rig import Rig, armature_basis
+from ..read.scene import object_scale, scene_fps
+from .keys import CONSTANT, fill_keys
+
+OWNED_PROP = "footstep_bake"
+#: The character's own object transform before the first bake (row-major 4x4), put back
+#: by ``clear``: the bake animates the object, and Blender leaves the last evaluated
+#: transform in it when the animation goes.
+REST_PROP = "footstep_rest_matrix"
+#: Where the bake put the body: "OBJECT" or "ROOT".
+BODY_PROP = "footstep_body_on"
+TRACK_PREFIX = "Footstep: "
+MARKER_PREFIX = "FP "
+#: The user's active action the bake stashed: its name, its slot's identifier, the name
+#: of the stash track the bake made.
+STASH_PROP = "footstep_stashed_action"
+STASH_SLOT_PROP = "footstep_stashed_slot"
+STASH_TRACK_PROP = "footstep_stash_track"
+#: The scene's frame range before the bake grew it, and the range it grew it to.
+RANGE_PROP = "footstep_frame_range"
+STASH_TRACK = "[Action Stash]"
+
+
+class BakeError(FootstepError):
+    pass
+
+
+def owned_tracks(ob) -> list:
+    """The planner's own NLA tracks on ``ob``."""
+    ad = ob.animation_data
+    if ad is None:
+        return []
+    return [tr for tr in ad.nla_tracks if tr.name.startswith(TRACK_PREFIX) and tr.strips
+            and all(st.action is not None and st.action.get(OWNED_PROP) is not None for st in tr.strips)]
+
+
+def unscaled(m: np.ndarray) -> np.ndarray:
+    """(..., 4, 4) ``m`` with its even scale taken out of its rotation (translation kept)."""
+    m = np.array(m, float, copy=True)
+    s = np.cbrt(np.abs(np.linalg.det(m[..., :3, :3])))
+    m[..., :3, :3] /= np.asarray(s)[..., None, None]
+    return m
+
+
+def own_frame(ob) -> np.ndarray:
+    """(4, 4) the object's own world frame (``own_matrix_world``) without its even scale:
+    where the planner's world-unit rig stands."""
+    return unscaled(own_matrix_world(ob))
+
+
+def own_matrix_world(ob) -> np.ndarray:
+    """(4, 4) the object's world matrix with its own transform, not the one the
+    planner's bake animates it to."""
+    m = np.array(ob.matrix_world)
+    for tr in owned_tracks(ob):
+        for st in tr.strips:
+            rest = st.action.get(REST_PROP)
+            if rest is not None and len(rest) == 16:
+                basis = np.array([float(v) for v in rest]).reshape(4, 4)
+                return m @ np.linalg.inv(np.array(ob.matrix_basis)) @ basis
+    return m
+
+
+def clear(ob, scene=None) -> int:
+    """Remove the planner's tracks, their actions (when nothing else uses them) and its
+    markers. Returns how many tracks went."""
+    tracks = owned_tracks(ob)
+    acts = {st.action for tr in tracks for st in tr.strips}
+    rest = next((a.get(REST_PROP) for a in acts if a.get(REST_PROP) is not None), None)
+    for act in acts:
+        _unstash(ob, act)
+        if scene is not None:
+            _give_back_range(scene, act)
+    for tr in tracks:
+        ob.animation_data.nla_tracks.remove(tr)
+    if rest is not None and len(rest) == 16:  # the object's own transform, as it was
+        from mathutils import Matrix
+
+        vals = [float(v) for v in rest]
+        ob.matrix_basis = Matrix([vals[0:4], vals[4:8], vals[8:12], vals[12:16]])
+    for act in acts:
+        if act.users == 0 or (act.users == 1 and act.use_fake_user):
+            bpy.data.actions.remove(act)
+    if scene is not None:
+        for m in [m for m in scene.timeline_markers if m.name.startswith(MARKER_PREFIX)]:
+            scene.timeline_markers.remove(m)
+    return len(tracks)
+
+
+def _stash_active(ob, act) -> None:
+    """Stash ``ob``'s active action (not one of the planner's) as Blender does, in a muted
+    NLA track of its own at the bottom of the stack, and clear the active action so the
+    baked track plays; ``act`` (the bake's action) records what to give back."""
+    ad = ob.animation_data
+    user = ad.action if ad is not None else None
+    if user is None or user.get(OWNED_PROP) is not None:
+        return
+    slot = ad.action_slot
+    track = ad.nla_tracks.new()  # (on top of the stack: muted, it plays nowhere)
+    track.name = STASH_TRACK
+    start = int(np.floor(user.frame_range[0]))
+    strip = track.strips.new(user.name, start, user)
+    if slot is not None:
+        strip.action_slot = slot
+    track.mute = True
+    act[STASH_PROP] = user.name
+    act[STASH_SLOT_PROP] = slot.identifier if slot is not None else ""
+    act[STASH_TRACK_PROP] = track.name
+    bpy.context.view_layer.update()  # (clearing the action of a never-evaluated armature crashes)
+    ad.action = None
+
+
+def _unstash(ob, act) -> None:
+    """Give back the active action a bake stashed (unless the user has set another since),
+    and remove the stash track the bake made."""
+    name = act.get(STASH_PROP)
+    ad = ob.animation_data
+    if not name or ad is None:
+        return
+    user = bpy.data.actions.get(name)
+    track = ad.nla_tracks.get(act.get(STASH_TRACK_PROP, ""))
+    if track is not None and len(track.strips) == 1 and track.strips[0].action == user:
+        ad.nla_tracks.remove(track)
+    if user is not None and ad.action is None:
+        ad.action = user
+        slot = user.slots.get(act.get(STASH_SLOT_PROP, "")) if act.get(STASH_SLOT_PROP) else None
+        if slot is not None:
+            ad.action_slot = slot
+
+
+def _grow_range(scene, act, first: int, last: int) -> None:
+    """Grow the scene's frame range to cover frames ``first`` to ``last`` (never shrink it);
+    ``act`` records the range before and after."""
+    before = (scene.frame_start, scene.frame_end)
+    after = (min(before[0], first), max(before[1], last))
+    if after != before:
+        scene.frame_start, scene.frame_end = after
+        act[RANGE_PROP] = [*before, *after]
+
+
+def _give_back_range(scene, act) -> None:
+    """The scene's frame range as it was before the bake grew it, if it is still as the
+    bake left it."""
+    rng = act.get(RANGE_PROP)
+    if rng is not None and len(rng) == 4 and (scene.frame_start, scene.frame_end) == (int(rng[2]), int(rng[3])):
+        scene.frame_start, scene.frame_end = int(rng[0]), int(rng[1])
+
+
+def _euler(q_xyzw: np.ndarray, mode: str) -> np.ndarray:
+    """(F, 3) Euler angles in Blender's rotation_mode order, unwrapped over frames."""
+    # Blender's "XYZ" applies X first: extrinsic x-y-z, which scipy spells "xyz"
+    e = Rotation.from_quat(q_xyzw).as_euler(mode.lower())
+    out = np.empty_like(e)
+    for i, axis in enumerate(mode):
+        out[:, "XYZ".index(axis)] = e[:, i]
+    return np.unwrap(out, axis=0)
+
+
+def _wxyz(q_xyzw: np.ndarray) -> np.ndarray:
+    """(F, 4) Blender's (w, x, y, z) of scipy quaternions, without sign flips between frames."""
+    return continuous(np.roll(q_xyzw, 1, axis=-1))
+
+
+BODY_ON = ("OBJECT", "ROOT")
+
+
+def root_bone(ob, rig: Rig) -> int:
+    """Index of the rig's root bone (the 'root' role, an ancestor of the hips)."""
+    bone = rig.roles.roles.get("root")
+    if not bone:
+        raise BakeError(f"armature {ob.name!r} has no root bone to carry the body: map the 'root' role "
+                        "in the Footstep tab, or bake the body onto the object")
+    r = rig.index(bone)
+    b = rig.role_index("hips")
+    while b >= 0 and b != r:
+        b = rig.parents[b]
+    if b != r:
+        raise BakeError(f"armature {ob.name!r}: root bone {bone!r} does not carry the hips "
+                        f"({rig.roles.bone('hips')!r} is not its child)")
+    return r
+
+
+def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start: int,
+         path=None, planted=None, markers: bool = False, body_on: str = "OBJECT",
+         frame_range: bool = True, rigify_ik_feet: bool = False):
+    """Key ``res`` into a new Action on the armature ``ob`` in a new NLA track of the
+    planner's, starting at ``frame_start``: the body on the object's transform
+    (``body_on="OBJECT"``) or on the rig's root bone (``"ROOT"``, the object stays put),
+    every bone's rotation, and the location of the hips and of any bone that moves from
+    its parent (``res.basis``, under the planner's hierarchy, is keyed under the
+    armature's, ``core.clips.rig.armature_basis``: a foot parented to the root moves from it).
+    The planner's earlier bake of this character is replaced. The character's active
+    action is stashed (see the module's doc) and, with ``frame_range``, the scene's frame
+    range grows to cover the bake.
+    ``planted`` holds (strike, stance, liftoff) seconds per footprint of ``path``,
+    for the optional markers. ``rigify_ik_feet``: on a Rigify rig, the legs on their IK
+    controls (``rigify.key_controls(leg_ik=True)``) instead of the FK ones."""
+    from dataclasses import replace
+
+    from ...core.clips.body import scaled_bases, scaled_rig
+    from .. import rigify
+
+    _check(ob, rig, body_on)
+    s = object_scale(ob)
+    if s != 1.0:  # (planned in world units: keyed in the armature's)
+        rig, res = scaled_rig(rig, 1.0 / s), replace(res, basis=scaled_bases(res.basis, 1.0 / s))
+    on_controls = rigify.is_rigify(ob)
+    basis = _root_carries_body(ob, rig, res, spin) if body_on == "ROOT" and not on_controls else res.basis
+    rest = _own_rest(ob)  # (read before clearing frees the old action, and its property with it)
+    clear(ob, scene)
+    frames = frame_start + np.arange(res.frames, dtype=np.float64)
+    act, slot, keys = _new_action(ob, name, rest, body_on, frames)
+    if body_on == "OBJECT":
+        _key_body(keys, ob, res.body_pos, spin + res.body_heading)
+    if on_controls:
+        _key_rigify_controls(ob, rig, act, slot, frames, res, spin, body_on, rigify_ik_feet)
+    else:  # (keys are Blender's bases: a foot parented to the root keyed relative to it)
+        _key_bones(keys, ob, armature_basis(rig, basis))
+    track = _add_track(ob, name, act, slot, frame_start)
+    _stash_active(ob, act)
+    if frame_range:
+        _grow_range(scene, act, int(frame_start), int(frame_start) + res.frames - 1)
+    if markers and path is not None and planted is not None:
+        _add_markers(scene, path, planted, frame_start)
+    return act, track
+
+
+def _check(ob, rig: Rig, body_on: str) -> None:
+    from .. import rigify
+
+    names = tuple(pb.name for pb in ob.pose.bones)
+    if names != tuple(rig.names) and not (rigify.is_rigify(ob) and set(rig.names) <= set(names)):
+        raise BakeError(f"armature {ob.name!r} changed since it was read (bones differ)")
+    if body_on not in BODY_ON:
+        raise BakeError(f"the body goes on one of {', '.join(BODY_ON)}, not {body_on!r}")
+
+
+def _root_carries_body(ob, rig: Rig, res: IKResult, spin: float) -> np.ndarray:
+    """(F, B, 4, 4) the IK's bone bases with the root bone carrying the body frame
+    relative to the object (which stays where it is): with the root posed by
+    M = O^-1 Body, every bone under it is where the object carrying the body would
+    have put it."""
+    r = root_bone(ob, rig)
+    M = _in_object(ob, body_frames(res.body_pos, spin + res.body_heading))
+    basis = res.basis.copy()
+    basis[:, r] = np.linalg.inv(rig.rest[r])[None] @ M @ rig.rest[r][None]
+    return basis
+
+
+def _in_object(ob, frames: np.ndarray) -> np.ndarray:
+    """(F, 4, 4) world frames (unit rotations) in the armature's space: in the object's own
+    frame, their translations over its even scale."""
+    out = np.linalg.inv(own_frame(ob))[None] @ frames
+    out[:, :3, 3] /= object_scale(ob)
+    return out
+
+
+def _own_rest(ob) -> list[float]:
+    """The object's own transform (16 floats, row by row): the one an earlier bake of
+    the planner's kept, else the object's current one."""
+    old = [[float(v) for v in st.action[REST_PROP]] for tr in owned_tracks(ob) for st in tr.strips
+           if st.action.get(REST_PROP) is not None]
+    return old[0] if old else [v for row in ob.matrix_basis for v in row]
+
+
+class _Keys:
+    """Writes whole F-Curves of linear keys at ``frames`` into a channel bag."""
+
+    def __init__(self, cbag, frames: np.ndarray):
+        self.cbag, self.frames = cbag, frames
+
+    def __call__(self, path: str, values: np.ndarray, group: str) -> None:
+        """Key ``values`` (F,) or (F, K) on ``path``, one F-Curve per column (array index)."""
+        values = np.asarray(values, float).reshape(len(self.frames), -1)
+        for i in range(values.shape[1]):
+            fill_keys(self.cbag.fcurves.new(path, index=i, group_name=group), self.frames, values[:, i])
+
+    def constant(self, path: str, values, group: str) -> None:
+        """Key ``values`` (K,) on ``path`` once, at the first frame: held throughout, so the
+        channel plays the same whatever value the pose had before (no leftover state)."""
+        values = np.asarray(values, float).ravel()
+        for i, v in enumerate(values):
+            fill_keys(self.cbag.fcurves.new(path, index=i, group_name=group), self.frames[:1], [v], CONSTANT)
+
+
+def _new_action(ob, name: str, rest: list[float], body_on: str, frames: np.ndarray):
+    """A new slotted Action of the planner's for ``ob``: (action, slot, key writer)."""
+    act = bpy.data.actions.new(f"Footstep {name}")
+    act[OWNED_PROP] = ob.name
+    act[REST_PROP] = [float(v) for v in rest]
+    act[BODY_PROP] = body_on
+    slot = act.slots.new(id_type="OBJECT", name=ob.name)
+    cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
+    return act, slot, _Keys(cbag, frames)
+
+
+def _key_rotation(keys: _Keys, path: str, q_xyzw: np.ndarray, mode: str, group: str, axis0) -> None:
+    """Key rotations (F, 4) (scipy x, y, z, w) in Blender's ``mode`` on ``path``
+    (``<path>.rotation_quaternion`` / ``_axis_angle`` / ``_euler``); ``axis0`` is the
+    axis-angle axis of a zero rotation."""
+    if mode == "QUATERNION":
+        keys(f"{path}rotation_quaternion", _wxyz(q_xyzw), group)
+    elif mode == "AXIS_ANGLE":
+        rv = Rotation.from_quat(q_xyzw).as_rotvec()
+        ang = np.linalg.norm(rv, axis=1)
+        axis = np.where(ang[:, None] > 1e-12, rv / np.maximum(ang, 1e-12)[:, None], axis0)
+        keys(f"{path}rotation_axis_angle", np.c_[ang, axis], group)
+    else:
+        keys(f"{path}rotation_euler", _euler(q_xyzw, mode), group)
+
+
+def _key_body(keys: _Keys, ob, body_pos: np.ndarray, yaw: np.ndarray) -> None:
+    """The body on the object: its location and yaw (its tilt, if any, is kept)."""
+    keys("location", body_pos, "Object Transforms")
+    base = ob.matrix_basis.to_euler("XYZ")
+    n = len(yaw)
+    qz = Rotation.from_euler("xyz", np.c_[np.full(n, base.x), np.full(n, base.y), yaw]).as_quat()
+    _key_rotation(keys, "", qz, ob.rotation_mode, "Object Transforms", [0.0, 0.0, 1.0])
+
+
+def _key_bones(keys: _Keys, ob, basis: np.ndarray) -> None:
+    """Every bone's rotation (in its own rotation mode) and the location of the bones
+    that move (the hips, a root carrying the body)."""
+    F, B = basis.shape[:2]
+    q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
+    moved = np.abs(basis[..., :3, 3]).max(axis=0).max(axis=1) > 1e-6
+    for b, pb in enumerate(ob.pose.bones):
+        path = f'pose.bones["{bpy.utils.escape_identifier(pb.name)}"].'
+        _key_rotation(keys, path, q[:, b], pb.rotation_mode, pb.name, [0.0, 1.0, 0.0])
+        if moved[b]:
+            keys(f"{path}location", basis[:, b, :3, 3], pb.name)
+        else:
+            keys.constant(f"{path}location", np.zeros(3), pb.name)
+        keys.constant(f"{path}scale", np.ones(3), pb.name)
+
+
+def _key_rigify_controls(ob, rig: Rig, act, slot, frames: np.ndarray, res: IKResult, spin: float,
+                         body_on: str, ik_feet: bool = False) -> None:
+    """Key a Rigify rig's controls (``rigify.key_controls``: FK legs and arms, torso and
+    spine, the IK/FK switches set to FK; with ``ik_feet`` the legs on their IK controls,
+    foot_ik, toe_ik and the knee's pole, switched to IK) so that its DEF bones, the
+    planner's skeleton, follow the IK's pose; with the body on the rig (``ROOT``) the
+    torso carries it and the object stays put."""
+    from ...core.clips.rig import forward_kinematics
+    from .. import rigify
+
+    pose = forward_kinematics(rig, res.basis)  # armature space, the body at the object
+    if body_on == "ROOT":
+        carry = _in_object(ob, body_frames(res.body_pos, spin + res.body_heading))
+        pose = carry[:, None] @ pose
+    rigify.key_controls(ob, (act, slot), frames, {name: pose[:, b] for b, name in enumerate(rig.names)},
+                        leg_ik=ik_feet)
+
+
+def _add_track(ob, name: str, act, slot, frame_start: int):
+    """A new NLA track of the planner's playing ``act`` from ``frame_start``."""
+    ad = ob.animation_data_create()
+    track = ad.nla_tracks.new()
+    track.name = f"{TRACK_PREFIX}{name}"
+    strip = track.strips.new(act.name, int(frame_start), act)
+    strip.action_slot = slot
+    strip.extrapolation = "HOLD_FORWARD"
+    strip.blend_type = "REPLACE"
+    return track
+
+
+def _add_markers(scene, path, planted, frame_start: int) -> None:
+    """A timeline marker ``FP <n> <L|R>`` at each footprint's stance frame."""
+    rate = scene_fps(scene)
+    for i, (f, (_, st, _)) in enumerate(zip(path, planted)):
+        scene.timeline_markers.new(f"{MARKER_PREFIX}{i} {'LR'[f.foot]}", frame=int(round(frame_start + st * rate)))
+
+
+def evaluate_played(scene, ob, rig: Rig, frame_start: int, frames: int, root: int | None = None):
+    """``ob`` as Blender plays the scene, read through the depsgraph at ``frames`` frames
+    from ``frame_start`` (``scene.frame_set``: every NLA track, the active action, the
+    constraints, as they are): (world bone matrices (F, B, 4, 4), body positions (F, 3),
+    body yaw (F,) unwrapped, bone rotations relative to rest (F, B, 4) scipy x, y, z, w).
+    The body is the object's frame, or with ``root`` that bone's frame with its rest
+    put back. The scene's current frame is restored."""
+    B = len(rig.names)
+    pick = [ob.pose.bones.find(n) for n in rig.names]  # (a Rigify rig's skeleton is some of its bones)
+    pose = np.empty((frames, B, 4, 4))
+    obm = np.empty((frames, 4, 4))
+    buf = np.empty(len(ob.pose.bones) * 16, dtype=np.float32)
+    saved = scene.frame_current, scene.frame_subframe
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    try:
+        for i in range(frames):  # (one depsgraph evaluation per frame: what playing does)
+            scene.frame_set(int(frame_start) + i)
+            ev = ob.evaluated_get(depsgraph)
+            ev.pose.bones.foreach_get("matrix", buf)
+            pose[i] = buf.reshape(-1, 4, 4)[pick].transpose(0, 2, 1)
+            obm[i] = np.array(ev.matrix_world)
+    finally:
+        scene.frame_set(saved[0], subframe=saved[1])
+    # (an evenly scaled object: its scale moved into the bones, as the rig is read in world units)
+    scale = np.cbrt(np.abs(np.linalg.det(obm[:, :3, :3])))
+    obm = unscaled(obm)
+    pose[..., :3, 3] *= scale[:, None, None]
+    world = obm[:, None] @ pose
+    body = obm if root is None else obm @ pose[:, root] @ np.linalg.inv(rig.rest[root])
+    yaw = np.unwrap(np.arctan2(body[:, 1, 0], body[:, 0, 0]))
+    return world, body[:, :3, 3].copy(), yaw, local_rotations(rig, pose)
+
+
+def local_rotations(rig: Rig, pose: np.ndarray) -> np.ndarray:
+    """(F, B, 4) each bone's rotation relative to its rest pose (scipy x, y, z, w) from
+    armature-space pose matrices (F, B, 4, 4): the rotation part of
+    rest_b^-1 rest_parent pose_parent^-1 pose_b (rest_b^-1 pose_b for a root bone), what
+    the bone's own keys would be with default inheritance."""
+    F, B = pose.shape[:2]
+    parents = np.asarray(rig.parents)
+    inv_rest = np.linalg.inv(rig.rest)
+    has = parents >= 0
+    rel = inv_rest.copy()
+    rel[has] = inv_rest[has] @ rig.rest[parents[has]]
+    parent_inv = np.tile(np.eye(4), (F, B, 1, 1))
+    parent_inv[:, has] = np.linalg.inv(pose[:, parents[has]])
+    local = rel[None] @ parent_inv @ pose
+    return Rotation.from_matrix(local[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
+
+
+__all__ = ["bake", "clear", "evaluate_played", "local_rotations", "own_matrix_world", "owned_tracks", "root_bone", "BakeError"]

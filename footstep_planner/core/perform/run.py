@@ -1,0 +1,169 @@
+"""A plan performed: its synthesis leg by leg (turns in place, stops and arrival frames
+through waypoints), ready for the solve stage. The core's side of a bake between the
+search and the IK; the Blender layer reads the scene into a ``PlanSetup`` and calls
+``perform_plan``.
+
+Reads: a ``PlanResult`` and its ``PlanSetup``, ``Settings``, the scene's frame rate, the goal,
+and optionally a route through waypoints (``MarkedRoute``). Returns: ``Planned`` (the path
+with both standing feet at either end, its ``Synthesis``, when each waypoint is reached).
+Never: reads the scene, writes keys, or imports bpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from ..base.settings import Settings
+from ..footprint import PIVOT
+from ..plan.navgraph import PlanResult
+from ..plan.setup import PlanSetup
+from ..solve.frames import Solved, solve
+from ..synth.pipeline import Synthesis, standing_body, surface_snap
+from ..synth.pipeline import synthesize as synthesize_leg
+from . import turn_in_place
+from .directed import Performance, SynthFn, TimingError, arrival_frames, arrival_times, perform
+
+
+@runtime_checkable
+class MarkedRoute(Protocol):
+    """A route through waypoints (``blender/ui/directing.ViaRoute``): called as
+    ``route(setup, start, heading)`` for its path; ``marks(fps, first frame)`` its waypoints'
+    marks; ``directed`` when some stop or have arrival frames; ``retime(error, can_run)``
+    changes it after a ``TimingError`` (False: it can't)."""
+
+    directed: bool
+
+    def __call__(self, setup: PlanSetup, start, heading) -> PlanResult: ...
+
+    def marks(self, fps: float, first: float) -> list: ...
+
+    def retime(self, error: TimingError, can_run: bool) -> bool: ...
+
+
+def legs(setup: PlanSetup, settings: Settings, fps: float) -> SynthFn:
+    """``directed.SynthFn`` of this plan at ``fps`` frames a second: a leg from standing to
+    standing (a path that turns in place: its turns and walk, ``turn_in_place.synthesize``)."""
+    pl = setup.planner
+    settings = settings.for_body(pl.settings.body_scale)  # (a human's lengths, for this character)
+    snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
+                        step_height=pl.max_step_height)
+    body = standing_body(setup.library, setup.analyses)
+
+    def leg(path, other, goal, heading, lead, hold, pace):
+        if other is None:
+            other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
+        return synthesize_leg(path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward, snap=snap,
+                           goal=goal, standing=True, start_other=other, goal_heading=heading, pace=pace, lead=lead,
+                           hold=hold)
+
+    def turning(path, other, goal, heading, lead, hold, pace):
+        if any(f.label == PIVOT for f in path):
+            return turn_in_place.synthesize(path, leg, other, goal, heading, lead, hold, pace, setup.forward, pl.foot,
+                                            settings.turn_step_angle, body)
+        return leg(path, other, goal, heading, lead, hold, pace)
+
+    return turning
+
+
+@dataclass
+class Planned:
+    """A plan and its synthesized motion."""
+
+    result: PlanResult
+    setup: PlanSetup
+    synthesis: Synthesis
+    goal_heading: float | None  # the planner's heading to arrive with (rad), if any
+    performance: Performance | None = None  # through waypoints: when each is reached
+    solved: Solved | None = None  # the IK of ``synthesis``, when timing it needed one already
+
+
+def synthesize_plan(result: PlanResult, setup: PlanSetup, settings: Settings, fps: float, goal=None,
+                    goal_heading: float | None = None) -> Synthesis:
+    """Thesis 3.3 to 3.7 on a planned path: the body trajectory and every clip's weight
+    and time per frame, footprints kept on the surfaces. The character starts from
+    standing on its start footprints and stops to standing at the goal, turned to
+    ``goal_heading`` (the planner's heading, rad) when given; the synthesis's path
+    (``Synthesis.plan``) holds both standing feet at either end. A path that turns in
+    place plays each turn as a leg of its own."""
+    path = result.footprints
+    other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
+    return legs(setup, settings, fps)(path, other, goal, goal_heading, None, None, None)
+
+
+def perform_plan(result: PlanResult, setup: PlanSetup, settings: Settings, fps: float, goal, heading=None,
+                 route=None, first: float = 0.0) -> Planned:
+    """The plan synthesized: along its path, or with a route through waypoints that
+    stops at some or has arrival frames (scene frames from ``first``), leg by leg
+    (``directed.perform``); a frame too soon runs on the way to it, or the route is
+    retimed and planned again."""
+    performance, ik = None, LastSolve(setup, heading, settings)
+    if isinstance(route, MarkedRoute):
+        marks = route.marks(fps, first)
+        if route.directed:
+            can_run = bool(setup.library.turn_groups.get("run"))
+            while True:  # (a frame too soon: run on the way to it; early with nowhere to wait: stop before)
+                try:
+                    performance = _perform(result, setup, settings, fps, marks, goal, heading, first, ik.body)
+                    break
+                except TimingError as ex:
+                    if not route.retime(ex, can_run):
+                        raise
+                    result = route(setup, setup.start, heading)
+                    marks = route.marks(fps, first)
+            syn = performance.synthesis
+        else:
+            syn = synthesize_plan(result, setup, settings, fps, goal, heading)
+            times, windows = arrival_times(syn, [syn], marks, ik.body(syn))
+            performance = Performance(syn, marks, times, np.ones(len(marks)), np.zeros(len(marks)), windows)
+    else:
+        syn = synthesize_plan(result, setup, settings, fps, goal, heading)
+    result = replace(result, footprints=list(syn.plan))  # with both standing feet at either end
+    return Planned(result, setup, syn, heading, performance, ik.of(syn))
+
+
+class LastSolve:
+    """The IK of syntheses whose arrival frames are read on the baked body (``body``),
+    the last one kept for the bake (``of``)."""
+
+    def __init__(self, setup: PlanSetup, heading, settings: Settings):
+        self.setup, self.heading, self.settings, self.last = setup, heading, settings, None
+
+    def body(self, syn: Synthesis) -> np.ndarray:
+        solved = solve(syn, self.setup, self.settings)
+        self.last = (syn, solved)
+        return solved.ik.body_pos
+
+    def of(self, syn: Synthesis) -> "Solved | None":
+        return self.last[1] if self.last is not None and self.last[0] is syn else None
+
+
+def _perform(result: PlanResult, setup: PlanSetup, settings: Settings, fps: float, marks, goal, heading,
+             frame_start: float, body) -> Performance:
+    """The path through its marks leg by leg, stopping where they stop, their frames met
+    (read on ``body(synthesis)``: the body the bake will have, after the IK)."""
+    return perform(result.footprints, marks, legs(setup, settings, fps), goal, heading,
+                   pace_range=(settings.pace_min, settings.pace_max), frame_start=frame_start, body=body)
+
+
+def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=None) -> list[dict]:
+    """Per waypoint (the goal last): the frame asked for, the frame the plan reaches it on
+    and, with the played body positions (F, 3), the frame the played scene does; the
+    pause, the pace of the walk to it, the seconds waited before."""
+    perf = planned.performance
+    if perf is None:
+        return []
+    played = None if played_body is None else arrival_frames(played_body, perf.marks, perf.windows)
+    rows = []
+    for k, m in enumerate(perf.marks):
+        rows.append({"name": m.name, "arrive": None if m.arrive is None else round(frame_start + m.arrive * fps, 2),
+                     "planned": round(float(frame_start + perf.times[k] * fps), 2),
+                     "achieved": None if played is None else round(float(frame_start + played[k]), 2),
+                     "stops": bool(m.stop), "pause": round(float(m.pause), 3), "pace": round(float(perf.pace[k]), 4),
+                     "waited": round(float(perf.waited[k]), 3)})
+    return rows
+
+
+__all__ = ["LastSolve", "MarkedRoute", "Planned", "legs", "perform_plan", "synthesize_plan", "waypoint_rows"]
