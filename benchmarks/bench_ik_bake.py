@@ -106,6 +106,7 @@ def main():
     from footstep_planner import register
     from footstep_planner.blender.write import bake as baking
     from footstep_planner.blender import planning
+    from footstep_planner.core.solve.frames import body_spin
     from footstep_planner.blender.read.clips import import_clips
     from footstep_planner.blender.sample.sample_scenes import build
     from footstep_planner.core.solve.ik import body_frames, solve_ik
@@ -144,7 +145,7 @@ def main():
         sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot, clearance=pl.clearance)
         normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
         walk = next(a for a in s.analyses if a.kind == "cycle").motion
-        spin = planning.body_spin(s.forward, s.analyses)
+        spin = body_spin(s.forward, s.analyses)
         planted = syn.planted()
         t0 = time.perf_counter()
         ik = solve_ik(s.rig, basis, sched.t, syn.body_position, syn.body_heading, spin, walk.heel_local,

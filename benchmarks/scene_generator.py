@@ -107,6 +107,7 @@ def cmu_character(package: str = "footstep_planner") -> Character:
 
     from footstep_planner.core.base.settings import Settings
     from footstep_planner.core.clips.steps import library_steps
+    from footstep_planner.core.plan.setup import foot_shape
 
     if package == "footstep_planner":
         from footstep_planner import register
@@ -124,7 +125,7 @@ def cmu_character(package: str = "footstep_planner") -> Character:
                           stride=(settings.stride_min, settings.stride_max),
                           straighten=settings.straightens)
     return Character(steps, np.asarray(planning.world_forward(ob, clips.analyses)),
-                     planning.foot_shape(clips.analyses, clips.rig))
+                     foot_shape(clips.analyses, clips.rig))
 
 
 def planner_inputs(scene: Scene, forward) -> tuple:

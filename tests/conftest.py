@@ -115,6 +115,27 @@ def scene_with_cmu(fp, name, fps=30):
     return scene, ob
 
 
+def analyse_bvh(fp, paths, fps):
+    """Analyse BVH files at a scene rate; plain results only (no bpy references kept)."""
+    from importlib import import_module
+
+    import bpy
+
+    clips = import_module(fp.__name__ + ".blender.read.clips")
+    character = import_module(fp.__name__ + ".blender.read.character")
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.context.scene.render.fps = fps
+    bpy.context.scene.render.fps_base = 1.0
+    out = {}
+    for p in paths:
+        ob, _ = clips.import_clips([p])
+        res = character.analyze_character(ob)
+        assert not res.errors, res.errors
+        for a in res.analyses:
+            out[a.name] = a
+    return out
+
+
 def plan_sample(fp, name, **kw):
     """Sample scene ``name`` with the CMU character, planned from Start to Goal:
     (scene, PlanResult, PlanSetup, goal)."""

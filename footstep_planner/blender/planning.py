@@ -1,5 +1,8 @@
-"""Planning in a Blender scene: the character's footprints and clips, the tagged
-surfaces, the goal -> core.plan.navgraph.Planner -> a footstep path.
+"""A bake in a Blender scene: the scene read into a plan's setup (the tagged surfaces,
+the character's clips analysed, its start and goal), the core's stages called (the search,
+``core.perform.run.perform_plan``, ``core.solve.frames.solve``), the keys written
+(``write.bake``) and the scene measured as Blender plays it (``measure``); ``run_steps``
+holds the order.
 
 Headings in the result are yaws (radians) relative to the character's rest-pose forward
 as it stands in the world (its armature's rest forward turned by the object's rotation).
@@ -8,47 +11,30 @@ as it stands in the world (its armature's rest forward turned by the object's ro
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, replace
 
 import bpy
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from ..core.report import document as report
-from ..core.perform import turn_in_place
-from ..core.clips.analysis import ClipAnalysis
-from ..core.clips.body import body_scale
-from ..core.perform.directed import Performance, TimingError, arrival_frames, arrival_times, perform
-from ..core.solve.ik import IKResult, solve_ik
-from ..core.clips.library import Library
-from ..core.clips.rig import Rig, forward_kinematics
-from ..core.plan.navgraph import FootprintCache, PathFootprint, PlanError, PlanResult, Planner
-from ..core.synth.pipeline import Synthesis, stage_row, standing_body, surface_snap
-from ..core.synth.pipeline import synthesize as _synthesize
 from ..core.base.settings import Settings
-from ..core.clips.steps import library_steps
-from ..core.solve.pose import blend_pose, pose_bases
-from ..core.plan.surface import FootShape, footprint_support
 from ..core.base.timing import StageTimer
+from ..core.clips.body import body_scale, scaled_points
+from ..core.clips.steps import library_steps, shortest_stride
+from ..core.footprint import PathFootprint
+from ..core.perform import turn_in_place
+from ..core.perform.run import Planned, perform_plan, synthesize_plan, waypoint_rows
+from ..core.plan.navgraph import FootprintCache, PlanError, PlanResult, Planner
+from ..core.plan.setup import PlanSetup, foot_shape, standing_footprints
+from ..core.plan.surface import FootShape
+from ..core.report import document as report
+from ..core.solve.frames import Solved, solve, toe_tips, walk_motion
+from ..core.synth.pipeline import Synthesis, stage_row, standing_body
 from .read.character import analyze_character, library_for
-from .read.scene import facing_rotation, rotation_heading, scene_fps
+from .read.scene import facing_rotation, object_scale, rotation_heading, scene_fps
 from .read.surfaces import scene_surfaces
+from .ui import overlay
 
 #: Support answers per scene, reused while its tagged geometry is unchanged.
 _CACHES: dict[tuple[str, FootShape], FootprintCache] = {}
-#: m of toes the foot's rectangle reaches ahead of the ball; a longer toe bone's tip is
-#: ``FootShape.tip``.
-TOE_ROOM = 0.07
-
-
-@dataclass
-class PlanSetup:
-    planner: Planner
-    analyses: list[ClipAnalysis]
-    library: Library
-    forward: np.ndarray  # world (x, y) of heading 0
-    rig: Rig | None = None
-    start: list | None = None  # the standing footprints the plan left from
 
 
 def world_forward(ob, analyses) -> np.ndarray:
@@ -63,29 +49,6 @@ def world_forward(ob, analyses) -> np.ndarray:
     f = analyses[0].motion.rest_forward
     w = m[:2, :2] @ f
     return w / np.linalg.norm(w)
-
-
-def foot_shape(analyses, rig: Rig | None = None, scale: float = 1.0) -> FootShape:
-    """The foot's rectangle from the clips' heel and toe points (ball of the foot), with
-    room for the heel behind the ankle and the toes ahead of the ball; with the ``rig``,
-    the toe tip where its toe bones reach further (``FootShape.tip``: a long toe that
-    must stay out of a riser). The room and the width are a human's times the body's
-    ``scale`` (``Settings.body_scale``)."""
-    lengths = [np.linalg.norm(f.toe[:2] - f.heel[:2]) for a in analyses for f in a.footprints()]
-    half = 0.5 * float(np.median(lengths)) if lengths else 0.08 * scale
-    toes = [float(np.linalg.norm(rig.tails[t] - rig.rest[t, :3, 3])) for t in
-            (rig.foot_chain(side)[1] for side in "lr") if t is not None] if rig is not None else []
-    room = TOE_ROOM * scale
-    tip = half + max(toes) if toes and max(toes) > room else 0.0
-    sole = getattr(rig, "sole", None)
-    if sole is not None:  # (the mesh's own heel and toe tip: the rectangle is the foot's, and a little room)
-        along = sole.ball - sole.heel
-        reach = max(float(np.max(np.einsum("ki,ki->k", sole.tip - sole.ball, along)
-                                  / np.maximum(np.linalg.norm(along, axis=1), 1e-9))), 0.0)
-        front = min(reach, room)  # (the toes beyond that may hang over a nosing, going down: ``tip``)
-        return FootShape(back=half + 0.01 * scale, front=half + front, half_width=0.05 * scale,
-                         tip=half + reach if reach > room else 0.0, scale=scale)
-    return FootShape(back=half + 0.04 * scale, front=half + room, half_width=0.05 * scale, tip=tip, scale=scale)
 
 
 def object_geometry(ground, obstacles) -> dict:
@@ -128,32 +91,6 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
     return PlanSetup(planner, clips.analyses, library, forward, clips.rig)
 
 
-#: m (a human's): the shortest step a walk is shortened to is at most this long, whatever
-#: its clip's stride (one stair tread, 28 cm, a step): ``Settings.stride_min`` of a
-#: long-striding game walk (0.9 m a step) would still skip treads.
-SHORTEST_STEP = 0.28
-
-
-def shortest_stride(settings: Settings, library: Library, analyses) -> float:
-    """The least share of its clip's stride a walking step may be shortened to:
-    ``Settings.stride_min``, or less for a library whose straightest walk steps so far
-    that that share is well longer than SHORTEST_STEP (at the character's size: a 0.9 m
-    game walk step, not a human's 0.72 m)."""
-    if settings.stride_min >= 1.0:  # (the clips' own strides only, as asked)
-        return settings.stride_min
-    by = {a.name: a for a in analyses}
-    walk = library.turn_groups.get("walk") or library.turn_groups.get("run")
-    if walk is None or not walk.clips:
-        return settings.stride_min
-    straight = min(walk.clips, key=lambda c: abs(c.tau))
-    a = by.get(straight.clip)
-    step = 0.5 * a.stride if a is not None and a.stride else 0.0
-    if step <= 0:
-        return settings.stride_min
-    share = settings.length(SHORTEST_STEP) / step
-    return settings.stride_min if share >= 0.8 * settings.stride_min else float(max(share, 0.05))
-
-
 def character_footprints(ob, setup: PlanSetup) -> list[PathFootprint]:
     """Both feet standing where the character stands: under its hips at rest, placed by
     its object's own transform (not the one a bake of the planner's animates it to, nor
@@ -164,44 +101,6 @@ def character_footprints(ob, setup: PlanSetup) -> list[PathFootprint]:
     m = own_frame(ob)  # (the rig is in world units)
     hips = setup.rig.rest[setup.rig.role_index("hips")][:, 3]
     return standing_footprints(m @ hips, 0.0, setup, f"character {ob.name!r}")
-
-
-#: m: the standing feet's distance either side of the body, and with
-#: ``Settings.straightens`` (the default) the least and most of it as the walk's stance
-#: width sets it.
-STAND_HALF_WIDTH = 0.1
-STAND_HALF_WIDTH_RANGE = (0.05, 0.15)
-
-
-def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
-                        width: float | None = None) -> list[PathFootprint]:
-    """Both feet side by side, ``width`` either side of ``position`` (3,), turned
-    ``heading`` (the planner's frame), dropped onto the ground; PlanError naming ``what``
-    when there is no traversable surface under a foot. The width is STAND_HALF_WIDTH,
-    or with ``Settings.straightens`` (the default) half the walk's stance width
-    (``StepSet.stance_width``, within STAND_HALF_WIDTH_RANGE) and each foot turned out as
-    the walk turns it out (``StepSet.toe_out``): the first step then leaves straight, not
-    askew, along the line through ``position``, not beside it."""
-    ang = heading + np.arctan2(setup.forward[1], setup.forward[0])
-    left = np.array([-np.sin(ang), np.cos(ang), 0.0])
-    p = np.asarray(position, float)[:3]
-    cfg = setup.planner.settings
-    straight = cfg.straightens
-    toe = setup.planner.steps.toe_out() if straight else 0.0
-    if width is None:
-        width = cfg.length(STAND_HALF_WIDTH)
-        if straight and setup.planner.steps.stance_width() > 0:
-            lo, hi = (cfg.length(w) for w in STAND_HALF_WIDTH_RANGE)
-            width = float(np.clip(0.5 * setup.planner.steps.stance_width(), lo, hi))
-    out = []
-    for k, sign in ((0, 1), (1, -1)):
-        q = p + sign * width * left
-        hit = setup.planner.ground.ray_down(np.array([[q[0], q[1], q[2] + cfg.length(0.5)]]), cfg.length(3.0))
-        if not hit.hit[0]:
-            raise PlanError(f"{what} stands at ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}), not above a traversable "
-                            "surface: move it onto a traversable mesh, or pick a Start")
-        out.append(PathFootprint(k, np.array([q[0], q[1], hit.z[0]]), heading + sign * toe, 0.0, "start", "walk"))
-    return out
 
 
 def marker_footprints(marker, setup: PlanSetup) -> list[PathFootprint]:
@@ -241,215 +140,29 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
 
 def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=None,
                goal_heading: float | None = None) -> Synthesis:
-    """Thesis 3.3 to 3.7 on a planned path: the body trajectory and every clip's weight
-    and time per scene frame, footprints kept on the tagged surfaces. The character starts
-    from standing on its start footprints and stops to standing at the goal, turned to
-    ``goal_heading`` (the planner's heading, rad) when given; the synthesis's path
-    (``Synthesis.plan``) holds both standing feet at either end. A path that turns in
-    place (``core.turn_in_place``) plays each turn as a leg of its own."""
-    path = result.footprints
-    other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
-    return legs_of(scene, setup, settings or Settings())(path, other, goal, goal_heading, None, None, None)
-
-
-def legs_of(scene, setup: PlanSetup, settings: Settings):
-    """``core.perform.directed.SynthFn`` on this scene: a leg from standing to standing (a path
-    that turns in place: its turns and walk, ``core.perform.turn_in_place.synthesize``)."""
-    pl = setup.planner
-    settings = settings.for_body(pl.settings.body_scale)  # (a human's lengths, for this character)
-    snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
-                        step_height=pl.max_step_height)
-    fps = scene_fps(scene)
-    body = standing_body(setup.library, setup.analyses)
-
-    def leg(path, other, goal, heading, lead, hold, pace):
-        if other is None:
-            other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
-        return _synthesize(path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward, snap=snap,
-                           goal=goal, standing=True, start_other=other, goal_heading=heading, pace=pace, lead=lead,
-                           hold=hold)
-
-    def turning(path, other, goal, heading, lead, hold, pace):
-        if any(f.label == turn_in_place.PIVOT for f in path):
-            return turn_in_place.synthesize(path, leg, other, goal, heading, lead, hold, pace, setup.forward, pl.foot,
-                                            settings.turn_step_angle, body)
-        return leg(path, other, goal, heading, lead, hold, pace)
-
-    return turning
-
-
-@dataclass
-class Planned:
-    """A plan and its synthesized motion."""
-
-    result: PlanResult
-    setup: PlanSetup
-    synthesis: Synthesis
-    goal_heading: float | None  # the planner's heading to arrive with (rad), if any
-    performance: Performance | None = None  # through waypoints: when each is reached
-    solved: Solved | None = None  # the IK of ``synthesis``, when timing it needed one already
+    """``core.perform.run.synthesize_plan`` at the scene's frame rate."""
+    return synthesize_plan(result, setup, settings or Settings(), scene_fps(scene), goal, goal_heading)
 
 
 def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
                         traversable=(), obstacles=(), route=None, frame_start: float | None = None) -> Planned:
-    """Plan the footprints to ``goal`` and synthesize the motion along them; the overlay
-    shows the result. A route through waypoints (``directing.ViaRoute``) that stops at
-    some or has arrival frames (scene frames, the first frame being ``frame_start``,
-    default the current one) is performed leg by leg (``core.perform.directed.perform``)."""
-    from .ui import overlay
-
+    """Plan the footprints to ``goal`` and perform them (``core.perform.run.perform_plan``:
+    a route through waypoints, ``directing.ViaRoute``, that stops at some or has arrival
+    frames, scene frames from ``frame_start``, default the current one, is performed leg by
+    leg); the overlay shows the result."""
     settings = settings or Settings()
     result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles, route)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
-    performance, ik = None, _LastSolve(setup, heading, settings)
-    if callable(getattr(route, "marks", None)):
-        fps = scene_fps(scene)
-        first = float(scene.frame_current if frame_start is None else frame_start)
-        marks = route.marks(fps, first)
-        if route.directed:
-            can_run = bool(setup.library.turn_groups.get("run"))
-            while True:  # (a frame too soon: run on the way to it; early with nowhere to wait: stop before)
-                try:
-                    performance = _perform(scene, result, setup, settings, marks, goal, heading, first, ik.body)
-                    break
-                except TimingError as ex:
-                    if not route.retime(ex, can_run):
-                        raise
-                    result = route(setup, setup.start, heading)
-                    marks = route.marks(fps, first)
-            syn = performance.synthesis
-        else:
-            syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)
-            times, windows = arrival_times(syn, [syn], marks, ik.body(syn))
-            performance = Performance(syn, marks, times, np.ones(len(marks)), np.zeros(len(marks)), windows)
-    else:
-        syn = synthesize(scene, result, setup, settings, goal=goal, goal_heading=heading)
-    result = replace(result, footprints=list(syn.plan))  # with both standing feet at either end
-    overlay.remember(scene, result.footprints, *syn.footprints, setup.forward, setup.planner.foot, syn.body_position,
-                     result.explored_positions if result.explored else None)
-    return Planned(result, setup, syn, heading, performance, ik.of(syn))
-
-
-class _LastSolve:
-    """The IK of syntheses whose arrival frames are read on the baked body (``body``),
-    the last one kept for the bake (``of``)."""
-
-    def __init__(self, setup: PlanSetup, heading, settings: Settings):
-        self.setup, self.heading, self.settings, self.last = setup, heading, settings, None
-
-    def body(self, syn: Synthesis) -> np.ndarray:
-        solved = solve(Planned(None, self.setup, syn, self.heading), self.settings)
-        self.last = (syn, solved)
-        return solved.ik.body_pos
-
-    def of(self, syn: Synthesis) -> "Solved | None":
-        return self.last[1] if self.last is not None and self.last[0] is syn else None
-
-
-def _perform(scene, result: PlanResult, setup: PlanSetup, settings: Settings, marks, goal, heading,
-             frame_start: float, body) -> Performance:
-    """The path through its marks leg by leg, stopping where they stop, their frames met
-    (read on ``body(synthesis)``: the body the bake will have, after the IK)."""
-    return perform(result.footprints, marks, legs_of(scene, setup, settings), goal, heading,
-                   pace_range=(settings.pace_min, settings.pace_max), frame_start=frame_start, body=body)
-
-
-def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=None) -> list[dict]:
-    """Per waypoint (the goal last): the frame asked for, the frame the plan reaches it on
-    and, with the played body positions (F, 3), the frame the played scene does; the
-    pause, the pace of the walk to it, the seconds waited before."""
-    perf = planned.performance
-    if perf is None:
-        return []
-    played = None if played_body is None else arrival_frames(played_body, perf.marks, perf.windows)
-    rows = []
-    for k, m in enumerate(perf.marks):
-        rows.append({"name": m.name, "arrive": None if m.arrive is None else round(frame_start + m.arrive * fps, 2),
-                     "planned": round(float(frame_start + perf.times[k] * fps), 2),
-                     "achieved": None if played is None else round(float(frame_start + played[k]), 2),
-                     "stops": bool(m.stop), "pause": round(float(m.pause), 3), "pace": round(float(perf.pace[k]), 4),
-                     "waited": round(float(perf.waited[k]), 3)})
-    return rows
-
-
-def body_spin(forward, analyses) -> float:
-    """World yaw of heading 0 minus the rig's rest forward's yaw: the armature object's
-    yaw is this plus the body heading."""
-    rest = analyses[0].motion.rest_forward
-    return float(np.arctan2(forward[1], forward[0]) - np.arctan2(rest[1], rest[0]))
-
-
-def _walk_motion(setup: PlanSetup):
-    """The clip whose heel and toe points stand for the character's (its first cycle)."""
-    return next((a for a in setup.analyses if a.kind == "cycle"), setup.analyses[0]).motion
+    first = float(scene.frame_current if frame_start is None else frame_start)
+    planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
+    syn = planned.synthesis
+    overlay.remember(scene, planned.result.footprints, *syn.footprints, setup.forward, setup.planner.foot,
+                     syn.body_position, planned.result.explored_positions if planned.result.explored else None)
+    return planned
 
 
 #: mm: a re-bake whose splice lets a planted foot slide more than this is baked whole
 SPLICE_SKATE_MM = 1.0
-
-
-@dataclass
-class Solved:
-    """The IK's result, with the seconds of the pose blend and of the IK."""
-
-    ik: IKResult
-    spin: float
-    pose_seconds: float
-    ik_seconds: float
-
-
-def flat_feet(rig: Rig, basis: np.ndarray, weight: np.ndarray, heel_local: np.ndarray,
-              toe_local: np.ndarray) -> np.ndarray:
-    """Pose bases (F, B, 4, 4) with each foot turned about its ankle, as far as ``weight``
-    (F,) 0..1 (the standing clip's), until its heel and ball (``heel_local``, ``toe_local``
-    (2, 4) in the foot bones' frames) lie level: a standing character stands on flat feet
-    (the IK keeps a planted foot's own pitch)."""
-    on = np.flatnonzero(np.asarray(weight) > 1e-6)
-    if not len(on):
-        return basis
-    basis = np.array(basis, float, copy=True)
-    feet = [rig.foot_chain(side)[0] for side in ("l", "r")]
-    world = forward_kinematics(rig, basis[on], bones=feet)
-    for k, f in enumerate(feet):
-        W = world[:, f, :3, :3]
-        d = W @ (np.asarray(toe_local[k][:3], float) - np.asarray(heel_local[k][:3], float))  # heel to ball
-        level = d * [1.0, 1.0, 0.0]
-        axis = np.cross(d, level)
-        norm = np.linalg.norm(axis, axis=1, keepdims=True)
-        axis = np.where(norm > 1e-12, axis / np.maximum(norm, 1e-12), [1.0, 0.0, 0.0])
-        pitch = np.abs(np.arctan2(d[:, 2], np.linalg.norm(level, axis=1)))
-        turn = Rotation.from_rotvec(axis * (pitch * weight[on])[:, None]).as_matrix()
-        basis[on, f, :3, :3] = basis[on, f, :3, :3] @ (W.transpose(0, 2, 1) @ turn @ W)
-    return basis
-
-
-def solve(planned: Planned, settings: Settings) -> Solved:
-    """Thesis 3.8: the clips' bone rotations blended per frame, then the feet pinned to
-    the footprints (on the surface, along its normal) by the IK."""
-    syn, setup = planned.synthesis, planned.setup
-    timer = StageTimer()
-    walk = _walk_motion(setup)
-    with timer("pose_blend"):
-        quat, hips = blend_pose(syn.posed_schedule(), syn.tracks)
-        basis = flat_feet(setup.rig, pose_bases(setup.rig, quat, hips), syn.stand_weight(), walk.heel_local,
-                          walk.toe_local)
-    pl = setup.planner
-    pos, head = syn.footprints
-    sup = footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot, clearance=pl.clearance)
-    normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
-    spin = body_spin(setup.forward, setup.analyses)
-
-    look = pl.settings.length(0.3)
-
-    def ground_z(points):
-        hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, look], 2 * look)
-        return np.where(hit.hit, hit.z, np.nan)
-
-    with timer("ik"):
-        ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
-                      walk.heel_local, walk.toe_local, syn.final.schedule.feet, syn.planted(), pos, head, normal,
-                      setup.forward, settings.for_body(pl.settings.body_scale), ground_z=ground_z, still=syn.flat)
-    return Solved(ik, spin, timer.seconds["pose_blend"], timer.seconds["ik"])
 
 
 def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal, goal_heading, fps: float,
@@ -471,7 +184,7 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
     if played is not None:  # (for the caller: the body as played)
         played["body"] = body_pos
     sched = syn.final.schedule
-    walk = _walk_motion(setup)
+    walk = walk_motion(setup.analyses)
     stances = report.planted_stances(sched.feet, syn.planted() if planted is None else planted, *syn.footprints,
                                      fps, frames)
     allowance = report.source_steps(syn.tracks, sched.clips, sched.weights, fps)
@@ -479,20 +192,6 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
                                [setup.rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local,
                                setup.planner.ground, stances, goal, goal_heading, allowance, setup.rig.names,
                                tips=toe_tips(setup.rig, world, walk.heel_local, walk.toe_local))
-
-
-def toe_tips(rig: Rig, world: np.ndarray, heel_local: np.ndarray, toe_local: np.ndarray) -> np.ndarray:
-    """(2, F, 3) each foot's toe tip in the world (``core.solve.ik.toe_tip``: the toe bone's end,
-    bent as it is, or the mesh's tip) of bone matrices ``world`` (F, B, 4, 4)."""
-    from ..core.solve.ik import toe_tip
-
-    out = []
-    for k, side in enumerate(("l", "r")):
-        foot, toe = rig.foot_chain(side)
-        local = toe_tip(rig, side, world[:, foot], world[:, toe] if toe is not None else None,
-                        heel_local[k, :3], toe_local[k, :3])
-        out.append(np.einsum("fij,fj->fi", world[:, foot, :3, :3], local) + world[:, foot, :3, 3])
-    return np.stack(out)
 
 
 def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
@@ -539,7 +238,7 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     yield 0.5, "inverse kinematics"
     if splice is not None:
         splice.before_ik(planned)
-    solved = planned.solved if planned.solved is not None and splice is None else solve(planned, settings)
+    solved = planned.solved if planned.solved is not None and splice is None else solve(syn, planned.setup, settings)
     yield 0.7, "bake"
     timer = StageTimer()
 
@@ -577,10 +276,7 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     doc["stashed_action"] = act.get(baking.STASH_PROP)
     if planned.performance is not None:
         doc["waypoints"] = waypoint_rows(planned, frame_start, fps, played.get("body"))
-    walk, rig = _walk_motion(planned.setup), planned.setup.rig
-    from ..core.clips.body import scaled_points
-    from .read.scene import object_scale
-
+    walk, rig = walk_motion(planned.setup.analyses), planned.setup.rig
     own = 1.0 / object_scale(ob)  # (in the armature's own units: as an independent read of the file has them)
     doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")],
                                      scaled_points(walk.heel_local, own), scaled_points(walk.toe_local, own))

@@ -31,6 +31,8 @@ import numpy as np
 
 from ...core.base.errors import FootstepError
 from ...core.base.files import Outputs, describe_os_error
+from ...core.perform.run import waypoint_rows
+from ...core.plan.setup import foot_shape
 from ...core.jobs import MAX_FRAME, JobOutcome, exit_status, is_text, read_jobs, summary_table
 from ...core.report.document import plan_report
 from ...core.base.settings import Settings
@@ -561,7 +563,7 @@ def _plan(args) -> int:
         result, syn = planned.result, planned.synthesis
         doc = plan_report(result, syn, ob.name, goal, scene.frame_current)
         if planned.performance is not None:
-            doc["waypoints"] = planning.waypoint_rows(planned, scene.frame_current, scene_fps(scene))
+            doc["waypoints"] = waypoint_rows(planned, scene.frame_current, scene_fps(scene))
         if report:
             outs.write_json(report, doc)
         if out_plan:
@@ -794,7 +796,7 @@ def _demo(args) -> int:
         say("\n" + format_demo_plan(doc, 30, time.perf_counter() - t1))
         say(format_bake(doc))
         doc["clips"] = [a.to_dict() for a in clips.analyses]
-        written = _demo_files(outs, scene, ob, doc, out_dir, name, planning.foot_shape(clips.analyses, clips.rig))
+        written = _demo_files(outs, scene, ob, doc, out_dir, name, foot_shape(clips.analyses, clips.rig))
         outs.commit()
     say(f"\nbaked scene: {written['scene']}\nreview sheet: {written['sheet']}\n  frames: "
         f"{', '.join(written['shots'])}\nreport: {written['report']}"

@@ -24,15 +24,10 @@ Ray is optional: it is imported here only, inside the functions, when ``--ray`` 
 from __future__ import annotations
 
 import contextlib
-import io
 import json
 import logging
 import os
-import platform
-import shutil
 import sys
-import tempfile
-import time
 
 from ...core.base.errors import FootstepError
 from ...core.base.files import describe_os_error

@@ -154,7 +154,7 @@ def via_route(scene, names, goal_name: str, goal, heading, pauses=None, arrive=N
 
 
 def plan_document(ob, planned, goal) -> dict:
-    """The PLAN.json of a plan (``planning.Planned``): its footprints, none locked."""
+    """The PLAN.json of a plan (``core.perform.run.Planned``): its footprints, none locked."""
     fps = planned.result.footprints
     fwd = np.asarray(planned.setup.forward, float)
     return PlanFile(ob.name, np.array([fwd[0], fwd[1], 0.0]), fps, np.zeros(len(fps), bool),

@@ -13,6 +13,7 @@ from bpy.props import BoolProperty, CollectionProperty, EnumProperty, StringProp
 from bpy_extras.io_utils import ImportHelper
 
 from ...core.base.errors import FootstepError
+from ...core.perform.run import waypoint_rows
 
 
 def character(context):
@@ -163,7 +164,7 @@ class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
         if planned.performance is not None:
             from . import overlay
 
-            doc["waypoints"] = planning.waypoint_rows(planned, context.scene.frame_current,
+            doc["waypoints"] = waypoint_rows(planned, context.scene.frame_current,
                                                       planning.scene_fps(context.scene))
             overlay.label_waypoints(context.scene, doc["waypoints"])
         fs.plan_json = json.dumps(doc)

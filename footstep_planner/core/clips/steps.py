@@ -462,3 +462,29 @@ def _jump_rows(sp, a: ClipAnalysis | None, jump_tolerance: float) -> list[tuple]
             rows.append((p.foot, scale * (c * fwd - sn * left), scale * (sn * fwd + c * left),
                          turn + dturn, q.time - p.time, "run", True, sp.clip))
     return rows
+
+
+#: m (a human's): the shortest step a walk is shortened to is at most this long, whatever
+#: its clip's stride (one stair tread, 28 cm, a step): ``Settings.stride_min`` of a
+#: long-striding game walk (0.9 m a step) would still skip treads.
+SHORTEST_STEP = 0.28
+
+
+def shortest_stride(settings: Settings, library: Library, analyses) -> float:
+    """The least share of its clip's stride a walking step may be shortened to:
+    ``Settings.stride_min``, or less for a library whose straightest walk steps so far
+    that that share is well longer than SHORTEST_STEP (at the character's size: a 0.9 m
+    game walk step, not a human's 0.72 m)."""
+    if settings.stride_min >= 1.0:  # (the clips' own strides only, as asked)
+        return settings.stride_min
+    by = {a.name: a for a in analyses}
+    walk = library.turn_groups.get("walk") or library.turn_groups.get("run")
+    if walk is None or not walk.clips:
+        return settings.stride_min
+    straight = min(walk.clips, key=lambda c: abs(c.tau))
+    a = by.get(straight.clip)
+    step = 0.5 * a.stride if a is not None and a.stride else 0.0
+    if step <= 0:
+        return settings.stride_min
+    share = settings.length(SHORTEST_STEP) / step
+    return settings.stride_min if share >= 0.8 * settings.stride_min else float(max(share, 0.05))

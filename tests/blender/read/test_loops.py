@@ -18,7 +18,6 @@ Test data, made as users get it:
 from __future__ import annotations
 
 import functools
-import os
 from dataclasses import replace
 from importlib import import_module
 
@@ -35,7 +34,7 @@ from footstep_planner.core.clips.library import propose_library
 from footstep_planner.core.clips.steps import library_steps
 from footstep_planner.core.report.tables import format_table
 
-from conftest import QUATERNIUS, SHARED, cmu, needs_cmu, needs_quaternius
+from conftest import QUATERNIUS, cmu, needs_cmu, needs_quaternius
 
 RIG = mannequin.rig()
 SPECS = {s.name: s for s in gait.library_specs()}

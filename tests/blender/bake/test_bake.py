@@ -388,7 +388,7 @@ def test_without_a_start_the_character_starts_where_it_stands_and_rebakes_the_sa
     scene.frame_set(37)
     first = planning.run(scene, ob, goal, heading, None, name="here", frame_start=1)
     p0 = np.array(first["synthesis"]["footprints"][0]["planned"])  # a standing foot, beside the hips
-    lo, hi = planning.STAND_HALF_WIDTH_RANGE  # (half the walk's stance width)
+    lo, hi = import_module(fp.__name__ + ".core.plan.setup").STAND_HALF_WIDTH_RANGE  # (half the walk's stance width)
     assert lo - 0.01 < np.linalg.norm(p0[:2] - np.array(start.location[:2])) < hi + 0.01
     scene.frame_set(first["frame_end"])  # the bake has carried the object to the goal
     again = planning.run(scene, ob, goal, heading, None, name="here", frame_start=1)

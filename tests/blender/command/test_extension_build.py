@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 BUILD_SCRIPT = ROOT / "tools" / "build_extension.py"
 MANIFEST = tomllib.loads((ROOT / "blender_manifest.toml").read_text(encoding="utf-8"))
 EXIT_DOWNLOAD_FAILED = 3  # tools/build_extension.py's code for "wheel could not be downloaded"

@@ -20,7 +20,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from benchmarks import mixamo_like
-from conftest import MOD, QUATERNIUS, SHARED, needs_quaternius
+from conftest import MOD, QUATERNIUS, needs_quaternius
 
 TAKES = ("run", "walk", "walk_turn_left_wide")
 ROOT_MOTION = ("Walk_Straight", "Walk_Turn", "Walk_Turn_180")

@@ -58,7 +58,7 @@ def test_a_generated_rigify_rig_walks_the_turns_as_played(fp, rigify_turns):
     settings = import_module(fp.__name__ + ".core.base.settings").Settings()
     goal, heading = planning.goal_of(scene, "Goal")
     planned = planning.plan_and_synthesize(scene, rig, goal, heading, None, settings)
-    solved = planning.solve(planned, settings)
+    solved = import_module(fp.__name__ + ".core.solve.frames").solve(planned.synthesis, planned.setup, settings)
     bake = import_module(fp.__name__ + ".blender.write.bake")
     bake.bake(rig, scene, planned.setup.rig, solved.ik, solved.spin, "rigify", 1, planned.result.footprints,
               planned.synthesis.planted())

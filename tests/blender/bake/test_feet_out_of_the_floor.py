@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import CMU, needs_cmu
-from test_game_rig import QUATERNIUS, needs_quaternius
+from conftest import QUATERNIUS, needs_quaternius
 
 #: m: no heel, ball or toe tip of a played bake goes deeper into the floor than this.
 DEEPEST = 0.010

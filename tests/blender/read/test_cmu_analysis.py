@@ -7,35 +7,16 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import CMU, cmu, needs_cmu
+from conftest import CMU, analyse_bvh, cmu, needs_cmu
 
 pytestmark = needs_cmu
 
 SUBJECT16 = sorted(f for f in os.listdir(CMU) if f.startswith("cmu_16_")) if os.path.isdir(CMU) else []
 
 
-def _analyse(fp, paths, fps):
-    """Analyse BVH files at a scene rate; plain results only (no bpy references kept)."""
-    import bpy
-
-    clips = import_module(fp.__name__ + ".blender.read.clips")
-    character = import_module(fp.__name__ + ".blender.read.character")
-    bpy.ops.wm.read_homefile(use_empty=True)
-    bpy.context.scene.render.fps = fps
-    bpy.context.scene.render.fps_base = 1.0
-    out = {}
-    for p in paths:
-        ob, _ = clips.import_clips([p])
-        res = character.analyze_character(ob)
-        assert not res.errors, res.errors
-        for a in res.analyses:
-            out[a.name] = a
-    return out
-
-
 @pytest.fixture(scope="module")
 def at120(fp):
-    return _analyse(fp, [os.path.join(CMU, f) for f in sorted(os.listdir(CMU)) if f.endswith(".bvh")], 120)
+    return analyse_bvh(fp, [os.path.join(CMU, f) for f in sorted(os.listdir(CMU)) if f.endswith(".bvh")], 120)
 
 
 def test_straight_walk_speed_stride_cycle(at120):
@@ -193,7 +174,7 @@ def test_contacts_agree_with_an_independent_threshold_detector(fp, at120, name):
 @pytest.mark.parametrize("fps", [60, 30])
 def test_figures_do_not_depend_on_the_frame_rate(fp, at120, fps):
     names = ["16_16", "16_17", "16_19", "16_35", "16_41", "49_05"]
-    other = _analyse(fp, [cmu(n) for n in names], fps)
+    other = analyse_bvh(fp, [cmu(n) for n in names], fps)
     for key, b in other.items():
         a = at120[key]
         assert (b.gait, b.kind, b.entry_gait, b.exit_gait) == (a.gait, a.kind, a.entry_gait, a.exit_gait)

@@ -23,7 +23,7 @@ from footstep_planner.core.base.errors import FootstepError
 from footstep_planner.core.base.settings import Settings
 from synth import synthetic_gait
 
-from conftest import cmu, needs_cmu
+from conftest import analyse_bvh, cmu, needs_cmu
 
 RUN = dict(speed=3.0, stride=2.4, duty=0.35)
 
@@ -209,9 +209,7 @@ def test_feet_that_never_plant_raise():
 
 @pytest.fixture(scope="module")
 def cmu120(fp):
-    from test_cmu_analysis import _analyse
-
-    return _analyse(fp, [cmu(n) for n in ("16_16", "16_35", "16_01")], 120)
+    return analyse_bvh(fp, [cmu(n) for n in ("16_16", "16_35", "16_01")], 120)
 
 
 @needs_cmu

@@ -56,7 +56,7 @@ def walk(fp):
     settings = _mod(fp, "core.base.settings").Settings(rigify_ik_feet=True)
     goal, heading = planning.goal_of(scene, "Goal")
     planned = planning.plan_and_synthesize(scene, rig, goal, heading, scene.objects["Start"], settings)
-    yield scene, rig, planned, planning.solve(planned, settings), settings
+    yield scene, rig, planned, _mod(fp, "core.solve.frames").solve(planned.synthesis, planned.setup, settings), settings
     bpy.ops.wm.read_homefile(use_empty=True)
 
 
