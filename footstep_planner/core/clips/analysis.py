@@ -15,18 +15,24 @@ Contact events of one stance, in time order (Johansen's names)::
     liftoff the foot has left the ground
 
 The foot bears weight ("contact") from strike to liftoff.
+
+Here: the analysis (``ClipAnalysis``, ``analyze_clip``; a loop read round its seam, an
+in-place clip on its reconstructed root motion) and its gait cycle figures (speed, stride,
+cycle, cadence, tau, loop error). Each foot's stances are found in ``stances``; the
+flights, jumps, rest, kind and gaits they make in ``gaits``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
 
 from . import inplace, loops
 from .clip import FOOT_NAMES, ClipMotion
+from .gaits import _flights_and_jumps, _gaits, _jump_mask, _kind, _locomotion_kind, _loop_jumps, _rest_at_ends
+from .stances import Footprint, Stance, _Dense, _Foot, _foot_stances, _r, _resample
 from ..base.settings import Settings
 from ..base.errors import FootstepError
 
@@ -41,39 +47,6 @@ class ShortClipError(AnalysisError):
     def __init__(self, message: str, stances: list):
         super().__init__(message)
         self.stances = stances
-
-
-@dataclass
-class Footprint:
-    foot: int  # 0 left, 1 right
-    time: float  # stance time, s
-    position: np.ndarray  # (3,) midpoint of heel and toe on the ground
-    heading: float  # yaw of heel -> toe, radians (0 = the rig's rest forward)
-    heel: np.ndarray  # (3,)
-    toe: np.ndarray  # (3,)
-    strike_part: str | None  # "heel" or "toe": which touched first (None: down at clip start)
-
-    def to_dict(self, motion: ClipMotion) -> dict:
-        return {
-            "foot": FOOT_NAMES[self.foot], "time": _r(self.time),
-            "frame": _r(float(motion.frame_of(self.time)), 2),
-            "position": [_r(v) for v in self.position], "heading": _r(self.heading),
-            "heel": [_r(v) for v in self.heel], "toe": [_r(v) for v in self.toe],
-            "strike": self.strike_part,
-        }
-
-
-@dataclass
-class Stance:
-    foot: int
-    stance: float
-    strike: float  # equals the clip start when the foot is already down there
-    land: float
-    lift: float
-    liftoff: float  # equals the clip end when the foot is still down there
-    open_start: bool  # already down when the clip starts
-    open_end: bool  # still down when the clip ends
-    footprint: Footprint
 
 
 @dataclass
@@ -177,102 +150,8 @@ class ClipAnalysis:
         return [(a, b) for a, b in intervals if lo - 1e-9 <= a < hi - 1e-9]
 
 
-def _r(v, nd=4):
-    """``v`` rounded to ``nd`` decimals for a report; None for None or not finite."""
-    if v is None:
-        return None
-    v = float(v)
-    return None if not np.isfinite(v) else round(v, nd)
-
-
-# ----------------------------------------------------------------------------------
-# helpers on 1-D signals
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """(start, stop) index pairs of the True runs of ``mask`` (stop exclusive)."""
-    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
-    d = np.flatnonzero(np.diff(m.astype(np.int8)))
-    return list(zip(d[0::2], d[1::2]))
-
-
-def _clean_runs(mask: np.ndarray, max_gap: int, min_len: int) -> list[tuple[int, int]]:
-    """The True runs of ``mask`` (``_runs``) with gaps of at most ``max_gap`` samples
-    closed, then runs shorter than ``min_len`` samples dropped."""
-    runs = _runs(mask)
-    merged: list[list[int]] = []
-    for a, b in runs:
-        if merged and a - merged[-1][1] <= max_gap:
-            merged[-1][1] = b
-        else:
-            merged.append([a, b])
-    return [(a, b) for a, b in merged if b - a >= min_len]
-
-
-def _peak(values: np.ndarray, i: int) -> float:
-    """Sub-sample position of a peak at index ``i`` (parabola through three samples)."""
-    if 0 < i < len(values) - 1:
-        a, b, c = values[i - 1], values[i], values[i + 1]
-        den = a - 2 * b + c
-        if den < 0:
-            return i + float(np.clip(0.5 * (a - c) / den, -0.5, 0.5))
-    return float(i)
-
-
-def _rise_index(y: np.ndarray, d1: np.ndarray, d2: np.ndarray, i0: int, i1: int,
-                s: Settings) -> float | None:
-    """Johansen's rules, searching forward from the stance index ``i0`` (exclusive bound
-    ``i1``): the point where the curve starts to rise from the ground. None when the
-    curve does not rise above ``min_step_height`` before ``i1``."""
-    seg = y[i0:i1]
-    if len(seg) < 3:
-        return None
-    y0 = seg[0]
-    top = seg.max()
-    if top - y0 < s.min_step_height:
-        return None
-    reach = np.flatnonzero(seg >= y0 + s.lift_fraction * (top - y0))
-    te = int(reach[0]) if len(reach) else len(seg) - 1
-    # rules 2-4 inside [i0, i0 + te]: steepest rise of the slope, above the ground
-    # (not below the stance height), where the curve is not going down
-    idx = np.arange(i0, i0 + te + 1)
-    ok = (y[idx] >= min(y0, 0.0)) & (d1[idx] >= 0)
-    if not ok.any():
-        return float(i0 + te)
-    cand = idx[ok]
-    best = int(cand[np.argmax(d2[cand])])
-    return _peak(d2, best)
-
-
-def _crossing(y: np.ndarray, i: int, toward: int, thr: float, first: int = 0) -> float:
-    """Sub-sample time where ``y`` crosses ``thr`` between sample ``i`` (above) and its
-    neighbour ``i + toward`` (below); ``y`` may be a window of a longer signal starting
-    at its sample ``first``, which the time is then counted in."""
-    j = i + toward
-    if not 0 <= j < len(y) or y[i] == y[j]:
-        return float(first + i)
-    return (first + i) + toward * float(np.clip((y[i] - thr) / (y[i] - y[j]), 0.0, 1.0))
-
-
-def _flip(x: float | None, n: int) -> float | None:
-    """Sample position ``x`` of a signal of ``n`` samples run backward, as a position in
-    the forward signal (None stays None)."""
-    return None if x is None else (n - 1) - x
-
-
 # ----------------------------------------------------------------------------------
 # the clip
-
-@dataclass
-class _Dense:
-    """The clip resampled to the analysis rate, and its body's speed."""
-
-    motion: ClipMotion  # the resampled clip: times (n,) s, 0 to (n - 1) * dt
-    rate: float  # samples per second: the analysis rate, or the clip's own if higher
-    dt: float  # 1 / rate, s
-    n: int  # samples
-    body_speed: np.ndarray  # (n,) m/s of the root in the ground plane (XY)
-    body_speed_s: np.ndarray  # (n,) m/s, the same as a 0.1 s moving average
-
 
 class _Window(NamedTuple):
     """A gait cycle candidate: two consecutive strikes (or liftoffs) of one foot."""
@@ -460,18 +339,6 @@ def _check_analysable(motion: ClipMotion) -> None:
         raise AnalysisError(f"clip {motion.name!r} is too short to analyse ({motion.n} frames)")
 
 
-def _resample(motion: ClipMotion, s: Settings) -> _Dense:
-    """The clip at ``s.analysis_rate`` samples per second (cubic; kept as it is when its
-    own rate is that or higher), with its root's horizontal speed, raw and smoothed."""
-    rate = max(float(s.analysis_rate), motion.fps)
-    dense = motion if abs(rate - motion.fps) < 1e-9 else motion.resample(rate)
-    dt = 1.0 / rate
-    root_v = np.gradient(dense.root_pos[:, :2], dt, axis=0)
-    body_speed = np.linalg.norm(root_v, axis=1)
-    return _Dense(dense, rate, dt, len(dense.times), body_speed,
-                  _smooth(body_speed, int(round(0.1 / dt))))
-
-
 def _all_stances(feet: list[_Foot], name: str) -> list[Stance]:
     """Both feet's stances by stance time (left before right at equal times);
     AnalysisError naming clip ``name`` when there are none."""
@@ -494,154 +361,6 @@ def _contact_mask(d: _Dense, feet: list[_Foot]) -> np.ndarray:
         for st in foot.stances:
             contact[k] |= (t >= st.strike - 1e-9) & (t <= st.liftoff + 1e-9)
     return contact
-
-
-def _flights_and_jumps(stances: list[Stance], d: _Dense, s: Settings
-                       ) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
-    """(flights, jumps) as (start, end) s. A flight: inside the clip, neither foot bears
-    weight, for 0.02 s or more. A jump: a flight of ``s.jump_min_flight`` or more that
-    lasts twice the median flight (or any such flight when there are at most two)."""
-    flights = _gaps([(st.strike, st.liftoff) for st in stances], 0.0, (d.n - 1) * d.dt)
-    flights = [f for f in flights if f[1] - f[0] >= 0.02]
-    durations = np.array([b - a for a, b in flights])
-    typical = float(np.median(durations)) if len(durations) else 0.0
-    jumps = [f for f in flights
-             if f[1] - f[0] >= s.jump_min_flight and (f[1] - f[0] >= 2.0 * typical or len(flights) <= 2)]
-    return flights, jumps
-
-
-def _loop_jumps(flights: list[tuple[float, float]], period: float, s: Settings) -> list[tuple[float, float]]:
-    """The jumps of a loop tiled period after period (``period`` s), its ``flights`` (start,
-    end) s: a flight of ``s.jump_min_flight`` or more that lasts twice the median of the
-    other flights of its period (any such flight when it is its period's only one: a run's
-    cycle has two alike, a running jump's cycle a jump and a run's flights), the second
-    period's read, the others' by their repeats."""
-    own = [f for f in flights if period <= f[0] < 2 * period]
-    jump_starts = []
-    for f in own:
-        others = [g[1] - g[0] for g in own if g is not f]
-        if f[1] - f[0] >= s.jump_min_flight and (not others or f[1] - f[0] >= 2.0 * float(np.median(others))):
-            jump_starts.append(f[0] - period)
-    tol = 0.25 * min((b - a for a, b in flights), default=0.0) + 1e-6
-    return [f for f in flights if any(abs(np.mod(f[0] - t + 0.5 * period, period) - 0.5 * period) <= tol
-                                      for t in jump_starts)]
-
-
-def _rest_at_ends(d: _Dense, contact: np.ndarray, s: Settings) -> tuple[bool, bool, np.ndarray]:
-    """(starts_at_rest, ends_at_rest, moving): at rest is the body slower than
-    ``s.rest_speed`` with both feet down, for ``s.rest_time`` at the clip's start or end;
-    ``moving`` (n,) bool is every sample but the runs of rest touching either end."""
-    rest_n = max(1, int(round(s.rest_time / d.dt)))
-    both = contact[0] & contact[1]
-    at_rest = (d.body_speed_s < s.rest_speed) & both
-    starts_at_rest = bool(d.n > rest_n and at_rest[:rest_n].all())
-    ends_at_rest = bool(d.n > rest_n and at_rest[-rest_n:].all())
-    moving = ~(at_rest & _edge_runs(at_rest))
-    return starts_at_rest, ends_at_rest, moving
-
-
-def _jump_mask(d: _Dense, jumps: list[tuple[float, float]]) -> np.ndarray:
-    """(n,) bool: the dense samples inside a jump's flight (ends rounded, included)."""
-    in_jump = np.zeros(d.n, bool)
-    for a, b in jumps:
-        in_jump[int(round(a / d.dt)):int(round(b / d.dt)) + 1] = True
-    return in_jump
-
-
-def _kind(d: _Dense, jumps: list, starts_at_rest: bool, ends_at_rest: bool, s: Settings) -> str:
-    """"jump" with a jump; "idle" at rest at both ends travelling under 0.5 m (a human's),
-    else "start" / "stop" at rest at the start / end; "cycle" otherwise."""
-    if jumps:
-        return "jump"
-    if starts_at_rest and ends_at_rest:
-        pos = d.motion.root_pos
-        travel = float(np.linalg.norm(pos[-1, :2] - pos[0, :2]))
-        return "idle" if travel < s.length(0.5) else "start"
-    if starts_at_rest:
-        return "start"
-    if ends_at_rest:
-        return "stop"
-    return "cycle"
-
-
-#: m/s (a human's): locomotion whose steps have flights is still a walk while its body
-#: goes slower than this (its 90th percentile): a game character's walk whose feet hover
-#: a little over the ground between its steps; the slowest runs and jogs go faster.
-WALK_TOP_SPEED = 2.0
-
-#: The body stands at a clip's end while its hips are at least this share of their
-#: standing height (the rig's, as it stands at rest; or the highest they are in the clip
-#: with a foot on the ground, if lower) there, over END_POSTURE s.
-STANDING_HIPS = 0.7
-END_POSTURE = 0.2
-
-
-def _locomotion_kind(kind: str, gait: str, m: ClipMotion, down: np.ndarray) -> str:
-    """``kind``, or "other" for a clip (``m`` at the analysis rate, a foot ``down`` (n,)
-    bool) that is not locomotion: its body does not stand at its start or its end (its
-    hips below STANDING_HIPS of their standing height there: lying down, sitting, getting
-    up), or a start or stop that neither walks nor runs (a lunge, a stagger that ends at
-    rest). Such clips are never put in the library."""
-    h = m.hips_in_root[:, 2, 3]
-    top = float(h[down].max()) if down.any() else float(np.median(h))
-    if m.stand_height is not None and m.stand_height > 0:
-        top = min(top, m.stand_height)
-    n = max(1, int(round(END_POSTURE * m.fps)))
-    if top > 0 and min(float(np.mean(h[:n])), float(np.mean(h[-n:]))) < STANDING_HIPS * top:
-        return "other"
-    if kind in ("start", "stop") and gait not in ("walk", "run"):
-        return "other"
-    return kind
-
-
-def _gait_of(d: _Dense, mask: np.ndarray, stances: list[Stance], flights: list,
-             jumps: list, s: Settings) -> str | None:
-    """The gait of the dense samples in ``mask`` (n,) bool: None under 0.15 s; "stand"
-    when the body is slow or no foot lifts or lands in it; "walk" when a foot is always down, "run" when the steps have
-    flight phases: decided by the share of the steps inside ``mask`` followed by a
-    flight that is not a jump."""
-    dt, n = d.dt, d.n
-    if mask.sum() * dt < 0.15:
-        return None
-    if np.mean(d.body_speed_s[mask]) < 2 * s.rest_speed:
-        return "stand"
-    inside = lambda t_: mask[min(int(round(t_ / dt)), n - 1)]  # noqa: E731
-    if not any(inside(t_) for st in stances for t_, cut in ((st.strike, st.open_start), (st.liftoff, st.open_end))
-               if not cut):
-        return "stand"  # no foot lifts or lands: the feet stay down (a jump on the spot's run-up)
-    steps = sum(1 for st in stances if inside(st.stance))
-    air = sum(1 for a, b in flights if inside(0.5 * (a + b)) and (a, b) not in jumps)
-    runs = air > 0 if steps < 2 else air >= s.run_flight_share * (steps - 1)
-    if runs and float(np.percentile(d.body_speed_s[mask], 90)) < s.length(WALK_TOP_SPEED):
-        return "walk"  # (a game's walk whose feet hover between its steps: at a walk's speed, a walk)
-    return "run" if runs else "walk"
-
-
-def _gaits(d: _Dense, loco: np.ndarray, stances: list[Stance], flights: list, jumps: list,
-           mine: list, starts_at_rest: bool, ends_at_rest: bool, s: Settings) -> tuple[str, str, str]:
-    """(gait, entry_gait, exit_gait). The gait is that of the locomotion ``loco`` (n,)
-    bool ("stand" when too short to tell); the clip is entered and left in it, or in the
-    gaits before the first and after the last of the jumps ``mine`` (of all ``jumps``: the
-    locomotion from the jump before them, to the jump after them), or "stand" from and to
-    rest."""
-    gait = _gait_of(d, loco, stances, flights, jumps, s) or "stand"
-    if not mine:
-        return (gait, "stand" if starts_at_rest else gait,
-                "stand" if ends_at_rest else gait)
-    ja, jb = int(round(mine[0][0] / d.dt)), int(round(mine[-1][1] / d.dt))
-    before = [b for a, b in jumps if b <= mine[0][0]]
-    after = [a for a, b in jumps if a >= mine[-1][1]]
-    pre = loco.copy()
-    pre[ja:] = False
-    if before:
-        pre[:int(round(max(before) / d.dt)) + 1] = False
-    post = loco.copy()
-    post[:jb + 1] = False
-    if after:
-        post[int(round(min(after) / d.dt)):] = False
-    entry_gait = "stand" if starts_at_rest else (_gait_of(d, pre, stances, flights, jumps, s) or gait)
-    exit_gait = "stand" if ends_at_rest else (_gait_of(d, post, stances, flights, jumps, s) or gait)
-    return gait, entry_gait, exit_gait
 
 
 def _cycle_windows(stances: list[Stance], loco: np.ndarray, dt: float) -> list[_Window]:
@@ -730,248 +449,6 @@ def _is_loop(motion: ClipMotion, d: _Dense, windows: list[_Window]) -> bool:
 def _clip_samples(motion: ClipMotion, d: _Dense) -> np.ndarray:
     """(N,) index of the dense sample nearest each of the clip's own samples."""
     return np.clip(np.rint(motion.times * d.rate).astype(int), 0, d.n - 1)
-
-
-# ----------------------------------------------------------------------------------
-# one foot
-
-@dataclass
-class _Foot:
-    """What the analysis of one foot gives."""
-
-    stances: list[Stance]
-    balance: np.ndarray  # (N,) toe weight
-    lowest: float  # lowest of heel and toe, m
-
-
-@dataclass
-class _FootSignals:
-    """One foot's curves on the dense clip: N samples ``dt`` s apart, metres, m/s."""
-
-    heel: np.ndarray  # (N, 3) heel point
-    toe: np.ndarray  # (N, 3) toe (ball) point
-    heel_z: np.ndarray  # (N,) heel height
-    toe_z: np.ndarray  # (N,) toe height
-    balance: np.ndarray  # (N,) toe weight in [0, 1]: 0.5 + (heel_z - toe_z) / balance band
-    lower_z: np.ndarray  # (N,) the lower of heel and toe
-    upper_z: np.ndarray  # (N,) the higher of heel and toe: low only with both down
-    velocity: np.ndarray  # (N, 2) horizontal velocity of the part that is down
-    speed: np.ndarray  # (N,) its norm
-    sigma: float  # derivative smoothing, samples
-    dt: float  # s between samples
-
-
-@dataclass
-class _Events:
-    """One stance's contact events, in dense samples (fractional but ``stance``)."""
-
-    stance: int  # the foot stands most firmly
-    strike: float  # first touch (0 with open_start)
-    land: float  # fully landed
-    lift: float  # begins to lift
-    liftoff: float  # has left the ground (N - 1 with open_end)
-    open_start: bool  # no strike found: already down when the clip starts
-    open_end: bool  # no liftoff found: still down when the clip ends
-
-
-def _foot_stances(dense: ClipMotion, k: int, body_speed: np.ndarray, s: Settings) -> _Foot:
-    """The stances of foot ``k`` on the densely resampled clip (Johansen's rules);
-    ``body_speed`` (N,) m/s is the smoothed body speed."""
-    sig = _foot_signals(dense, k, s)
-    out = _Foot([], sig.balance, float(sig.lower_z.min()))
-    runs = _seed_runs(sig, s)
-    if not runs:
-        return out
-    firm, ts = _firm_parts(sig, runs, s)
-    heights = _height_curves(sig)
-    events = [_stance_events(sig, heights, firm, j, i0, body_speed, s) for j, i0 in enumerate(ts)]
-    for ev in _merge_standing(events):
-        out.stances.append(_stance_of(dense, k, sig, ev))
-    return out
-
-
-def _foot_signals(dense: ClipMotion, k: int, s: Settings) -> _FootSignals:
-    """Heights, balance and the planted part's velocity of foot ``k``."""
-    t = dense.times
-    dt = t[1] - t[0]
-    heel, toe = dense.heel[k], dense.toe[k]
-    hh, ht = heel[:, 2], toe[:, 2]
-    # Johansen's balance: the toe's weight grows as the heel rises above the toe
-    b = np.clip(0.5 + (hh - ht) / s.balance_band, 0.0, 1.0)
-    # velocity of the part that is down: the heel's and toe's velocities blended by the
-    # balance (differentiating the blended point would add the roll-off itself)
-    sigma = s.derivative_smoothing / dt
-    v_heel = gaussian_filter1d(heel[:, :2], sigma, axis=0, order=1, mode="nearest") / dt
-    v_toe = gaussian_filter1d(toe[:, :2], sigma, axis=0, order=1, mode="nearest") / dt
-    vc = v_heel + b[:, None] * (v_toe - v_heel)
-    return _FootSignals(heel, toe, hh, ht, b, np.minimum(hh, ht), np.maximum(hh, ht), vc,
-                        np.linalg.norm(vc, axis=1), sigma, dt)
-
-
-def _seed_runs(sig: _FootSignals, s: Settings) -> list[tuple[int, int]]:
-    """(start, stop) sample runs where the foot is near the clip's ground (or the foot's
-    lowest level, for feet that sink below it) and slow: gaps up to 0.06 s closed, runs
-    under 0.04 s (2 samples) dropped."""
-    dt = sig.dt
-    ground = min(float(np.percentile(sig.lower_z, 2)), 0.0)
-    down = (sig.lower_z < ground + s.contact_height) & (sig.speed < s.contact_speed)
-    return _clean_runs(down, int(round(0.06 / dt)), max(2, int(round(0.04 / dt))))
-
-
-def _firm_parts(sig: _FootSignals, runs: list[tuple[int, int]], s: Settings
-                ) -> tuple[list[tuple[int, int]], list[int]]:
-    """(firm, ts) per seed run: ``firm`` the (first, last) sample (inclusive) of the
-    firm part of the stance (heel and toe both near their lowest, the foot slow), ``ts``
-    the stance sample inside it. Johansen's searches start from the firm part's edges,
-    so a heel wobbling while the foot pivots on its ball (sharp turns) does not end the
-    stance."""
-    low = sig.upper_z
-    firm, ts = [], []
-    for a, e in runs:
-        i0 = a + int(np.argmin(low[a:e]))
-        ok = (low[a:e] <= low[i0] + s.firm_height) & (sig.speed[a:e] < s.firm_speed)
-        idx = np.flatnonzero(ok) + a
-        if len(idx):
-            firm.append((int(idx[0]), int(idx[-1])))
-            i0 = int(idx[np.argmin(low[idx])])
-        else:
-            firm.append((i0, i0))
-        ts.append(i0)
-    return firm, ts
-
-
-def _height_curves(sig: _FootSignals) -> tuple[list, list]:
-    """(forward, backward): for the heel and the toe height, (y, dy, d2y) per sample
-    (Gaussian derivatives, ``sig.sigma``), and the same curves run backward in time."""
-    curves = [(y, gaussian_filter1d(y, sig.sigma, order=1, mode="nearest"),
-               gaussian_filter1d(y, sig.sigma, order=2, mode="nearest"))
-              for y in (sig.heel_z, sig.toe_z)]
-    reverse = [(y[::-1], -d[::-1], dd[::-1]) for y, d, dd in curves]
-    return curves, reverse
-
-
-def _stance_events(sig: _FootSignals, heights: tuple[list, list], firm: list[tuple[int, int]],
-                   j: int, i0: int, body_speed: np.ndarray, s: Settings) -> _Events:
-    """The events of the ``j``-th stance (stance sample ``i0``): Johansen's vertical
-    rules searched from its firm part's edges up to the neighbouring firm parts, cut
-    short where the foot slips (``_slips``)."""
-    n = len(sig.heel_z)
-    fa, fb = firm[j]
-    nxt = firm[j + 1][0] if j + 1 < len(firm) else n
-    prv = firm[j - 1][1] if j > 0 else -1
-    forward, backward = heights
-    slip_b, slip_f = _slips(sig, body_speed[i0], fa, fb, prv, nxt, s)
-    lift, liftoff = _leaving(forward, fb, nxt, slip_f, s)
-    strike, land = _arriving(backward, fa, prv, n, slip_b, s)
-    return _Events(i0, 0.0 if strike is None else strike, 0.0 if land is None else land,
-                   float(n - 1) if lift is None else lift,
-                   float(n - 1) if liftoff is None else liftoff, strike is None, liftoff is None)
-
-
-def _slips(sig: _FootSignals, body_speed: float, fa: int, fb: int, prv: int, nxt: int,
-           s: Settings) -> tuple[float | None, float | None]:
-    """(before, after): Johansen's horizontal check. The foot has not yet reached
-    (``before``, searched back from ``fa`` to ``prv``) or has left (``after``, from
-    ``fb`` to ``nxt``) the ground where its velocity departs from its median velocity
-    over the firm part [fa, fb] by more than ``s.slip_tolerance`` times the body speed
-    (m/s), at least ``s.slip_min_speed``. Fractional samples; None: no such point."""
-    vc = sig.velocity
-    thr = max(s.slip_tolerance * body_speed, s.slip_min_speed)
-    lo, hi = max(prv, 0), min(nxt + 1, len(vc))  # (the search, and the samples beside it)
-    dev = np.linalg.norm(vc[lo:hi] - np.median(vc[fa:fb + 1], axis=0), axis=1)
-    fwd = np.flatnonzero(dev[fb - lo:nxt - lo] > thr)
-    bwd = np.flatnonzero(dev[prv + 1 - lo:fa + 1 - lo] > thr)
-    slip_f = _crossing(dev, fb - lo + fwd[0], -1, thr, lo) if len(fwd) else None
-    slip_b = _crossing(dev, prv + 1 - lo + bwd[-1], +1, thr, lo) if len(bwd) else None
-    return slip_b, slip_f
-
-
-def _leaving(curves: list, fb: int, nxt: int, slip: float | None, s: Settings
-             ) -> tuple[float | None, float | None]:
-    """(lift, liftoff) in fractional samples: the first and last of heel and toe to rise
-    after ``fb`` (before ``nxt``), liftoff no later than ``slip``. None: the foot does
-    not leave."""
-    rises = [x for x in (_rise_index(*c, fb, nxt, s) for c in curves) if x is not None]
-    lift, liftoff = (min(rises), max(rises)) if rises else (None, None)
-    if slip is not None and (liftoff is None or slip < liftoff):
-        liftoff = slip
-        lift = slip if lift is None else min(lift, slip)
-    return lift, liftoff
-
-
-def _arriving(reverse: list, fa: int, prv: int, n: int, slip: float | None, s: Settings
-              ) -> tuple[float | None, float | None]:
-    """(strike, land) in fractional samples: the first and last of heel and toe to come
-    down before ``fa`` (after ``prv``; the rise rules run backward in time), strike no
-    earlier than ``slip``. None: the foot was down all along."""
-    touches = [x for x in (_flip(_rise_index(*c, n - 1 - fa, n - 1 - prv, s), n)
-                           for c in reverse) if x is not None]
-    strike, land = (min(touches), max(touches)) if touches else (None, None)
-    if slip is not None and (strike is None or slip > strike):
-        strike = slip
-        land = slip if land is None else max(land, slip)
-    return strike, land
-
-
-def _merge_standing(events: list[_Events]) -> list[_Events]:
-    """A foot that never left the ground between two stances stood all along: such
-    stances become one (the first's stance, strike and land; the last's lift and
-    liftoff). Modifies the merged records in place."""
-    merged: list[_Events] = []
-    for ev in events:
-        if merged and (merged[-1].open_end or ev.strike <= merged[-1].liftoff):
-            merged[-1].lift, merged[-1].liftoff, merged[-1].open_end = ev.lift, ev.liftoff, ev.open_end
-        else:
-            merged.append(ev)
-    return merged
-
-
-def _stance_of(dense: ClipMotion, k: int, sig: _FootSignals, ev: _Events) -> Stance:
-    """The Stance of foot ``k`` with events ``ev`` (samples converted to seconds) and its
-    footprint: heel and toe at their medians from landing (or the stance, if earlier)
-    to lifting (or the stance, if later)."""
-    t = dense.times
-    n = len(t)
-    lo, hi = int(np.ceil(min(ev.land, ev.stance))), int(np.floor(max(ev.lift, ev.stance)))
-    heel_p = np.median(sig.heel[lo:hi + 1], axis=0)
-    toe_p = np.median(sig.toe[lo:hi + 1], axis=0)
-    d = toe_p - heel_p
-    fwd_angle = np.arctan2(dense.rest_forward[1], dense.rest_forward[0])
-    heading = float((np.arctan2(d[1], d[0]) - fwd_angle + np.pi) % (2 * np.pi) - np.pi)
-    si = int(np.clip(round(ev.strike), 0, n - 1))
-    part = None if ev.open_start else ("heel" if sig.heel_z[si] <= sig.toe_z[si] else "toe")
-    fp = Footprint(k, float(t[ev.stance]), 0.5 * (heel_p + toe_p), heading, heel_p, toe_p, part)
-    dt = sig.dt
-    return Stance(k, float(t[ev.stance]), ev.strike * dt, ev.land * dt, ev.lift * dt,
-                  ev.liftoff * dt, ev.open_start, ev.open_end, fp)
-
-
-def _gaps(intervals, lo, hi):
-    """Interior gaps (a, b) of the union of closed intervals within [lo, hi]."""
-    out, end = [], None
-    for a, b in sorted(intervals):
-        if end is not None and a > end:
-            out.append((end, a))
-        end = b if end is None else max(end, b)
-    return [(a, b) for a, b in out if a > lo and b < hi]
-
-
-def _smooth(x: np.ndarray, width: int) -> np.ndarray:
-    """Moving average of ``x`` (N,) over ``width`` samples, edges padded by repetition;
-    ``x`` itself for a width of 1 or less."""
-    if width <= 1:
-        return x
-    k = np.ones(width) / width
-    return np.convolve(np.pad(x, (width // 2, width - 1 - width // 2), mode="edge"), k, "valid")
-
-
-def _edge_runs(mask: np.ndarray) -> np.ndarray:
-    """Only the runs of ``mask`` touching either end of the clip."""
-    out = np.zeros_like(mask)
-    for a, b in _runs(mask):
-        if a == 0 or b == len(mask):
-            out[a:b] = True
-    return out
 
 
 def _heading_at(m: ClipMotion, t: float) -> float:

@@ -46,7 +46,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .analysis import ClipAnalysis, Footprint, Stance
+from .analysis import ClipAnalysis
+from .stances import Footprint
 from .clip import ClipMotion
 from ..base.errors import FootstepError
 from .rig import Rig

@@ -28,7 +28,8 @@ from functools import cached_property
 
 import numpy as np
 
-from .analysis import ClipAnalysis, Footprint
+from .analysis import ClipAnalysis
+from .stances import Footprint
 from ..base.errors import FootstepError
 from .library import Library
 from ..base.settings import Settings
