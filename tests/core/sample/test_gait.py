@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from footstep_planner.core.sample import gait, mannequin
+from footstep_planner.core.sample import gait, mannequin, specs
 from footstep_planner.core.clips.analysis import analyze_clip
 from footstep_planner.core.clips.clip import clip_motion
 from footstep_planner.core.clips.rig import forward_kinematics
@@ -42,11 +42,11 @@ def test_the_library_has_every_clip_the_planner_needs():
     assert {"walk", "walk_turn_left_sharp", "walk_turn_right_sharp", "walk_turn_left_wide",
             "walk_turn_right_wide", "run", "run_turn_left", "run_turn_right", "run_jump",
             "walk_start", "walk_stop", "idle"} == set(SPECS)
-    radii = sorted(abs(1 / s.tau) for s in SPECS.values() if s.gait is gait.WALK and s.tau)
+    radii = sorted(abs(1 / s.tau) for s in SPECS.values() if s.gait is specs.WALK and s.tau)
     assert radii == pytest.approx([0.8, 0.8, 2.5, 2.5])
 
 
-@pytest.mark.parametrize("name", [n for n, s in SPECS.items() if s.gait is gait.WALK and s.kind == "cycle"])
+@pytest.mark.parametrize("name", [n for n, s in SPECS.items() if s.gait is specs.WALK and s.kind == "cycle"])
 def test_walks_have_human_speed_and_stride_and_no_flight(clips, name):
     c, m, a = clips[name]
     assert a.kind == "cycle" and a.gait == "walk" and a.is_loop
@@ -59,7 +59,7 @@ def test_walks_have_human_speed_and_stride_and_no_flight(clips, name):
     assert 0.55 < share < 0.68
 
 
-@pytest.mark.parametrize("name", [n for n, s in SPECS.items() if s.gait is gait.RUN and s.kind == "cycle"])
+@pytest.mark.parametrize("name", [n for n, s in SPECS.items() if s.gait is specs.RUN and s.kind == "cycle"])
 def test_runs_have_human_speed_and_flight_phases(clips, name):
     c, m, a = clips[name]
     assert a.kind == "cycle" and a.gait == "run" and a.is_loop
@@ -139,7 +139,7 @@ def test_cycle_clips_loop_seamlessly(clips):
 @settings(max_examples=15, deadline=None)
 @given(tau=st.floats(-1.3, 1.3), speed=st.floats(1.0, 1.6), fps=st.sampled_from([24.0, 30.0, 60.0]))
 def test_any_walk_on_any_arc_keeps_its_feet_planted_and_its_curvature(tau, speed, fps):
-    spec = gait.ClipSpec("w", gait.WALK, tau=tau, speed=speed)
+    spec = specs.ClipSpec("w", specs.WALK, tau=tau, speed=speed)
     c = gait.generate(RIG, spec, fps)
     m = clip_motion(RIG, "w", c.basis, fps)
     assert stance_drift(m) < 0.002
