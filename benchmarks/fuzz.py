@@ -52,8 +52,8 @@ ERROR_LINE = re.compile(r"^footstep(?: [\w-]+)?: error: ")
 NOISE = re.compile(r"^(\d\d:\d\d\.\d{3} |Info: |Read blend: |Warning: |BVH Exported)")
 CMU_WALK = os.path.join(os.path.dirname(ROOT), "shared", "mocap", "cmu", "cmu_16_16_walk.bvh")
 #: the pool is cached under a hash of these and ``fuzz_cases.POOL_VERSION`` (bump it when the builder changes)
-POOL_SOURCES = ["footstep_planner/blender/mannequin.py", "footstep_planner/core/gait.py",
-                "footstep_planner/blender/sample_scenes.py"]
+POOL_SOURCES = ["footstep_planner/blender/sample/mannequin.py", "footstep_planner/blender/sample/sample_scenes.py"] + [
+    f"footstep_planner/core/sample/{m}.py" for m in ("mannequin", "gait", "specs", "course", "feet", "body")]
 
 
 def default_python() -> str:
