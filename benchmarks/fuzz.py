@@ -18,7 +18,7 @@ folder nobody can write): "unexpected" when it does not. A case still running af
 
 The base scenes are built once (``--pool`` of them) in Blender subprocesses and cached
 under ``--work`` (default: the system's temporary folder), keyed by the builder's
-sources. Functions are importable: ``tests/test_fuzz_sample.py`` runs a fixed sample.
+sources. Functions are importable: ``tests/blender/command/test_fuzz_sample.py`` runs a fixed sample.
 """
 
 from __future__ import annotations

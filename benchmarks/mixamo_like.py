@@ -3,8 +3,8 @@ to Mixamo's, the armature turned and scaled the way Mixamo files come into Blend
 degrees about X, scale 0.01, bones and location keys in centimetres), clips optionally
 made "in place" (the hips' horizontal travel removed) and cut to one gait cycle (its
 first and last frames the same pose, as a Mixamo walk or run download is: 32 frames at 30
-fps), written one clip per file by Blender's FBX exporter. Used by tests/test_fbx_import.py,
-tests/test_downloads.py and bench_characters.py."""
+fps), written one clip per file by Blender's FBX exporter. Used by tests/blender/read/test_fbx_import.py,
+tests/blender/read/test_downloads.py and bench_characters.py."""
 
 import numpy as np
 

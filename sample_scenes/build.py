@@ -3,11 +3,11 @@
     .venv/bin/python sample_scenes/build.py [jumps turns obstacles stairs] [--mannequin] [--out DIR]
 
 With no names, builds them all into sample_scenes/out/NAME.blend. The scenes are made
-by footstep_planner/blender/sample_scenes.py (Jumps: platforms with bends and two 1 m
+by footstep_planner/blender/sample/sample_scenes.py (Jumps: platforms with bends and two 1 m
 gaps; Turns: bends onto a curved platform; Obstacles: walls, pillars, a doorway, a narrow
 corridor, a 15 cm step and a 15-degree ramp; Stairs: 17 cm risers, 28 cm treads, a flight
 up, a landing, a turn and a flight down). With --mannequin, each scene also gets the
-Footstep Mannequin (footstep_planner/blender/mannequin.py) standing at its Start, with
+Footstep Mannequin (footstep_planner/blender/sample/mannequin.py) standing at its Start, with
 its generated clips analysed (the scene at 30 fps), as the planner's character.
 """
 

@@ -26,7 +26,7 @@ ends the fit is the linear filter with frequency response ``H(omega) = 1 / (1 + 
 ``b = (lam h)^(1/4)`` (omega in rad/s). Hence ``lam = width**4 / h``; for uneven spacing
 each sample is weighted by its share of the time axis over the mean share, the same mapping.
 A sinusoid of period ``P`` keeps the fraction ``1 / (1 + (2 pi width / P)^4)`` of its
-amplitude (measured within 0.005 at 24 to 120 Hz; pinned in tests/test_blend_groups.py)::
+amplitude (measured within 0.005 at 24 to 120 Hz; pinned in tests/core/synth/test_blend_groups.py)::
 
     P / width:   1       2      2 pi    4 pi    30
     kept:        0.0006  0.010  0.50    0.94    0.998

@@ -477,7 +477,7 @@ def test_transfer_shape_errors():
 # ----------------------------------------------------------------------------- vectorised
 
 def lines_run(fn):
-    """Lines of footstep_planner/core/trajectory.py executed while running fn()
+    """Lines of footstep_planner/core/synth/trajectory.py executed while running fn()
     (sys.settrace, line events of that module only): a loop there over frames or
     footprints would make this grow with their number."""
     lines = 0
