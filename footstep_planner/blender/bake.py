@@ -24,6 +24,7 @@ from ..core.errors import FootstepError
 from ..core.ik import IKResult, body_frames
 from ..core.quat import continuous
 from ..core.rig import Rig, armature_basis
+from .keys import new_fcurve
 from .scene import CONSTANT, fill_keys, object_scale, scene_fps
 
 OWNED_PROP = "footstep_bake"
@@ -297,14 +298,14 @@ class _Keys:
         """Key ``values`` (F,) or (F, K) on ``path``, one F-Curve per column (array index)."""
         values = np.asarray(values, float).reshape(len(self.frames), -1)
         for i in range(values.shape[1]):
-            fill_keys(self.cbag.fcurves.new(path, index=i, group_name=group), self.frames, values[:, i])
+            fill_keys(new_fcurve(self.cbag, path, i, group), self.frames, values[:, i])
 
     def constant(self, path: str, values, group: str) -> None:
         """Key ``values`` (K,) on ``path`` once, at the first frame: held throughout, so the
         channel plays the same whatever value the pose had before (no leftover state)."""
         values = np.asarray(values, float).ravel()
         for i, v in enumerate(values):
-            fill_keys(self.cbag.fcurves.new(path, index=i, group_name=group), self.frames[:1], [v], CONSTANT)
+            fill_keys(new_fcurve(self.cbag, path, i, group), self.frames[:1], [v], CONSTANT)
 
 
 def _new_action(ob, name: str, rest: list[float], body_on: str, frames: np.ndarray):

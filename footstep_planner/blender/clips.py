@@ -48,6 +48,7 @@ from scipy.spatial.transform import Rotation
 
 from ..core.bvh import BvhError, read_bvh, read_skeleton
 from ..core.roles import map_roles
+from .keys import new_fcurve
 from .scene import (ARMATURE_PROP, SOURCE_FILE_PROP, SOURCE_FPS_PROP, _matrices, armature_actions, fill_keys,
                     sample_basis, scene_fps)
 from ..core.errors import FootstepError
@@ -1263,7 +1264,7 @@ def _curve(cbag, path, index, group, frames, values):
         frames, values = whole, np.interp(whole, frames, values).astype(np.float32)
         if values.min() == values.max():  # a still channel: two keys hold it
             sampled, frames, values = False, frames[[0, -1]], values[[0, -1]]
-    fc = cbag.fcurves.new(path, index=index, group_name=group)
+    fc = new_fcurve(cbag, path, index, group)
     fill_keys(fc, frames, values)
     if sampled:
         fc.convert_to_samples(int(frames[0]), int(frames[-1]) + 1)

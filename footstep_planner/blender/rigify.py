@@ -77,6 +77,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
+from .keys import new_fcurve
 from .scene import CONSTANT, LINEAR, fill_keys
 
 __all__ = ["is_rigify", "rigify_metarig", "deform_chain", "deform_bone_names",
@@ -809,7 +810,7 @@ def _write(cbag, path, index, frames, values, group, interp=LINEAR):
     fc = cbag.fcurves.find(path, index=index)
     if fc is not None:
         cbag.fcurves.remove(fc)
-    fc = cbag.fcurves.new(path, index=index, group_name=group)
+    fc = new_fcurve(cbag, path, index, group)
     fill_keys(fc, frames, values, interp)
     return fc
 
