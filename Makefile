@@ -2,7 +2,9 @@
 #   make test      run the test suite (PYTEST_ARGS="-k foo -x" to pass extra args)
 #   make test-lts  run the tests that touch Blender's API on Blender 4.5 LTS (own venv: .venv-lts)
 #   make demo      run the demo (SCENE=name to pick a sample scene)
-#   make build     build the extension zips into dist/ (PLATFORMS=linux-x64,... to restrict)
+#   make build     build the extension zips and their .sha256 into dist/ (PLATFORMS=linux-x64,... to
+#                  restrict); needs only Python 3.11 and pip, and validates with Blender's tool when
+#                  the dev venv (bpy) is there
 #   make clean     remove build outputs and caches (distclean: also wheels/, .venv/ and .venv-lts/)
 
 PYTHON ?= python3
@@ -57,8 +59,13 @@ test-lts: $(LTS_STAMP)
 demo: $(VENV_STAMP)
 	$(VENV_PY) -m footstep_planner demo --out sample_scenes/out $(if $(SCENE),--scene $(SCENE))
 
-build: $(VENV_STAMP)
-	$(VENV_PY) tools/build_extension.py $(if $(PLATFORMS),--platforms $(PLATFORMS)) $(BUILD_ARGS)
+# No venv needed: the dev venv's Python when there is one (its bpy validates the zips), else $(PYTHON)
+BUILD_PY = $(if $(wildcard $(VENV_PY)),$(VENV_PY),$(PYTHON))
+
+build:
+	@$(BUILD_PY) -c 'import sys; sys.exit(0 if sys.version_info[:2] >= (3, 11) else "error: the build needs Python 3.11 or later; got " + sys.version.split()[0] + " from $(BUILD_PY). Use make PYTHON=python3.11")'
+	@$(BUILD_PY) -m pip --version >/dev/null 2>&1 || { echo "error: the build needs pip in $(BUILD_PY) (python3 -m ensurepip, or the python3-pip package)" >&2; exit 1; }
+	$(BUILD_PY) tools/build_extension.py $(if $(PLATFORMS),--platforms $(PLATFORMS)) $(BUILD_ARGS)
 
 clean:
 	rm -rf dist build .pytest_cache .hypothesis

@@ -1,11 +1,13 @@
 """Build the extension zip for this platform, then install and enable it in Blender.
 
 The build runs tools/build_extension.py in a subprocess (restricted to the current
-platform, so only one scipy wheel is needed). Installation runs in another subprocess
-with its own BLENDER_USER_RESOURCES, so neither the user's preferences nor this pytest
-process (which loads the add-on from a dev repository) are touched.
+platform, so only one scipy wheel is needed), once with bpy and once in a fresh venv that
+has only pip. Installation runs in another subprocess with its own
+BLENDER_USER_RESOURCES, so neither the user's preferences nor this pytest process (which
+loads the add-on from a dev repository) are touched.
 """
 
+import hashlib
 import importlib.util
 import json
 import os
@@ -33,11 +35,11 @@ def _load_build_tool():
 
 _BUILD = _load_build_tool()
 _BLENDER_EXT = _BUILD.load_blender_ext()
-PLATFORM = _BLENDER_EXT.platform_from_this_system()  # e.g. "linux-x64", Blender's spelling
+PLATFORM = _BUILD.platform_from_this_system()  # e.g. "linux-x64", Blender's spelling
 
 
 def _wheel_for_this_platform():
-    by_platform = _BUILD.wheels_by_platform(MANIFEST, _BLENDER_EXT)
+    by_platform = _BUILD.wheels_by_platform(MANIFEST)
     wheels = by_platform.get(PLATFORM, [])
     assert len(wheels) == 1, f"expected one scipy wheel for {PLATFORM}, manifest gives {wheels}"
     return Path(wheels[0]).name
@@ -48,18 +50,72 @@ def built_zip(tmp_path_factory):
     if PLATFORM not in MANIFEST.get("platforms", []):
         pytest.skip(f"this platform ({PLATFORM}) is not one the extension is built for")
     out = tmp_path_factory.mktemp("dist")
+    proc = _build(sys.executable, out)
+    assert "validated with Blender's extension tool" in proc.stdout, proc.stdout
+    return _the_zip(out, proc)
+
+
+def _build(python, out, *extra):
     proc = subprocess.run(
-        [sys.executable, str(BUILD_SCRIPT), "--platforms", PLATFORM, "--output-dir", str(out)],
+        [str(python), str(BUILD_SCRIPT), "--platforms", PLATFORM, "--output-dir", str(out), *extra],
         cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=600,
     )
     if proc.returncode == EXIT_DOWNLOAD_FAILED:
         pytest.skip(f"the scipy wheel for {PLATFORM} could not be downloaded (no network?):\n"
                     + proc.stdout[-2000:])
     assert proc.returncode == 0, proc.stdout
+    return proc
+
+
+def _the_zip(out, proc):
+    """The one zip a build made in ``out``, its checksum file checked."""
     zips = sorted(out.glob("*.zip"))
     expected = out / f"{MANIFEST['id']}-{MANIFEST['version']}-{PLATFORM.replace('-', '_')}.zip"
     assert zips == [expected], (zips, proc.stdout)
+    digest, name = (out / (expected.name + ".sha256")).read_text().split()
+    assert name == expected.name and digest == hashlib.sha256(expected.read_bytes()).hexdigest()
     return expected
+
+
+def test_build_needs_only_python_and_pip(built_zip, tmp_path):
+    """A fresh venv with pip and no bpy builds the same zip (byte for byte) and says it
+    could not run Blender's validator; the zip then passes that validator."""
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
+    python = venv / "bin" / "python"
+    probe = subprocess.run([str(python), "-c", "import importlib.util as u; print(u.find_spec('bpy'))"],
+                           capture_output=True, text=True, timeout=60)
+    assert probe.stdout.strip() == "None", "the fresh venv must not see bpy"
+    out = tmp_path / "dist"
+    # its own wheel folder: the wheel is fetched with the venv's pip
+    proc = _build(python, out, "--wheels-dir", str(tmp_path / "wheels"))
+    assert "not validated with Blender's extension tool" in proc.stdout, proc.stdout
+    assert (tmp_path / "wheels" / _wheel_for_this_platform()).is_file()
+    z = _the_zip(out, proc)
+    assert z.read_bytes() == built_zip.read_bytes()
+    run = subprocess.run([sys.executable, str(_BUILD.blender_ext_path()), "validate",
+                          "--valid-tags", str(_BUILD.valid_tags_path()), str(z)],
+                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120)
+    assert run.returncode == 0, run.stdout
+
+
+@pytest.mark.parametrize("tag", ["win_amd64", "win_arm64", "win32", "macosx_12_0_arm64", "macosx_10_14_x86_64",
+                                 "macosx_10_9_universal2", "manylinux_2_27_x86_64", "manylinux2014_aarch64",
+                                 "musllinux_1_2_x86_64", "linux_x86_64"])
+def test_wheel_platforms_read_as_blender_reads_them(tag):
+    assert _BUILD.blender_platforms_from_wheel_platform(tag) == _BLENDER_EXT.blender_platforms_from_wheel_platform(tag)
+
+
+def test_the_manifest_excludes_what_blender_excludes():
+    patterns = MANIFEST["build"]["paths_exclude_pattern"]
+    blender = _BLENDER_EXT.PathPatternMatch(patterns)
+    paths = ["__init__.py", "core/ik.py", "core/__pycache__", "a/b/x.pyc", "tests", "tests/t.py", "core/tests",
+             "dist", "x.zip", "core/y.zip", "s.blend1", "s.blend", ".git", ".venv", "benchmarks", "core/benchmarks",
+             ".pytest_cache", "core/.hypothesis", "build", "wheels", "LICENSE"]
+    for p in paths:
+        for is_dir in (False, True):
+            ours = _BUILD.excluded(p, is_dir, patterns)
+            assert ours == blender.test_path(p + ("/" if is_dir else "")), (p, is_dir, ours)
 
 
 def test_zip_validates(built_zip):
