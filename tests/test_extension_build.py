@@ -140,6 +140,7 @@ def test_zip_contents(built_zip):
     assert [n for n in names if n.endswith(".whl")] == [f"wheels/{wheel}"]
     assert not [n for n in names if "__pycache__" in n or n.endswith(".pyc")]
     assert not [n for n in names if n.startswith("tests/")]
+    assert "LICENSE" in names
     assert manifest["id"] == "footstep_planner"
     assert manifest["platforms"] == [PLATFORM]
     assert manifest["wheels"] == [f"./wheels/{wheel}"]
@@ -219,3 +220,23 @@ def test_install_and_enable_in_blender(built_zip, tmp_path):
     assert Path(res["scipy_file"]).resolve().is_relative_to(ext_dir), res["scipy_file"]
     assert res["scipy_version"] == "1.17.1"
     assert res["kdtree_index"] == 0
+
+
+def test_the_manifest_names_a_maintainer_and_a_licence_it_ships():
+    name, _, mail = MANIFEST["maintainer"].partition(" <")
+    assert name and mail.endswith(">") and "@" in mail
+    assert not mail.rstrip(">").endswith(("example.com", "example.org", ".example", ".invalid"))
+    assert MANIFEST["license"] == ["SPDX:GPL-3.0-or-later"]
+    text = (ROOT / "LICENSE").read_text(encoding="utf-8")
+    assert "GNU GENERAL PUBLIC LICENSE" in text and "Version 3, 29 June 2007" in text
+    assert "END OF TERMS AND CONDITIONS" in text and "How to Apply These Terms" in text  # (the whole text)
+
+
+def test_the_files_permission_names_every_kind_read_and_written():
+    files = MANIFEST["permissions"]["files"]
+    assert len(files) <= 64 and files[-1].isalnum()  # (Blender's limits)
+    read, _, written = files.partition("; write ")
+    for kind in ("BVH", "FBX", "glTF", "GLB", "blend", "JSON"):
+        assert kind in read, kind
+    for kind in ("blend", "PNG", "JSON"):
+        assert kind in written, kind

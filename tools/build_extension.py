@@ -6,8 +6,8 @@ Blender's extension tool wants ``blender_manifest.toml`` next to the add-on's
 ``footstep_planner/``. So this script:
 
 1. downloads the scipy wheels listed in the manifest into ``./wheels/`` with pip (if missing),
-2. copies ``footstep_planner/`` (without caches), the manifest and the wheels into a
-   temporary staging directory,
+2. copies ``footstep_planner/`` (without caches), the manifest, ``LICENSE`` and the wheels
+   into a temporary staging directory,
 3. writes one zip per platform into the output directory (default ``dist/``), laid out as
    ``blender --command extension build --split-platforms`` lays them out (the files at the
    zip's root, only that platform's wheel, the manifest with its ``[build.generated]``
@@ -43,6 +43,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE_DIR = ROOT / "footstep_planner"
 MANIFEST = ROOT / "blender_manifest.toml"
+LICENSE = ROOT / "LICENSE"
 WHEELS_DIR = ROOT / "wheels"
 DEFAULT_OUTPUT = ROOT / "dist"
 
@@ -213,6 +214,7 @@ def run_tool(args: list[str]) -> None:
 
 def stage(stage_dir: Path, manifest_text: str, wheel_files: list[Path]) -> None:
     shutil.copytree(PACKAGE_DIR, stage_dir, ignore=_IGNORE)
+    shutil.copy2(LICENSE, stage_dir / "LICENSE")  # (the licence the manifest declares, in full)
     (stage_dir / "blender_manifest.toml").write_text(manifest_text, encoding="utf-8")
     if wheel_files:
         (stage_dir / "wheels").mkdir(exist_ok=True)
