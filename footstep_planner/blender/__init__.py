@@ -1,10 +1,10 @@
 """The Blender layer: everything that touches bpy. It reads scene data into plain arrays,
 calls the core, and writes results back."""
 
-from . import cli, mannequin, operators, overlay, panel, props
+from . import cli, mannequin, operators, overlay, panel, props, session
 
 # registration order: properties before the operators and panels that use them
-_MODULES = (props, operators, mannequin, panel, overlay, cli)
+_MODULES = (props, session, operators, mannequin, panel, overlay, cli)
 
 
 def register():

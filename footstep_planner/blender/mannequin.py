@@ -352,10 +352,13 @@ class FOOTSTEP_OT_generate_clips(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        from .operators import character
+        from .operators import NO_CHARACTER, character
 
         ob = character(context)
-        return ob is not None and ob.type == "ARMATURE"
+        if ob is None or ob.type != "ARMATURE":
+            cls.poll_message_set(NO_CHARACTER if ob is None else f"the character {ob.name!r} is not an armature")
+            return False
+        return True
 
     def execute(self, context):
         from ..core.errors import FootstepError

@@ -236,15 +236,43 @@ class FOOTSTEP_PT_collection_surface(bpy.types.Panel):
         self.layout.prop(context.collection.footstep, "surface", text="Surface")
 
 
+#: The menu's operators (None: a separator), as (idname, icon)
+MENU_OPERATORS = (("footstep.plan", "TRACKING_FORWARDS"), ("footstep.bake", "REC"), ("footstep.replan", "FILE_REFRESH"),
+                  ("footstep.clear", "TRASH"), None, ("footstep.import_clips", "IMPORT"),
+                  ("footstep.generate_clips", "ANIM"), ("footstep.analyze_clips", "FILE_REFRESH"))
+
+
+class FOOTSTEP_MT_animation(bpy.types.Menu):
+    """Object > Animation > Footstep Planner: the planner's main operators (so F3's search
+    finds them too)"""
+
+    bl_idname = "FOOTSTEP_MT_animation"
+    bl_label = "Footstep Planner"
+
+    def draw(self, context):
+        for item in MENU_OPERATORS:
+            if item is None:
+                self.layout.separator()
+            else:
+                self.layout.operator(item[0], icon=item[1])
+
+
+def _menu_animation(self, context):
+    self.layout.separator()
+    self.layout.menu(FOOTSTEP_MT_animation.bl_idname, icon="TRACKING")
+
+
 CLASSES = (FOOTSTEP_UL_clips, FOOTSTEP_PT_main, FOOTSTEP_PT_object_surface,
-           FOOTSTEP_PT_collection_surface)
+           FOOTSTEP_PT_collection_surface, FOOTSTEP_MT_animation)
 
 
 def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
+    bpy.types.VIEW3D_MT_object_animation.append(_menu_animation)
 
 
 def unregister():
+    bpy.types.VIEW3D_MT_object_animation.remove(_menu_animation)
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)
