@@ -132,6 +132,18 @@ class Recorder:
             object.__setattr__(self, name, value)
 
 
+def draw_tab(fp, context) -> list:
+    """Draw the planner's sidebar tab as Blender would, into a Recorder: the main panel and
+    each sub-panel whose poll passes (open or closed). Returns the calls."""
+    from importlib import import_module
+
+    stub = Recorder()
+    for cls in import_module(fp.__name__ + ".blender.panel").TAB_PANELS:
+        if not hasattr(cls, "poll") or cls.poll(context):
+            cls.draw(type("P", (), {"layout": stub})(), context)
+    return stub.log
+
+
 def _reraise(ex):
     raise ex
 

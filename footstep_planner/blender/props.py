@@ -78,7 +78,6 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
                            description="Start standing at this object (empty: where the "
                                        "character's feet are now)")
     settings: PointerProperty(type=FOOTSTEP_PG_settings)
-    show_settings: BoolProperty(name="Settings", default=False)
     grow_frame_range: BoolProperty(name="Grow frame range", default=True,
                                    description="Make the scene's frame range cover the bake (it never "
                                                "shrinks; Clear puts it back)")
