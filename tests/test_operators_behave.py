@@ -130,13 +130,14 @@ def test_a_new_file_forgets_the_last_plan(fp, empty_scene, tmp_path):
     assert (fs.last_report, fs.plan_json, fs.edit_problem) == ("", "", "")
 
 
-class _Bake:
-    """Drives the Bake operator's own modal code as Blender would (timer events, then Esc),
-    on an object standing in for the running operator."""
+class _Modal:
+    """Drives an operator's own modal code as Blender would (invoke, timer events, then
+    Esc), on an object standing in for the running operator."""
 
-    def __init__(self, fp, context, monkeypatch):
+    METHODS = ("invoke", "modal", "_begin", "_end", "_start", "_finish", "_cancel", "_stopped", "_analysed")
+
+    def __init__(self, fp, cls, context, monkeypatch, **props):
         ops = _mod(fp, "operators")
-        cls = ops.FOOTSTEP_OT_bake
         self.status, self.reports, self.progress = [], [], []
         monkeypatch.setattr(ops, "_status", lambda _ctx, text: self.status.append(text))
         wm = SimpleNamespace(progress_begin=lambda *a: None, progress_end=lambda: self.progress.append("end"),
@@ -145,9 +146,10 @@ class _Bake:
                              modal_handler_add=lambda op: None)
         self.context = SimpleNamespace(window_manager=wm, window=None, scene=context.scene,
                                        active_object=context.active_object, workspace=None)
-        self.op = SimpleNamespace(markers=False, report=lambda level, msg: self.reports.append((level, msg)))
-        for name in ("invoke", "modal", "_start", "_end", "_finish", "_cancel"):
-            setattr(self.op, name, getattr(cls, name).__get__(self.op))
+        self.op = SimpleNamespace(report=lambda level, msg: self.reports.append((level, msg)), _timer=None, **props)
+        for name in self.METHODS:
+            if hasattr(cls, name):
+                setattr(self.op, name, getattr(cls, name).__get__(self.op))
         assert self.op.invoke(self.context, None) == {"RUNNING_MODAL"}
 
     def tick(self):
@@ -155,6 +157,10 @@ class _Bake:
 
     def esc(self):
         return self.op.modal(self.context, SimpleNamespace(type="ESC", value="PRESS"))
+
+
+def _Bake(fp, context, monkeypatch):
+    return _Modal(fp, _mod(fp, "operators").FOOTSTEP_OT_bake, context, monkeypatch, markers=False)
 
 
 def test_esc_before_the_bake_is_written_changes_nothing(fp, mannequin_scene, monkeypatch):
@@ -207,3 +213,39 @@ def test_a_bake_run_to_the_end_reports_its_quality(fp, mannequin_scene, monkeypa
         pytest.fail("the bake did not finish")
     assert "frames baked into" in scene.footstep.last_report and "skate" in scene.footstep.last_report
     assert run.status[-1] is None
+
+
+@pytest.fixture
+def bare_mannequin(fp, empty_scene):
+    """The Footstep Mannequin without clips, as the planner's character."""
+    ob, _ = _mod(fp, "mannequin").build(empty_scene.collection)
+    empty_scene.footstep.character = ob
+    return ob
+
+
+def test_generate_sample_clips_shows_progress_and_esc_keeps_whole_clips(fp, bare_mannequin, monkeypatch):
+    import bpy
+
+    gen = _mod(fp, "mannequin").FOOTSTEP_OT_generate_clips
+    run = _Modal(fp, gen, bpy.context, monkeypatch)
+    names = run.op._names
+    assert len(names) >= 10
+    assert run.tick() == {"RUNNING_MODAL"} and run.tick() == {"RUNNING_MODAL"}
+    assert run.progress == [1, 2] and "2 of" in run.status[-1]
+    assert run.esc() == {"FINISHED"}  # the two clips written: one undo step
+    assert run.status[-1] is None and run.progress[-1] == "end"
+    level, msg = run.reports[0]
+    assert level == {"WARNING"} and f"kept the 2 clip(s) written ({names[0]}, {names[1]})" in msg
+    assert "not generated: " + ", ".join(names[2:]) in msg
+    props = bare_mannequin.data.footstep
+    assert sorted(c.name for c in props.clips) == sorted(names[:2])  # the library analysed: what is there
+
+
+def test_generate_sample_clips_cancelled_at_once_changes_nothing(fp, bare_mannequin, monkeypatch):
+    import bpy
+
+    n_actions = len(bpy.data.actions)
+    run = _Modal(fp, _mod(fp, "mannequin").FOOTSTEP_OT_generate_clips, bpy.context, monkeypatch)
+    assert run.esc() == {"CANCELLED"}
+    assert run.reports == [({"INFO"}, "clip generation cancelled: nothing was changed")]
+    assert len(bpy.data.actions) == n_actions and run.status[-1] is None

@@ -45,6 +45,28 @@ def _status(context, text) -> None:
         ws.status_text_set(text)
 
 
+class _Stepped:
+    """An operator that runs from the UI one step a timer tick (a modal), with the window
+    manager's progress and the status bar, both given back however it ends."""
+
+    _timer = None
+
+    def _begin(self, context, steps: int):
+        wm = context.window_manager
+        wm.progress_begin(0, steps)
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        _status(context, None)
+
+
 def _owned(ob) -> dict:
     """The planner's NLA tracks on ``ob``: {(track name, its actions' ids): track}."""
     from .bake import owned_tracks
@@ -255,7 +277,7 @@ class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
+class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
     """Plan the walk to the goal, synthesize it, put the feet on the footprints and bake it
     into an NLA track of the planner's own on the character (Esc before the bake is written
     leaves the scene as it was; after, the bake stays and the report names it)"""
@@ -268,7 +290,6 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
                           description="Add a timeline marker at each footstep")
 
     _steps = None
-    _timer = None
     _before: set = set()
     _written = False
 
@@ -326,19 +347,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
-        wm = context.window_manager
-        wm.progress_begin(0, 100)
-        self._timer = wm.event_timer_add(0.01, window=context.window)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
-
-    def _end(self, context):
-        wm = context.window_manager
-        if self._timer is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
-        _status(context, None)
+        return self._begin(context, 100)
 
     def modal(self, context, event):
         if event.type == "ESC":
