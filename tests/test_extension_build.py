@@ -176,15 +176,37 @@ _INSTALL_SCRIPT = textwrap.dedent(
     mod_name = "bl_ext.user_default.footstep_planner"
     loaded_default, loaded_state = addon_utils.check(mod_name)
     mod = sys.modules.get(mod_name)
+    in_prefs = mod_name in bpy.context.preferences.addons
 
     import scipy
     from scipy.spatial import cKDTree
     import numpy as np
     d, i = cKDTree(np.eye(3)).query([1.0, 0.1, 0.0])
 
+    # the installed add-on at work: bake the sample character on a sample scene
+    from importlib import import_module
+    bake_ok = None
+    if mod is not None:
+        import_module(mod_name + ".blender.sample_scenes").build("jumps")
+        scene = bpy.context.scene
+        ob, _ = import_module(mod_name + ".blender.mannequin").add_to_scene(scene, "Start")
+        fs = scene.footstep
+        fs.character, fs.goal, fs.start = ob, scene.objects["Goal"], scene.objects["Start"]
+        bake_ok = sorted(bpy.ops.footstep.bake())
+        tracks = [t.name for t in ob.animation_data.nla_tracks]
+        report = fs.last_report
+    addon_utils.disable(mod_name, default_set=True)
+    left = sorted(n for n in dir(bpy.types) if n.startswith(("FOOTSTEP_", "footstep_")))
+    left += [f"Scene.footstep"] if hasattr(bpy.types.Scene, "footstep") else []
+    left += [h.__name__ for h in bpy.app.handlers.load_post if "footstep" in (h.__module__ or "")]
+    left += [f.__name__ for f in bpy.types.VIEW3D_MT_object_animation._dyn_ui_initialize()
+             if "footstep" in (getattr(f, "__module__", "") or "")]
+
     print("RESULT " + json.dumps({
+        "bake": bake_ok, "tracks": tracks if bake_ok else [], "report": report if bake_ok else "",
+        "left_registered": left, "enabled_after": mod_name in bpy.context.preferences.addons,
         "op": sorted(result),
-        "in_prefs": mod_name in bpy.context.preferences.addons,
+        "in_prefs": in_prefs,
         "loaded_default": loaded_default,
         "loaded_state": loaded_state,
         "module_file": getattr(mod, "__file__", None),
@@ -197,7 +219,7 @@ _INSTALL_SCRIPT = textwrap.dedent(
 )
 
 
-def test_install_and_enable_in_blender(built_zip, tmp_path):
+def test_install_enable_bake_and_disable_in_blender(built_zip, tmp_path):
     user_resources = tmp_path / "blender_user"
     user_resources.mkdir()
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user_resources))
@@ -220,6 +242,10 @@ def test_install_and_enable_in_blender(built_zip, tmp_path):
     assert Path(res["scipy_file"]).resolve().is_relative_to(ext_dir), res["scipy_file"]
     assert res["scipy_version"] == "1.17.1"
     assert res["kdtree_index"] == 0
+    # it bakes the sample character, and disabling it leaves nothing of it registered
+    assert res["bake"] == ["FINISHED"] and res["tracks"] == ["Footstep: Footstep Mannequin to goal"], proc.stdout
+    assert "frames baked into" in res["report"]
+    assert res["left_registered"] == [] and not res["enabled_after"], res
 
 
 def test_the_manifest_names_a_maintainer_and_a_licence_it_ships():
