@@ -30,11 +30,17 @@ def main() -> int:
         print("footstep: error: this needs Blender's Python module: pip install bpy==5.0.1",
               file=sys.stderr)
         return 2
-    from . import register
+    from . import register, unregister
     from .blender.command.cli import cli_main
 
     register()
-    return cli_main(sys.argv[1:])
+    try:
+        return cli_main(sys.argv[1:])
+    finally:
+        # Blender 4.5 crashes (exit 139) or hangs as Python exits with the add-on's
+        # command and properties still registered: take them down first, so each verb
+        # ends with its own status there as on 5.x
+        unregister()
 
 
 def _exit(status: int) -> None:

@@ -76,8 +76,10 @@ import re
 import bpy
 import numpy as np
 from mathutils import Matrix
+from scipy.spatial.transform import Rotation
 
-from .write.keys import CONSTANT, LINEAR, fill_keys
+from ..core.base.quat import continuous
+from .write.keys import CONSTANT, LINEAR, fill_keys, new_fcurve
 
 __all__ = ["is_rigify", "rigify_metarig", "deform_chain", "deform_bone_names",
            "key_controls", "sample_deform", "heads_tails"]
@@ -430,32 +432,17 @@ def _swing(a, b):
 
 
 def _quat_to_mat(q):
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
+    """(..., 4) quaternions (w, x, y, z) -> (..., 3, 3) rotation matrices."""
+    q = np.asarray(q, np.float64)
+    flat = Rotation.from_quat(q.reshape(-1, 4)[:, [1, 2, 3, 0]]).as_matrix()
+    return flat.reshape(q.shape[:-1] + (3, 3))
 
 
 def _mat_to_quat(r):
-    """(F, 3, 3) rotation matrices -> (F, 4) unit quaternions (w, x, y, z), signs continuous."""
-    r = np.asarray(r, np.float64)
-    m00, m11, m22 = r[:, 0, 0], r[:, 1, 1], r[:, 2, 2]
-    tr = m00 + m11 + m22
-    cand = np.stack([
-        np.stack([1 + tr, r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]], -1),
-        np.stack([r[:, 2, 1] - r[:, 1, 2], 1 + m00 - m11 - m22, r[:, 0, 1] + r[:, 1, 0], r[:, 0, 2] + r[:, 2, 0]], -1),
-        np.stack([r[:, 0, 2] - r[:, 2, 0], r[:, 0, 1] + r[:, 1, 0], 1 - m00 + m11 - m22, r[:, 1, 2] + r[:, 2, 1]], -1),
-        np.stack([r[:, 1, 0] - r[:, 0, 1], r[:, 0, 2] + r[:, 2, 0], r[:, 1, 2] + r[:, 2, 1], 1 - m00 - m11 + m22], -1),
-    ], 1)  # (F, 4 candidates, 4)
-    pick = np.argmax(np.stack([1 + tr, 1 + m00 - m11 - m22, 1 - m00 + m11 - m22, 1 - m00 - m11 + m22], -1), -1)
-    q = cand[np.arange(len(r)), pick]
-    q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    if q[0, 0] < 0:
-        q[0] = -q[0]
-    flips = np.einsum("ij,ij->i", q[1:], q[:-1]) < 0
-    sign = np.concatenate([[1.0], np.where(np.cumsum(flips) % 2 == 1, -1.0, 1.0)])
-    return q * sign[:, None]
+    """(F, 3, 3) rotation matrices -> (F, 4) unit quaternions (w, x, y, z), signs continuous
+    (the first with w >= 0)."""
+    q = Rotation.from_matrix(np.asarray(r, np.float64)).as_quat(canonical=True)[:, [3, 0, 1, 2]]
+    return continuous(q)
 
 
 def heads_tails(ob, mats, names):
@@ -809,7 +796,7 @@ def _write(cbag, path, index, frames, values, group, interp=LINEAR):
     fc = cbag.fcurves.find(path, index=index)
     if fc is not None:
         cbag.fcurves.remove(fc)
-    fc = cbag.fcurves.new(path, index=index, group_name=group)
+    fc = new_fcurve(cbag, path, index, group)
     fill_keys(fc, frames, values, interp)
     return fc
 

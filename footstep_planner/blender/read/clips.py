@@ -48,6 +48,7 @@ from scipy.spatial.transform import Rotation
 
 from ...core.clips.bvh import BvhError, read_bvh, read_skeleton
 from ...core.clips.roles import map_roles
+from ..write.keys import new_fcurve
 from .scene import (ARMATURE_PROP, SOURCE_FILE_PROP, SOURCE_FPS_PROP, _matrices, armature_actions,
                     sample_basis, scene_fps)
 from ...core.base.errors import FootstepError
@@ -546,34 +547,19 @@ def _bvh_keys(ob, act, sk, motion: np.ndarray, scale: float, bones: list[str]) -
                 _curve(cbag, f"{base}.location", i, sk.names[j], frames, loc[:, i])
         rot = [k for k, c in enumerate(chans) if c.endswith("ROTATION")]
         if rot:
-            q = _euler_quats([chans[k][0] for k in rot], cols[:, rot])
-            m = Rotation.from_matrix(to_bone).as_quat()[[3, 0, 1, 2]]
-            q = _qmul(_qmul(m[None], q), m[None] * [1, -1, -1, -1])
-            q *= np.where(q[:, :1] < 0, -1.0, 1.0)  # w >= 0, as Blender's importer gives them
+            q = bvh_quats([chans[k][0] for k in rot], cols[:, rot], to_bone)
             for i in range(4):  # w x y z
                 _curve(cbag, f"{base}.rotation_quaternion", i, sk.names[j], frames, q[:, i])
 
 
-def _euler_quats(axes: list[str], degrees: np.ndarray) -> np.ndarray:
-    """Quaternions (F, 4; w x y z) of BVH rotation channels: rotations about ``axes``
-    ("X", "Y", "Z") by ``degrees`` (F, len(axes)), the first outermost (R = R0 R1 R2)."""
-    half = np.radians(np.asarray(degrees, dtype=np.float64)) / 2
-    q = np.zeros((len(half), 4))
-    q[:, 0] = 1.0
-    for k, axis in enumerate(axes):
-        step = np.zeros_like(q)
-        step[:, 0] = np.cos(half[:, k])
-        step[:, 1 + "XYZ".index(axis)] = np.sin(half[:, k])
-        q = _qmul(q, step)
-    return q
-
-
-def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton products of quaternions (..., 4; w x y z)."""
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+def bvh_quats(axes: list[str], degrees: np.ndarray, to_bone: np.ndarray) -> np.ndarray:
+    """Quaternions (F, 4; w x y z, w >= 0 as Blender's importer gives them) of BVH rotation
+    channels about ``axes`` ("X", "Y", "Z") by ``degrees`` (F, len(axes)), the first
+    outermost (R = R0 R1 R2: scipy's intrinsic order), seen in the bone's rest axes:
+    ``to_bone`` R ``to_bone``^T, ``to_bone`` (3, 3) taking the file's axes to the bone's."""
+    rot = Rotation.from_euler("".join(axes).upper(), np.asarray(degrees, np.float64), degrees=True)
+    m = Rotation.from_matrix(to_bone)
+    return (m * rot * m.inv()).as_quat(canonical=True)[:, [3, 0, 1, 2]]
 
 
 # -- FBX and glTF ---------------------------------------------------------------------
@@ -1264,7 +1250,7 @@ def _curve(cbag, path, index, group, frames, values):
         frames, values = whole, np.interp(whole, frames, values).astype(np.float32)
         if values.min() == values.max():  # a still channel: two keys hold it
             sampled, frames, values = False, frames[[0, -1]], values[[0, -1]]
-    fc = cbag.fcurves.new(path, index=index, group_name=group)
+    fc = new_fcurve(cbag, path, index, group)
     fill_keys(fc, frames, values)
     if sampled:
         fc.convert_to_samples(int(frames[0]), int(frames[-1]) + 1)

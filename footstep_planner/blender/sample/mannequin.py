@@ -18,6 +18,7 @@ import bpy
 import numpy as np
 
 from ...core.sample.mannequin import HEIGHT, NAME, bone_table  # noqa: F401 (HEIGHT re-exported)
+from ..ui.operators import _Stepped
 
 #: Custom property on the clips the generator wrote: the armature (data) they were made
 #: for. Only actions carrying it are ever replaced by a new generation.
@@ -340,7 +341,7 @@ def _analyze(context, ob):
     return analyze_and_propose(ob, settings_from_props(context.scene.footstep.settings))
 
 
-class FOOTSTEP_OT_generate_clips(bpy.types.Operator):
+class FOOTSTEP_OT_generate_clips(_Stepped, bpy.types.Operator):
     """Generate the sample clip library (walk, turns, run, jump, start, stop, idle) for the
     planner's character, a rig with the human metarig's bone names (the Footstep
     Mannequin, Rigify's metarig): the mannequin's gait scaled to its legs. Replaces only
@@ -352,10 +353,16 @@ class FOOTSTEP_OT_generate_clips(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        from ..ui.operators import character
+        from ..ui.operators import NO_CHARACTER, character
 
         ob = character(context)
-        return ob is not None and ob.type == "ARMATURE"
+        if ob is None or ob.type != "ARMATURE":
+            cls.poll_message_set(NO_CHARACTER if ob is None else f"the character {ob.name!r} is not an armature")
+            return False
+        return True
+
+    _names: list = []
+    _done: list = []
 
     def execute(self, context):
         from ...core.base.errors import FootstepError
@@ -371,6 +378,63 @@ class FOOTSTEP_OT_generate_clips(bpy.types.Operator):
         self.report({"INFO"}, f"{ob.name}: {len(acts)} clips generated")
         for msg in result.errors.values():
             self.report({"WARNING"}, msg)
+        return {"FINISHED"}
+
+    # From the UI: one clip at a time, with progress; Esc stops between two clips (each
+    # clip written is whole, the library is analysed for what is there, one undo step).
+
+    def invoke(self, context, event):
+        from ...core.sample import gait
+
+        self._names, self._done = [spec.name for spec in gait.library_specs()], []
+        return self._begin(context, len(self._names))
+
+    def modal(self, context, event):
+        from ...core.base.errors import FootstepError
+        from ..ui.operators import _status, character
+
+        if event.type == "ESC":
+            self._end(context)
+            return self._stopped(context)
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        ob, name = character(context), self._names[len(self._done)]
+        try:
+            generate_clips(ob, names=[name])
+        except FootstepError as ex:
+            self._end(context)
+            self.report({"ERROR"}, str(ex))
+            return self._stopped(context) if self._done else {"CANCELLED"}
+        self._done.append(name)
+        context.window_manager.progress_update(len(self._done))
+        if len(self._done) < len(self._names):
+            _status(context, f"Footstep: generated {name} ({len(self._done)} of {len(self._names)} clips)... "
+                             "(Esc to stop)")
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        return self._analysed(context, f"{ob.name}: {len(self._done)} clips generated", {"INFO"})
+
+    def _stopped(self, context):
+        if not self._done:
+            self.report({"INFO"}, "clip generation cancelled: nothing was changed")
+            return {"CANCELLED"}
+        left = [n for n in self._names if n not in self._done]
+        return self._analysed(context, f"clip generation stopped: kept the {len(self._done)} clip(s) written "
+                                       f"({', '.join(self._done)}); not generated: {', '.join(left)} "
+                                       "(Undo removes the kept ones)", {"WARNING"})
+
+    def _analysed(self, context, msg: str, level: set):
+        from ...core.base.errors import FootstepError
+        from ..ui.operators import character
+
+        self.report(level, msg)
+        try:
+            result = _analyze(context, character(context))
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"FINISHED"}  # (the clips are written: one undo step)
+        for err in result.errors.values():
+            self.report({"WARNING"}, err)
         return {"FINISHED"}
 
 

@@ -23,12 +23,56 @@ def character(context):
     return ob
 
 
+#: Why an operator on the planner's character is greyed out (its poll's message)
+NO_CHARACTER = ("no character: pick an armature as the Footstep panel's Character, or make one "
+                "active (import clips or add the Footstep Mannequin to make one)")
+
+
 class _OnCharacter:
     """Operators that work on the planner's character: available once there is one."""
 
     @classmethod
     def poll(cls, context):
-        return character(context) is not None
+        if character(context) is None:
+            cls.poll_message_set(NO_CHARACTER)
+            return False
+        return True
+
+
+def _status(context, text) -> None:
+    """The status bar's text (None gives the status bar back)."""
+    ws = getattr(context, "workspace", None)
+    if ws is not None:
+        ws.status_text_set(text)
+
+
+class _Stepped:
+    """An operator that runs from the UI one step a timer tick (a modal), with the window
+    manager's progress and the status bar, both given back however it ends."""
+
+    _timer = None
+
+    def _begin(self, context, steps: int):
+        wm = context.window_manager
+        wm.progress_begin(0, steps)
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        _status(context, None)
+
+
+def _owned(ob) -> dict:
+    """The planner's NLA tracks on ``ob``: {(track name, its actions' ids): track}."""
+    from ..write.bake import owned_tracks
+
+    return {(tr.name, tuple(st.action.as_pointer() for st in tr.strips)): tr for tr in owned_tracks(ob)}
 
 
 class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
@@ -234,10 +278,10 @@ class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
+class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
     """Plan the walk to the goal, synthesize it, put the feet on the footprints and bake it
-    into an NLA track of the planner's own on the character (Esc cancels and leaves the
-    scene as it was)"""
+    into an NLA track of the planner's own on the character (Esc before the bake is written
+    leaves the scene as it was; after, the bake stays and the report names it)"""
 
     bl_idname = "footstep.bake"
     bl_label = "Bake"
@@ -247,7 +291,8 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
                           description="Add a timeline marker at each footstep")
 
     _steps = None
-    _timer = None
+    _before: set = set()
+    _written = False
 
     def _start(self, context):
         from .. import planning
@@ -295,44 +340,60 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
             return {"CANCELLED"}
 
     def invoke(self, context, event):
+        ob = character(context)
+        self._before = set(_owned(ob))
+        self._written = False
         try:
             self._steps = self._start(context)
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
-        wm = context.window_manager
-        wm.progress_begin(0, 100)
-        self._timer = wm.event_timer_add(0.01, window=context.window)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
-
-    def _end(self, context):
-        wm = context.window_manager
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
+        return self._begin(context, 100)
 
     def modal(self, context, event):
         if event.type == "ESC":
-            self._end(context)
-            self.report({"INFO"}, "bake cancelled: nothing was changed")
-            return {"CANCELLED"}
+            return self._cancel(context)
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         try:
             fraction, stage = next(self._steps)
+            # run_steps yields its quality stage once the bake is written into the scene
+            self._written = self._written or stage == WRITTEN_BEFORE
             context.window_manager.progress_update(int(fraction * 100))
-            context.workspace.status_text_set(f"Footstep: {stage}... (Esc to cancel)")
+            _status(context, f"Footstep: {stage}... (Esc to cancel)")
             return {"RUNNING_MODAL"}
         except StopIteration as done:
             self._end(context)
-            context.workspace.status_text_set(None)
             self._finish(context, done.value)
             return {"FINISHED"}
         except FootstepError as ex:
             self._end(context)
-            context.workspace.status_text_set(None)
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
+
+    def _cancel(self, context):
+        """Esc: stop before the next stage. Before the bake nothing has changed; after it
+        (while its quality is measured) the bake is in the scene and stays, one undo step,
+        and the report names it."""
+        self._end(context)
+        self._steps.close()
+        ob = character(context)
+        kept = [tr for key, tr in _owned(ob).items() if key not in self._before] if ob is not None else []
+        if not self._written and not kept:
+            self.report({"INFO"}, "bake cancelled: nothing was changed")
+            return {"CANCELLED"}
+        what = "; ".join(f"NLA track {tr.name!r} (action {tr.strips[0].action.name!r}, frames "
+                         f"{tr.strips[0].frame_start:.0f}-{tr.strips[-1].frame_end:.0f})" for tr in kept)
+        msg = (f"bake cancelled while its quality was measured: the bake was already written and is kept: "
+               f"{what or 'the planner track on ' + ob.name}; its quality figures were not measured "
+               "(Clear or Undo removes it)")
+        context.scene.footstep.last_report = msg
+        self.report({"WARNING"}, msg)
+        return {"FINISHED"}  # (what is kept is one undo step)
+
+
+#: ``planning.run_steps``' stage that comes once the bake is in the scene
+WRITTEN_BEFORE = "quality"
 
 
 def _handles_of_last_plan(context) -> None:

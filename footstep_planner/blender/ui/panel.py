@@ -22,7 +22,11 @@ class FOOTSTEP_UL_clips(bpy.types.UIList):
 
 
 class FOOTSTEP_PT_main(bpy.types.Panel):
+    """The planner's tab: the character, then a sub-panel for each step (as Rigify and the
+    glTF exporter lay theirs out), the rarely used ones closed."""
+
     bl_label = "Footstep Planner"
+    bl_idname = "FOOTSTEP_PT_main"
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Footstep"
@@ -31,45 +35,131 @@ class FOOTSTEP_PT_main(bpy.types.Panel):
         layout = self.layout
         fs = context.scene.footstep
         layout.prop(fs, "character")
-        ob = character(context)
-        if ob is None:
+        if character(context) is None:
             layout.label(text="Pick an armature, import clips (BVH, FBX, glTF), or add the mannequin", icon="INFO")
             layout.operator("footstep.import_clips", icon="IMPORT").target = "NEW"
             layout.operator("footstep.add_mannequin", icon="OUTLINER_OB_ARMATURE")
-            return
-        _draw_roles(layout, ob)
-        _draw_clips(layout, ob)
-        box = layout.box()
-        box.label(text="Plan", icon="TRACKING")
-        box.prop(fs, "goal")
-        box.prop(fs, "start")
-        box.prop(fs, "waypoints")
-        _draw_waypoint(box, context, fs)
-        row = box.row(align=True)
+
+
+class _OnCharacterPanel:
+    """A sub-panel of the planner's tab, shown once there is a character."""
+
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Footstep"
+    bl_parent_id = "FOOTSTEP_PT_main"
+
+    @classmethod
+    def poll(cls, context):
+        return character(context) is not None
+
+
+class FOOTSTEP_PT_character(_OnCharacterPanel, bpy.types.Panel):
+    bl_label = "Character and Clips"
+    bl_idname = "FOOTSTEP_PT_character"
+
+    def draw(self, context):
+        ob = character(context)
+        _draw_roles_problem(self.layout, ob)
+        _draw_clips(self.layout, ob)
+
+
+class FOOTSTEP_PT_roles(_OnCharacterPanel, bpy.types.Panel):
+    bl_label = "Bone Roles"
+    bl_idname = "FOOTSTEP_PT_roles"
+    bl_parent_id = "FOOTSTEP_PT_character"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        _draw_roles(self.layout, character(context))
+
+
+class FOOTSTEP_PT_goal(_OnCharacterPanel, bpy.types.Panel):
+    bl_label = "Goal and Waypoints"
+    bl_idname = "FOOTSTEP_PT_goal"
+
+    def draw(self, context):
+        layout, fs = self.layout, context.scene.footstep
+        layout.prop(fs, "goal")
+        layout.prop(fs, "start")
+        layout.prop(fs, "waypoints")
+        _draw_waypoint(layout, context, fs)
+
+
+class FOOTSTEP_PT_plan(_OnCharacterPanel, bpy.types.Panel):
+    bl_label = "Plan and Bake"
+    bl_idname = "FOOTSTEP_PT_plan"
+
+    def draw(self, context):
+        layout, fs = self.layout, context.scene.footstep
+        row = layout.row(align=True)
         row.operator("footstep.build_graph", icon="OUTLINER_DATA_LIGHTPROBE")
         row.operator("footstep.plan", icon="TRACKING_FORWARDS")
-        box.prop(fs, "body_on")
-        box.prop(fs, "grow_frame_range")
-        row = box.row(align=True)
+        layout.prop(fs, "body_on")
+        layout.prop(fs, "grow_frame_range")
+        row = layout.row(align=True)
         row.operator("footstep.bake", icon="REC")
         row.operator("footstep.clear", icon="TRASH")
-        _draw_footprint_edit(box, fs)
-        row = box.row(align=True)
+        row = layout.row(align=True)
         row.prop(fs, "show_overlay")
         row.prop(fs, "show_sampled")
         if fs.last_report:
-            col = box.column(align=True)
+            col = layout.column(align=True)
             for line in _wrap(fs.last_report, 60):
                 col.label(text=line)
-        _draw_report(box, fs)
-        box = layout.box()
-        box.prop(fs, "show_settings", icon="TRIA_DOWN" if fs.show_settings else "TRIA_RIGHT",
-                 emboss=False)
-        if fs.show_settings:
-            col = box.column(align=True)
-            for name in fs.settings.bl_rna.properties.keys():
-                if name not in {"rna_type", "name"}:
-                    col.prop(fs.settings, name)
+        _draw_report(layout, fs)
+
+
+class FOOTSTEP_PT_directing(_OnCharacterPanel, bpy.types.Panel):
+    bl_label = "Directing"
+    bl_idname = "FOOTSTEP_PT_directing"
+
+    def draw(self, context):
+        _draw_footprint_edit(self.layout, context.scene.footstep)
+
+
+class FOOTSTEP_PT_settings(_OnCharacterPanel, bpy.types.Panel):
+    bl_label = "Settings"
+    bl_idname = "FOOTSTEP_PT_settings"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        self.layout.label(text="Lengths and speeds are a human's, scaled to the character", icon="INFO")
+
+
+#: The settings' groups, each from its first setting on (in ``Settings`` order) to the next
+SETTING_GROUPS = (("Clip Analysis", "analysis_rate"), ("Path Search", "turn_penalty"),
+                  ("Smoothing and Refinement", "smoothing_iterations"), ("Blend Groups", "tau_dt"),
+                  ("IK and Bake", "ik_alpha"), ("Turning in Place", "turn_in_place_angle"))
+
+
+def setting_groups() -> list[tuple[str, list[str]]]:
+    """(label, setting names) of each group of the Settings sub-panel: every setting in one."""
+    from ...core.base.settings import Settings
+
+    names = Settings.names()
+    starts = [names.index(first) for _, first in SETTING_GROUPS] + [len(names)]
+    return [(label, names[a:b]) for (label, _), a, b in zip(SETTING_GROUPS, starts, starts[1:])]
+
+
+def _settings_panel(i: int, label: str):
+    """The Settings sub-panel of group ``i`` (closed until opened)."""
+
+    def draw(self, context):
+        col = self.layout.column(align=True)
+        for name in setting_groups()[i][1]:
+            col.prop(context.scene.footstep.settings, name)
+
+    return type(f"FOOTSTEP_PT_settings_{i}", (_OnCharacterPanel, bpy.types.Panel), {
+        "bl_label": label, "bl_idname": f"FOOTSTEP_PT_settings_{i}", "bl_parent_id": "FOOTSTEP_PT_settings",
+        "bl_options": {"DEFAULT_CLOSED"}, "draw": draw})
+
+
+SETTINGS_PANELS = tuple(_settings_panel(i, label) for i, (label, _) in enumerate(SETTING_GROUPS))
+
+#: The planner tab's panels, parents before their sub-panels
+TAB_PANELS = (FOOTSTEP_PT_main, FOOTSTEP_PT_character, FOOTSTEP_PT_roles, FOOTSTEP_PT_goal, FOOTSTEP_PT_plan,
+              FOOTSTEP_PT_directing, FOOTSTEP_PT_settings, *SETTINGS_PANELS)
 
 
 def _draw_footprint_edit(layout, fs) -> None:
@@ -156,19 +246,32 @@ def _draw_report(layout, fs):
         row.label(text=value)
 
 
-def _draw_roles(layout, ob):
+def _roles(ob):
+    """(the character's roles, None) or (None, why they can't be read)."""
     from ..read.scene import rig_from_armature
 
-    box = layout.box()
-    box.label(text="Bone roles", icon="ARMATURE_DATA")
     try:
-        roles = rig_from_armature(ob).roles
+        return rig_from_armature(ob).roles, None
     except Exception as ex:  # a rig we can't read: say so in the panel, never raise in draw
-        box.label(text=str(ex), icon="ERROR")
+        return None, str(ex)
+
+
+def _draw_roles_problem(layout, ob) -> None:
+    """Why the character's bones can't all be given their roles, if they can't (shown
+    whether or not the Bone Roles sub-panel is open)."""
+    roles, problem = _roles(ob)
+    if problem:
+        layout.label(text=problem, icon="ERROR")
+    elif not roles.ok:
+        layout.label(text="Could not map: " + ", ".join(roles.missing) + " (set them in Bone Roles)", icon="ERROR")
+
+
+def _draw_roles(layout, ob):
+    roles, problem = _roles(ob)
+    if roles is None:
+        layout.label(text=problem, icon="ERROR")
         return
-    if not roles.ok:
-        box.label(text="Could not map: " + ", ".join(roles.missing), icon="ERROR")
-    col = box.column(align=True)
+    col = layout.column(align=True)
     props = ob.data.footstep
     for role in ALL_ROLES:
         row = col.row(align=True)
@@ -236,15 +339,43 @@ class FOOTSTEP_PT_collection_surface(bpy.types.Panel):
         self.layout.prop(context.collection.footstep, "surface", text="Surface")
 
 
-CLASSES = (FOOTSTEP_UL_clips, FOOTSTEP_PT_main, FOOTSTEP_PT_object_surface,
-           FOOTSTEP_PT_collection_surface)
+#: The menu's operators (None: a separator), as (idname, icon)
+MENU_OPERATORS = (("footstep.plan", "TRACKING_FORWARDS"), ("footstep.bake", "REC"), ("footstep.replan", "FILE_REFRESH"),
+                  ("footstep.clear", "TRASH"), None, ("footstep.import_clips", "IMPORT"),
+                  ("footstep.generate_clips", "ANIM"), ("footstep.analyze_clips", "FILE_REFRESH"))
+
+
+class FOOTSTEP_MT_animation(bpy.types.Menu):
+    """Object > Animation > Footstep Planner: the planner's main operators (so F3's search
+    finds them too)"""
+
+    bl_idname = "FOOTSTEP_MT_animation"
+    bl_label = "Footstep Planner"
+
+    def draw(self, context):
+        for item in MENU_OPERATORS:
+            if item is None:
+                self.layout.separator()
+            else:
+                self.layout.operator(item[0], icon=item[1])
+
+
+def _menu_animation(self, context):
+    self.layout.separator()
+    self.layout.menu(FOOTSTEP_MT_animation.bl_idname, icon="TRACKING")
+
+
+CLASSES = (FOOTSTEP_UL_clips, *TAB_PANELS, FOOTSTEP_PT_object_surface, FOOTSTEP_PT_collection_surface,
+           FOOTSTEP_MT_animation)
 
 
 def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
+    bpy.types.VIEW3D_MT_object_animation.append(_menu_animation)
 
 
 def unregister():
+    bpy.types.VIEW3D_MT_object_animation.remove(_menu_animation)
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

@@ -1,5 +1,6 @@
 """Properties stored in the .blend: the planner's settings (scene), role overrides and
-the editable clip library (armature data)."""
+the editable clip library (armature data). The scene's scratch state (last plan, last
+report, edit problem) is kept for the session only (``session.Scratch``)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 
 from ...core.clips.roles import ALL_ROLES
 from ...core.base.settings import Settings
+from .session import Scratch
 
 USAGES = [
     ("TURN", "Turning group", "Blended with the clips of its gait by path curvature tau"),
@@ -75,9 +77,7 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
     start: PointerProperty(name="Start", type=bpy.types.Object,
                            description="Start standing at this object (empty: where the "
                                        "character's feet are now)")
-    plan_json: StringProperty(name="Plan", description="The last plan (JSON)", options={"HIDDEN"})
     settings: PointerProperty(type=FOOTSTEP_PG_settings)
-    show_settings: BoolProperty(name="Settings", default=False)
     grow_frame_range: BoolProperty(name="Grow frame range", default=True,
                                    description="Make the scene's frame range cover the bake (it never "
                                                "shrinks; Clear puts it back)")
@@ -89,7 +89,6 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
                                            "body trajectory in the viewport")
     show_sampled: BoolProperty(name="Show sampled footprints", default=False,
                                description="Also draw the footprints the search tested")
-    last_report: StringProperty(name="Last report", description="Summary of the last run")
     waypoints: PointerProperty(name="Waypoints", type=bpy.types.Collection,
                                description="Pass through the objects of this collection on the way to the "
                                            "goal, in the order of their names (an empty with its heading, "
@@ -98,7 +97,11 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
                                   description="After Plan and Bake, show each footprint as a small empty "
                                               "(in the collection 'Footprints: <character>') to move, turn, "
                                               "lock and re-plan around")
-    edit_problem: StringProperty(name="Edit problem", description="Why the last edit can't be honoured")
+
+    # scratch state: this session only, never saved in the user's file
+    plan_json = Scratch(doc="The last plan (JSON)")
+    last_report = Scratch(doc="Summary of the last run")
+    edit_problem = Scratch(doc="Why the last edit can't be honoured")
 
 
 def _edited(self, context):

@@ -24,8 +24,9 @@ from ...core.base.errors import FootstepError
 from ...core.solve.ik import IKResult, body_frames
 from ...core.base.quat import continuous
 from ...core.clips.rig import Rig, armature_basis
-from ..read.scene import object_scale, scene_fps
+from .keys import new_fcurve
 from .keys import CONSTANT, fill_keys
+from ..read.scene import object_scale, scene_fps
 
 OWNED_PROP = "footstep_bake"
 #: The character's own object transform before the first bake (row-major 4x4), put back
@@ -298,14 +299,14 @@ class _Keys:
         """Key ``values`` (F,) or (F, K) on ``path``, one F-Curve per column (array index)."""
         values = np.asarray(values, float).reshape(len(self.frames), -1)
         for i in range(values.shape[1]):
-            fill_keys(self.cbag.fcurves.new(path, index=i, group_name=group), self.frames, values[:, i])
+            fill_keys(new_fcurve(self.cbag, path, i, group), self.frames, values[:, i])
 
     def constant(self, path: str, values, group: str) -> None:
         """Key ``values`` (K,) on ``path`` once, at the first frame: held throughout, so the
         channel plays the same whatever value the pose had before (no leftover state)."""
         values = np.asarray(values, float).ravel()
         for i, v in enumerate(values):
-            fill_keys(self.cbag.fcurves.new(path, index=i, group_name=group), self.frames[:1], [v], CONSTANT)
+            fill_keys(new_fcurve(self.cbag, path, i, group), self.frames[:1], [v], CONSTANT)
 
 
 def _new_action(ob, name: str, rest: list[float], body_on: str, frames: np.ndarray):

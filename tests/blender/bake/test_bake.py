@@ -198,7 +198,7 @@ def test_rebake_replaces_only_the_planners_own_and_clear_removes_it(fp, jumps_ba
 def test_bake_operator_clear_operator_undo_and_panel(fp):
     import bpy
 
-    from conftest import Recorder
+    from conftest import draw_tab
 
     scene, ob = _scene(fp, "obstacles")
     scene.footstep.character = ob
@@ -213,12 +213,10 @@ def test_bake_operator_clear_operator_undo_and_panel(fp):
     assert doc["quality"]["foot_skate"]["max_mm"] < 10.0
     ob = bpy.data.objects["CMU"]
     assert [t.name for t in ob.animation_data.nla_tracks if t.name.startswith("Footstep: ")]
-    panel = import_module(fp.__name__ + ".blender.ui.panel").FOOTSTEP_PT_main
-    stub = Recorder()
-    panel.draw(type("P", (), {"layout": stub})(), bpy.context)
-    ops = {a[0] for name, a, _ in stub.log if name == "operator" and a}
+    log = draw_tab(fp, bpy.context)  # (the tab and its sub-panels)
+    ops = {a[0] for name, a, _ in log if name == "operator" and a}
     assert {"footstep.build_graph", "footstep.plan", "footstep.bake", "footstep.clear"} <= ops
-    labels = [kw.get("text", "") for name, a, kw in stub.log if name == "label"]
+    labels = [kw.get("text", "") for name, a, kw in log if name == "label"]
     assert any("skate" in t for t in labels) and any("refinement" in t for t in labels)
     bpy.ops.ed.undo()  # undo restores the scene before the bake
     ob = bpy.data.objects["CMU"]

@@ -136,7 +136,7 @@ def test_replanning_after_moving_one_obstacle_keeps_the_other_answers(fp):
 def test_plan_operator_and_panel(fp):
     import bpy
 
-    from conftest import Recorder
+    from conftest import draw_tab
 
     scene, ob = _scene_with_character(fp, "turns")
     scene.footstep.character = ob
@@ -145,10 +145,8 @@ def test_plan_operator_and_panel(fp):
     assert bpy.ops.footstep.plan() == {"FINISHED"}
     doc = json.loads(scene.footstep.plan_json)
     assert len(doc["footprints"]) > 20 and "footprints" in scene.footstep.last_report
-    panel = import_module(fp.__name__ + ".blender.ui.panel").FOOTSTEP_PT_main
-    stub = Recorder()
-    panel.draw(type("P", (), {"layout": stub})(), bpy.context)
-    assert any(a and a[0] == "footstep.plan" for name, a, _ in stub.log if name == "operator")
+    log = draw_tab(fp, bpy.context)  # (the tab and its sub-panels)
+    assert any(a and a[0] == "footstep.plan" for name, a, _ in log if name == "operator")
     scene.footstep.goal = None
     scene.cursor.location = (60, 60, 0)  # off every surface: a clear report, nothing changed
     with pytest.raises(RuntimeError, match="off every traversable surface"):

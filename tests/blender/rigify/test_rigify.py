@@ -8,6 +8,8 @@ from importlib import import_module
 import numpy as np
 import pytest
 
+from conftest import MOD
+
 MM = 1e-3
 
 
@@ -52,8 +54,9 @@ def _key(cbag, bone, prop, frames, values):
     if values.shape[0] == 1 and len(frames) > 1:
         values = np.repeat(values, len(frames), 0)
     sep = "" if prop.startswith("[") else "."
+    new_fcurve = import_module(MOD + ".blender.write.keys").new_fcurve  # (on Blender 4.5 and 5.x alike)
     for i in range(values.shape[1]):
-        fc = cbag.fcurves.new(f'pose.bones["{bone}"]{sep}{prop}', index=i, group_name=bone)
+        fc = new_fcurve(cbag, f'pose.bones["{bone}"]{sep}{prop}', i, bone)
         fc.keyframe_points.add(len(frames))
         co = np.empty(2 * len(frames), np.float32)
         co[0::2], co[1::2] = frames, values[:, i]

@@ -4,16 +4,11 @@ from importlib import import_module
 
 import pytest
 
-from conftest import Recorder, cmu, needs_cmu
+from conftest import Recorder, cmu, draw_tab, needs_cmu
 
 
 def _draw(fp, context):
-    import bpy
-
-    panel = import_module(fp.__name__ + ".blender.ui.panel").FOOTSTEP_PT_main
-    stub = Recorder()
-    panel.draw(type("P", (), {"layout": stub})(), context)
-    return stub.log
+    return draw_tab(fp, context)
 
 
 def test_panel_without_a_character_offers_import(fp, empty_scene):
@@ -90,3 +85,48 @@ def test_settings_props_mirror_the_dataclass(fp, empty_scene):
     pg.speed_sigma = 3.0
     assert props.settings_from_props(pg) == Settings(smoothing_iterations=6, speed_sigma=3.0)
     assert "Footsteps taken" in pg.bl_rna.properties["speed_sigma"].description
+
+
+def _bare_character(scene):
+    import bpy
+
+    ob = bpy.data.objects.new("Bare", bpy.data.armatures.new("Bare"))
+    scene.collection.objects.link(ob)
+    scene.footstep.character = ob
+    return ob
+
+
+def test_the_tab_is_split_into_sub_panels_the_rare_ones_closed(fp, empty_scene):
+    import bpy
+
+    panel = import_module(fp.__name__ + ".blender.ui.panel")
+    subs = panel.TAB_PANELS[1:]
+    order = [cls.bl_idname for cls in panel.TAB_PANELS]
+    for cls in subs:  # each hangs under the tab, its parent registered before it
+        assert cls.bl_parent_id in order and order.index(cls.bl_parent_id) < order.index(cls.bl_idname)
+        assert isinstance(getattr(bpy.types, cls.bl_idname), type)
+    labels = {cls.bl_label for cls in subs}
+    assert {"Character and Clips", "Goal and Waypoints", "Plan and Bake", "Directing", "Settings"} <= labels
+    closed = {cls.bl_label for cls in subs if "DEFAULT_CLOSED" in getattr(cls, "bl_options", set())}
+    assert {"Settings", "Bone Roles"} | {label for label, _ in panel.SETTING_GROUPS} <= closed
+    assert not closed & {"Character and Clips", "Goal and Waypoints", "Plan and Bake"}
+    # without a character only the tab itself draws
+    assert not [cls for cls in subs if cls.poll(bpy.context)]
+    _bare_character(empty_scene)
+    assert all(cls.poll(bpy.context) for cls in subs)
+
+
+def test_every_setting_is_drawn_once_in_its_group(fp, empty_scene):
+    import bpy
+
+    panel = import_module(fp.__name__ + ".blender.ui.panel")
+    Settings = import_module(fp.__name__ + ".core.base.settings").Settings
+    groups = panel.setting_groups()
+    assert all(names for _, names in groups)
+    assert [n for _, names in groups for n in names] == Settings.names()
+    _bare_character(empty_scene)
+    log = draw_tab(fp, bpy.context)
+    drawn = [a[1] for name, a, _ in log if name == "prop" and len(a) > 1 and a[1] in Settings.names()]
+    assert sorted(drawn) == sorted(Settings.names())
+    # the bare armature has no bones to give roles to: the tab says so, it does not raise
+    assert any(name == "label" and kw.get("icon") == "ERROR" for name, _, kw in log)

@@ -3,7 +3,6 @@ cost still to come for plain A*; the weighted search's paths stay near plain A*'
 planner benchmark's references keep to the library they were searched with (issue 15)."""
 
 import json
-import os
 import subprocess
 import sys
 

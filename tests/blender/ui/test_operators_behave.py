@@ -1,0 +1,251 @@
+"""Operators that behave like Blender's own: a greyed button says why, the main operators
+are in a menu (so F3 finds them), Esc during Bake cancels only what was not written and
+says what was kept, the status bar is given back, and nothing of one file's plan (the
+overlay's footprints, the reports) outlives it or is saved into it."""
+
+from importlib import import_module
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from conftest import Recorder
+
+
+def _mod(fp, name):
+    return import_module(f"{fp.__name__}.blender.{name}")
+
+
+@pytest.fixture
+def mannequin_scene(fp):
+    """The Jumps sample scene with the Footstep Mannequin and its generated clips as the
+    planner's character, walking from Start to Goal."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = _mod(fp, "sample_scenes").build("jumps")
+    scene.render.fps = 30
+    ob, _ = _mod(fp, "mannequin").add_to_scene(scene, "Start")
+    fs = scene.footstep
+    fs.character, fs.goal, fs.start = ob, scene.objects["Goal"], scene.objects["Start"]
+    fs.edit_footprints = False
+    return scene, ob
+
+
+def _footstep_operators():
+    import bpy
+
+    return [getattr(bpy.ops.footstep, name) for name in dir(bpy.ops.footstep)]
+
+
+def test_every_greyed_operator_says_why(fp, empty_scene):
+    """With no character, every operator that is not available raises with its poll's own
+    reason (what Blender shows on the greyed button), never 'context is incorrect'."""
+    greyed = [op for op in _footstep_operators() if not op.poll()]
+    assert len(greyed) >= 7  # plan, bake, clear, re-plan, analyze, build graph, lock, generate
+    for op in greyed:
+        with pytest.raises(RuntimeError) as err:
+            op()
+        msg = str(err.value)
+        assert "context is incorrect" not in msg, msg
+        assert "no character" in msg and "armature" in msg, msg
+
+
+def test_the_reason_names_a_character_that_is_no_armature(fp, empty_scene):
+    import bpy
+
+    mesh = bpy.data.objects.new("Crate", bpy.data.meshes.new("Crate"))
+    empty_scene.collection.objects.link(mesh)
+    ops = import_module(fp.__name__ + ".blender.ui.operators")
+    # (a Character can only be picked among armatures: the active object is what is left)
+    assert ops.character(bpy.context) is None
+    with pytest.raises(RuntimeError, match="no character"):
+        bpy.ops.footstep.generate_clips()
+
+
+def test_the_main_operators_are_in_object_animation(fp, empty_scene):
+    import bpy
+
+    panel = _mod(fp, "panel")
+    stub = Recorder()
+    panel.FOOTSTEP_MT_animation.draw(SimpleNamespace(layout=stub), bpy.context)
+    listed = [a[0] for name, a, _ in stub.log if name == "operator"]
+    assert set(listed) >= {"footstep.plan", "footstep.bake", "footstep.clear", "footstep.replan",
+                           "footstep.analyze_clips", "footstep.import_clips", "footstep.generate_clips"}
+    for idname in listed:  # each names an operator that exists
+        cat, name = idname.split(".")
+        assert name in dir(getattr(bpy.ops, cat)), idname
+    hooks = bpy.types.VIEW3D_MT_object_animation._dyn_ui_initialize()
+    assert panel._menu_animation in hooks
+    stub = Recorder()
+    panel._menu_animation(SimpleNamespace(layout=stub), bpy.context)
+    assert ("menu", ("FOOTSTEP_MT_animation",)) in [(n, a) for n, a, _ in stub.log]
+
+
+def test_unregister_leaves_nothing_registered(fp, empty_scene):
+    """Disabling the add-on takes down its classes, menus, properties and handler (and
+    enabling it again brings them back)."""
+    import bpy
+
+    panel, session = _mod(fp, "panel"), _mod(fp, "session")
+    fp.unregister()
+    try:
+        assert not [n for n in dir(bpy.types) if n.startswith(("FOOTSTEP_", "footstep_"))]
+        assert not hasattr(bpy.types.Scene, "footstep") and not hasattr(bpy.types.Object, "footstep")
+        assert panel._menu_animation not in bpy.types.VIEW3D_MT_object_animation._dyn_ui_initialize()
+        assert session._on_load_post not in bpy.app.handlers.load_post
+    finally:
+        fp.register()
+    assert hasattr(bpy.types, "FOOTSTEP_MT_animation") and hasattr(bpy.types.Scene, "footstep")
+    assert session._on_load_post in bpy.app.handlers.load_post
+
+
+def test_a_new_file_forgets_the_last_plan(fp, empty_scene, tmp_path):
+    """The overlay's footprints and the scene's reports belong to their file: File > New
+    (or opening another file) drops them, and saving never writes them into the .blend."""
+    import bpy
+
+    overlay = _mod(fp, "overlay")
+    fs = empty_scene.footstep
+    overlay.mark(empty_scene, waypoints=np.zeros((2, 3)))
+    fs.last_report = "40 footprints, 632 frames: a report to forget"
+    fs.plan_json = '{"footprints": []}'
+    fs.edit_problem = "footprint 3 is off every traversable surface"
+    assert empty_scene.name in overlay.LAST and fs.last_report.startswith("40 footprints")
+    path = str(tmp_path / "saved.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path, compress=False)
+    with open(path, "rb") as f:
+        data = f.read()
+    assert b"a report to forget" not in data and b"off every traversable" not in data
+
+    bpy.ops.wm.read_homefile(use_empty=True)  # File > New
+    assert overlay.LAST == {}
+    fs = bpy.context.scene.footstep
+    assert (fs.last_report, fs.plan_json, fs.edit_problem) == ("", "", "")
+
+    overlay.mark(bpy.context.scene, refused=np.zeros((1, 3)))
+    bpy.ops.wm.open_mainfile(filepath=path)  # the saved file: still nothing of the kind
+    assert overlay.LAST == {}
+    fs = bpy.context.scene.footstep
+    assert (fs.last_report, fs.plan_json, fs.edit_problem) == ("", "", "")
+
+
+class _Modal:
+    """Drives an operator's own modal code as Blender would (invoke, timer events, then
+    Esc), on an object standing in for the running operator."""
+
+    METHODS = ("invoke", "modal", "_begin", "_end", "_start", "_finish", "_cancel", "_stopped", "_analysed")
+
+    def __init__(self, fp, cls, context, monkeypatch, **props):
+        ops = _mod(fp, "operators")
+        self.status, self.reports, self.progress = [], [], []
+        monkeypatch.setattr(ops, "_status", lambda _ctx, text: self.status.append(text))
+        wm = SimpleNamespace(progress_begin=lambda *a: None, progress_end=lambda: self.progress.append("end"),
+                             progress_update=lambda v: self.progress.append(v),
+                             event_timer_add=lambda *a, **k: "timer", event_timer_remove=lambda t: None,
+                             modal_handler_add=lambda op: None)
+        self.context = SimpleNamespace(window_manager=wm, window=None, scene=context.scene,
+                                       active_object=context.active_object, workspace=None)
+        self.op = SimpleNamespace(report=lambda level, msg: self.reports.append((level, msg)), _timer=None, **props)
+        for name in self.METHODS:
+            if hasattr(cls, name):
+                setattr(self.op, name, getattr(cls, name).__get__(self.op))
+        assert self.op.invoke(self.context, None) == {"RUNNING_MODAL"}
+
+    def tick(self):
+        return self.op.modal(self.context, SimpleNamespace(type="TIMER", value="NOTHING"))
+
+    def esc(self):
+        return self.op.modal(self.context, SimpleNamespace(type="ESC", value="PRESS"))
+
+
+def _Bake(fp, context, monkeypatch):
+    return _Modal(fp, _mod(fp, "operators").FOOTSTEP_OT_bake, context, monkeypatch, markers=False)
+
+
+def test_esc_before_the_bake_is_written_changes_nothing(fp, mannequin_scene, monkeypatch):
+    import bpy
+
+    scene, ob = mannequin_scene
+    bake = _mod(fp, "bake")
+    tracks = [t.name for t in ob.animation_data.nla_tracks] if ob.animation_data else []
+    n_actions = len(bpy.data.actions)
+    run = _Bake(fp, bpy.context, monkeypatch)
+    assert run.tick() == {"RUNNING_MODAL"}  # planned; inverse kinematics next
+    assert run.tick() == {"RUNNING_MODAL"}  # solved; the bake next
+    assert run.esc() == {"CANCELLED"}
+    assert run.reports == [({"INFO"}, "bake cancelled: nothing was changed")]
+    assert run.status[-1] is None and "end" in run.progress  # the status bar is given back
+    assert ([t.name for t in ob.animation_data.nla_tracks] if ob.animation_data else []) == tracks
+    assert len(bpy.data.actions) == n_actions and not bake.owned_tracks(ob)
+
+
+def test_esc_after_the_bake_is_written_keeps_it_and_says_so(fp, mannequin_scene, monkeypatch):
+    import bpy
+
+    scene, ob = mannequin_scene
+    bake = _mod(fp, "bake")
+    run = _Bake(fp, bpy.context, monkeypatch)
+    for _ in range(4):  # planning, inverse kinematics, bake: the quality is measured next
+        assert run.tick() == {"RUNNING_MODAL"}
+    (kept,) = bake.owned_tracks(ob)
+    assert run.esc() == {"FINISHED"}  # what is in the scene is one undo step
+    ((level, msg),) = run.reports
+    assert level == {"WARNING"}
+    assert "already written and is kept" in msg and repr(kept.name) in msg
+    assert repr(kept.strips[0].action.name) in msg and "quality figures were not measured" in msg
+    strip = kept.strips[0]
+    assert f"frames {strip.frame_start:.0f}-{strip.frame_end:.0f}" in msg
+    assert scene.footstep.last_report == msg
+    assert run.status[-1] is None and "end" in run.progress
+    assert bake.owned_tracks(ob) == [kept]  # the bake stays as written
+
+
+def test_a_bake_run_to_the_end_reports_its_quality(fp, mannequin_scene, monkeypatch):
+    import bpy
+
+    scene, ob = mannequin_scene
+    run = _Bake(fp, bpy.context, monkeypatch)
+    for _ in range(10):
+        if run.tick() == {"FINISHED"}:
+            break
+    else:
+        pytest.fail("the bake did not finish")
+    assert "frames baked into" in scene.footstep.last_report and "skate" in scene.footstep.last_report
+    assert run.status[-1] is None
+
+
+@pytest.fixture
+def bare_mannequin(fp, empty_scene):
+    """The Footstep Mannequin without clips, as the planner's character."""
+    ob, _ = _mod(fp, "mannequin").build(empty_scene.collection)
+    empty_scene.footstep.character = ob
+    return ob
+
+
+def test_generate_sample_clips_shows_progress_and_esc_keeps_whole_clips(fp, bare_mannequin, monkeypatch):
+    import bpy
+
+    gen = _mod(fp, "mannequin").FOOTSTEP_OT_generate_clips
+    run = _Modal(fp, gen, bpy.context, monkeypatch)
+    names = run.op._names
+    assert len(names) >= 10
+    assert run.tick() == {"RUNNING_MODAL"} and run.tick() == {"RUNNING_MODAL"}
+    assert run.progress == [1, 2] and "2 of" in run.status[-1]
+    assert run.esc() == {"FINISHED"}  # the two clips written: one undo step
+    assert run.status[-1] is None and run.progress[-1] == "end"
+    level, msg = run.reports[0]
+    assert level == {"WARNING"} and f"kept the 2 clip(s) written ({names[0]}, {names[1]})" in msg
+    assert "not generated: " + ", ".join(names[2:]) in msg
+    props = bare_mannequin.data.footstep
+    assert sorted(c.name for c in props.clips) == sorted(names[:2])  # the library analysed: what is there
+
+
+def test_generate_sample_clips_cancelled_at_once_changes_nothing(fp, bare_mannequin, monkeypatch):
+    import bpy
+
+    n_actions = len(bpy.data.actions)
+    run = _Modal(fp, _mod(fp, "mannequin").FOOTSTEP_OT_generate_clips, bpy.context, monkeypatch)
+    assert run.esc() == {"CANCELLED"}
+    assert run.reports == [({"INFO"}, "clip generation cancelled: nothing was changed")]
+    assert len(bpy.data.actions) == n_actions and run.status[-1] is None
