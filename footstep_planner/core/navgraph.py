@@ -70,6 +70,20 @@ def fine_xy(xy: np.ndarray, cell: float = FINE_CELL) -> np.ndarray:
     return np.rint(np.asarray(xy, float)[..., :2] / cell).astype(np.int64)
 
 
+#: Gaits as numbers in the search's packed keys (``_pack``); any other gait takes the next.
+GAIT_IDS = {"walk": 0, "run": 1}
+
+
+def _pack(foot: int, gait: np.ndarray, xy: np.ndarray, heading: np.ndarray, cell: float, bins: int) -> np.ndarray:
+    """(N,) int64 keys of footprints of ``foot`` in gaits ``gait`` (N,) (``GAIT_IDS``) at
+    ``xy`` (N, 2) m turned ``heading`` (N,) rad, on a grid of ``cell`` m and ``bins``
+    headings (at most 256): each (foot, gait, cell x, cell y, heading bin) one int, cells
+    within 2**20 of the origin (20,000 km on a 2 cm grid)."""
+    c = np.rint(np.asarray(xy, float)[..., :2] / cell).astype(np.int64) + (1 << 20)
+    b = np.rint(np.asarray(heading, float) / (2 * np.pi) * bins).astype(np.int64) % bins
+    return (((c[:, 0] << 21) + c[:, 1]) << 8 | b) << 3 | (np.asarray(gait, np.int64) << 1) | int(foot)
+
+
 def fine_keys(xy: np.ndarray, heading: np.ndarray, cell: float = FINE_CELL) -> list[tuple[int, int, int]]:
     """Fine keys (cell x, cell y, heading bin) of footprints at ``xy`` (N, 2) m turned
     ``heading`` (N,) rad: the keys of ``FootprintCache.table`` (cells ``cell`` m)."""
@@ -290,6 +304,11 @@ class _Search:
     weight: float = 1.0  # the heuristic's weight now (``Planner._weigh``)
     seq: int = 0  # pushes so far (ties in the heap go first in, first out)
     cells: object = None  # the distance field's cells (``FieldCells``), built once per search
+    # each batch's successors still queued behind the one it has in the heap (in the order
+    # they leave it, last first), their f at the weight now, and the batch's first sequence
+    queued: list = field(default_factory=list)
+    f: list = field(default_factory=list)
+    seq0: list = field(default_factory=list)
 
     def push(self, node: SearchNode, h: float) -> None:
         """A checked footprint (a start footprint) into the open list."""
@@ -299,14 +318,51 @@ class _Search:
         heapq.heappush(self.heap, (node.cost + self.weight * h, self.seq, -1, len(self.nodes) - 1))
 
     def push_batch(self, batch: "_Batch") -> None:
-        """A node's successors, unchecked, into the open list (checked when popped)."""
+        """A node's successors, unchecked, into the open list (checked when popped). The
+        heap holds one entry per batch, its next successor by (f, sequence): the others
+        wait in the batch's own order (``queued``) and each takes the heap's place of the
+        one before as it leaves (``advance``), so the open list leaves in the order a heap
+        of every successor would, with a heap the size of the expansions."""
         self.batches.append(batch)
-        b = len(self.batches) - 1
-        f = (batch.g + self.weight * batch.h).tolist()
-        for j in range(len(f)):
-            self.seq += 1
-            heapq.heappush(self.heap, (f[j], self.seq, b, j))
-        self.generated += len(f)
+        n = len(batch.g)
+        self.seq0.append(self.seq)
+        self.seq += n
+        self.f.append([])
+        self.queued.append([])
+        self._queue(len(self.batches) - 1, np.arange(n))
+        self.generated += n
+
+    def _queue(self, b: int, rest: np.ndarray) -> None:
+        """Queue successors ``rest`` of batch ``b`` (none of them in the heap) at the weight
+        now, and put the first in the heap."""
+        batch = self.batches[b]
+        f = batch.g + self.weight * batch.h
+        self.f[b] = f.tolist()
+        rest = np.asarray(rest, np.int64)
+        self.queued[b] = rest[np.lexsort((rest, f[rest]))][::-1].tolist()
+        self.advance(b)
+
+    def advance(self, b: int) -> None:
+        """The next queued successor of batch ``b`` into the heap."""
+        if self.queued[b]:
+            j = self.queued[b].pop()
+            heapq.heappush(self.heap, (self.f[b][j], self.seq0[b] + j + 1, b, j))
+
+    def requeue(self, keep: Callable | None = None) -> None:
+        """The open list again at the weight now (and the batches' heuristics now), less
+        the entries ``keep(b, j)`` (b -1: a node j) refuses."""
+        heads = {e[2]: e[3] for e in self.heap if e[2] >= 0}
+        w = self.weight
+        self.heap = [(self.nodes[j].cost + w * self.h[j], q, -1, j) for _, q, b, j in self.heap
+                     if b < 0 and (keep is None or keep(-1, j))]
+        heapq.heapify(self.heap)
+        for b, batch in enumerate(self.batches):
+            rest = self.queued[b] + ([heads[b]] if b in heads else [])
+            if keep is not None:
+                rest = [j for j in rest if keep(b, j)]
+            self.queued[b] = []
+            if rest:
+                self._queue(b, np.array(rest))
 
     def stalled(self, idx: int) -> bool:
         """Whether the search has expanded ``STALL`` footprints since the heuristic of
@@ -364,6 +420,15 @@ class Planner:
         self.cache.cell = self.fine_cell  # (a cache is kept per foot, so per body: its keys are this planner's)
 
     @property
+    def _gait_ids(self) -> np.ndarray:
+        """(S,) int64 each step's gait as a number (``GAIT_IDS``), for the search's keys."""
+        ids = getattr(self, "_gait_id_cache", None)
+        if ids is None or len(ids) != self.steps.n:
+            ids = np.array([GAIT_IDS.get(g, len(GAIT_IDS)) for g in self.steps.gait.tolist()], np.int64)
+            self._gait_id_cache = ids
+        return ids
+
+    @property
     def field_cell(self) -> float:
         """m: the distance field's grid."""
         return self.settings.length(FIELD_CELL)
@@ -386,11 +451,12 @@ class Planner:
         return footprint_support(self.ground, self.obstacles, pos, heading, self.forward, self.foot,
                                  step_height=self.max_step_height, clearance=self.clearance)
 
-    def _keys(self, foot: int, gaits, xy: np.ndarray, psi: np.ndarray) -> list[tuple]:
-        """Merge-grid keys (foot, gait, cell x, cell y, heading bin) of footprints."""
-        c = np.rint(xy / self.cell).astype(np.int64)
-        b = np.rint(psi / (2 * np.pi) * self.heading_bins).astype(np.int64) % self.heading_bins
-        return list(zip([foot] * len(c), list(gaits), c[:, 0].tolist(), c[:, 1].tolist(), b.tolist()))
+    def _keys(self, foot: int, gaits, xy: np.ndarray, psi: np.ndarray) -> list[int]:
+        """Merge-grid keys (foot, gait, cell x, cell y, heading bin, packed in one int:
+        ``_pack``) of footprints; ``gaits`` names or ``_gait_ids``."""
+        ids = np.array([GAIT_IDS.get(g, len(GAIT_IDS)) for g in gaits], np.int64) \
+            if len(gaits) and isinstance(gaits[0], str) else np.asarray(gaits, np.int64)
+        return _pack(foot, ids, xy, psi, self.cell, self.heading_bins).tolist()
 
     def _between(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For footprint pairs (rows of a, b (N, 3)): (ground continues between them,
@@ -566,7 +632,7 @@ class Planner:
             bad = np.full(len(b.g), bool(flag[b.parent]))
             bad |= jump[b.sel] & (np.linalg.norm(b.nxt - where[:2], axis=1) <= self._len(REROUTE_RADIUS))
             out.append(bad.tolist())
-        search.heap = [e for e in search.heap if not (flag[e[3]] if e[2] < 0 else out[e[2]][e[3]])]
+        search.requeue(lambda b, j: not (flag[j] if b < 0 else out[b][j]))
 
     def _check_goal(self, goal: np.ndarray, goal_heading: float | None) -> None:
         """PlanError when no traversable surface lies under (or near above) the goal."""
@@ -612,11 +678,7 @@ class Planner:
                 at = np.cumsum([0] + [len(b.g) for b in search.batches])
                 for k, batch in enumerate(search.batches):
                     batch.h[:] = h[at[k]:at[k + 1]]
-        w = search.weight
-        f = [(b.g + w * b.h).tolist() for b in search.batches]
-        search.heap = [(search.nodes[j].cost + w * search.h[j] if b < 0 else f[b][j], q, b, j)
-                       for _, q, b, j in search.heap]
-        heapq.heapify(search.heap)
+        search.requeue()
 
     def _weigh(self, search: _Search) -> None:
         """The weight grows from ``START_WEIGHT`` of the user's excess over 1 by a quarter
@@ -673,6 +735,7 @@ class Planner:
                 return None
             search.closed.add(key)
             return j
+        search.advance(b)
         batch = search.batches[b]
         key = batch.keys[j]
         if key in search.closed:
@@ -753,12 +816,11 @@ class Planner:
         st = self.steps
         change = np.where(st.gait[sel] != node.gait, self.settings.gait_change_penalty, 0.0)
         cost = node.cost + (search.base_cost[sel] + change + self._weave(search, node, sel))
-        fine = fine_keys(nxt, npsi, self.fine_cell)
-        keep = []
-        for j, (g, k, f) in enumerate(zip(cost.tolist(), keys, fine)):
-            kk = (k[0], k[1], f)
-            if search.best_g.get(kk, np.inf) > g:
-                search.best_g[kk] = g
+        fine = _pack(1 - node.foot, self._gait_ids[sel], nxt, npsi, self.fine_cell, FINE_HEADING_BINS).tolist()
+        best, keep, inf = search.best_g, [], np.inf
+        for j, (g, f) in enumerate(zip(cost.tolist(), fine)):
+            if best.get(f, inf) > g:
+                best[f] = g
                 keep.append(j)
         if not keep:
             return
@@ -797,8 +859,9 @@ class Planner:
         l_ = np.array([-f_[1], f_[0]])
         nxt = node.position[:2] + st.fwd[sel, None] * f_ + st.left[sel, None] * l_
         npsi = _wrap(node.heading + st.turn[sel])
-        keys = self._keys(1 - node.foot, st.gait[sel].tolist(), nxt, npsi)
-        todo = [j for j, k in enumerate(keys) if k not in search.closed]
+        keys = self._keys(1 - node.foot, self._gait_ids[sel], nxt, npsi)
+        closed = search.closed
+        todo = [j for j, k in enumerate(keys) if k not in closed]
         return sel[todo], nxt[todo], npsi[todo], [keys[j] for j in todo]
 
     def _supported(self, node: SearchNode, nxt: np.ndarray, npsi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
