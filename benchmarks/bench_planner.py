@@ -6,6 +6,7 @@ of plain A* (heuristic_weight 1, a large expansion budget), and the result or th
 failure message. Prints the table with medians and worsts; writes nothing.
 
     .venv/bin/python benchmarks/bench_planner.py [--only NAME,...] [--no-reference] [--seed 15]
+        [--library cmu|sample] [--held-out]
 
 The reference searches take tens of CPU minutes in all (plain A* expands up to hundreds
 of thousands of footprints per scene; ``--reference-budget``, default REFERENCE_BUDGET);
@@ -29,7 +30,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 sys.path.insert(0, HERE)
-from scene_generator import benchmark_scenes, cmu_character, make_planner  # noqa: E402
+from scene_generator import benchmark_scenes, cmu_character, held_out_scenes, make_planner, sample_character  # noqa: E402,E501
 
 #: Plain A*'s expansion budget for the reference cost; a scene whose plain A* does not
 #: finish within it takes weighted A* with weight FALLBACK_WEIGHT (its ratio is then
@@ -82,12 +83,13 @@ def read_character(path: str):
     return Character(steps, d["forward"], FootShape(*d["foot_shape"].tolist()))
 
 
-def load_character(path: str = ""):
-    """The CMU subject-16 character, from ``path`` (npz) when it exists, else analysed
-    (and written to ``path`` when one is given)."""
+def load_character(path: str = "", library: str = "cmu"):
+    """The CMU subject-16 character (``library`` "sample": the sample character), from
+    ``path`` (npz) when it exists, else analysed (and written to ``path`` when one is
+    given)."""
     if path and os.path.exists(path):
         return read_character(path)
-    ch = cmu_character()
+    ch = sample_character() if library == "sample" else cmu_character()
     if path:
         save_character(ch, path)
     return ch
@@ -183,13 +185,17 @@ def main():
     ap.add_argument("--progress", action="store_true", help="each scene's figures on stderr as it ends")
     ap.add_argument("--character", default="", help="an npz of the library's steps: read when it exists, "
                     "else analysed and written there")
+    ap.add_argument("--library", choices=("cmu", "sample"), default="cmu",
+                    help="the CMU subject-16 library (default) or the sample character's generated clips")
+    ap.add_argument("--held-out", action="store_true",
+                    help="also the scenes of kinds the planner was never tuned on (scene_generator.held_out_scenes)")
     args = ap.parse_args()
     globals()["REFERENCE_BUDGET"] = args.reference_budget
-    scenes = benchmark_scenes(args.seed)
+    scenes = benchmark_scenes(args.seed) + (held_out_scenes() if args.held_out else [])
     if args.only:
         keep = args.only.split(",")
         scenes = [s for s in scenes if any(k in s.name for k in keep)]
-    character = load_character(args.character)
+    character = load_character(args.character, args.library)
     library = fingerprint(character)
     if args.write_reference:
         for sc in scenes:
@@ -212,7 +218,9 @@ def main():
         rows.append(run_scene(sc, character, reference))
         if args.progress:
             print(rows[-1][:8], file=sys.stderr, flush=True)
-    print(f"Planner benchmark: {len(scenes)} generated scenes (seed {args.seed}), CMU subject-16 library "
+    which = "the sample character's library" if args.library == "sample" else "CMU subject-16 library"
+    print(f"Planner benchmark: {len(scenes)} generated scenes (seed {args.seed}"
+          f"{', and the held-out kinds' if args.held_out else ''}), {which} "
           f"({character.steps.n} steps, fingerprint {library})")
     print_table(rows, scenes)
 

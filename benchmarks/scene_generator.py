@@ -11,7 +11,11 @@ the BVH files) and gives its steps, forward and foot.
 ``benchmark_scenes()`` are the thirty scenes of ``bench_planner.py``: platforms with
 bends and a gap that needs a run-up, corridors 1 to 3 m wide (starting inside, facing
 along and across, and outside), stairs and ramps, islands (unreachable goals), pillars
-and clutter, a bridge over a floor, paths of 10 to 40 m.
+and clutter, a bridge over a floor, paths of 10 to 40 m. ``held_out_scenes()`` are kinds
+the planner was never tuned on (issue 28): stepping stones 0.5 m wide with gaps of 20 to
+40 cm (straight, and round a bend), slabs with gaps between them, a gutter across a floor,
+and real stairs (17 cm risers, 28 cm treads) with a landing and a 90-degree turn, up and
+down.
 """
 
 from __future__ import annotations
@@ -100,25 +104,47 @@ def cmu_character(package: str = "footstep_planner") -> Character:
     plain package is registered here)."""
     from importlib import import_module
 
-    import bpy
-
     sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
     from library import cmu_files
+
+    return _analysed(package, lambda scene: import_module(package + ".blender.read.clips").import_clips(
+        cmu_files(), name="CMU")[0])
+
+
+@functools.lru_cache(maxsize=None)
+def sample_character(package: str = "footstep_planner") -> Character:
+    """The sample character (the mannequin and its generated clips), built, analysed and
+    planned with as ``cmu_character`` does the CMU library, once per process."""
+    from importlib import import_module
+
+    return _analysed(package, lambda scene: import_module(package + ".blender.sample.mannequin").add_to_scene(scene)[0])
+
+
+#: The add-on packages registered in this process (``_analysed``).
+_REGISTERED: set = set()
+
+
+def _analysed(package: str, make) -> Character:
+    """The character ``make(scene)`` puts in an empty Blender file (30 fps), analysed with
+    its mirrors and turned into the planner's steps, forward and foot shape."""
+    from importlib import import_module
+
+    import bpy
 
     from footstep_planner.core.base.settings import Settings
     from footstep_planner.core.clips.steps import library_steps
     from footstep_planner.core.plan.setup import foot_shape
 
-    if package == "footstep_planner":
+    if package == "footstep_planner" and package not in _REGISTERED:
         from footstep_planner import register
 
         register()
+        _REGISTERED.add(package)
     planning = import_module(package + ".blender.planning")
     character = import_module(package + ".blender.read.character")
-    clips_mod = import_module(package + ".blender.read.clips")
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.context.scene.render.fps = 30
-    ob, _ = clips_mod.import_clips(cmu_files(), name="CMU")
+    ob = make(bpy.context.scene)
     settings = Settings()
     clips = character.analyze_character(ob, settings, mirrors=True)
     steps = library_steps(character.library_for(ob, clips), clips.analyses, bend_curvature=settings.bend_curvature,
@@ -325,6 +351,95 @@ def rooms(rng, name: str, nx: int, ny: int) -> Scene:
     sc.start, sc.start_rotation = (1.5, 1.5, 0.0), _facing((0, 1))
     sc.goal = (nx * wx - 1.5, ny * wy - 1.5, 0.0)
     return sc
+
+
+def stones(rng, name: str, n: int, turn_after: int = 0, gaps: tuple = (0.2, 0.4)) -> Scene:
+    """A floor, ``n`` stepping stones 0.5 m square with gaps of ``gaps`` m (20 to 40 cm)
+    between them (no ground below: water) along x, turning 90 degrees left (on along y)
+    after the ``turn_after``-th stone when given, and a floor beyond; start on the near
+    floor facing the stones."""
+    sc = Scene(name, "stones")
+    sc.plate(-4.0, 0.0, -1.0, 1.0)
+    edge, d = np.array([0.0, 0.0]), np.array([1.0, 0.0])  # the last stone's far edge's middle
+    for k in range(n):
+        c = edge + (rng.uniform(*gaps) + 0.25) * d  # the stone's centre
+        sc.plate(c[0] - 0.25, c[0] + 0.25, c[1] - 0.25, c[1] + 0.25)
+        if turn_after and k + 1 == turn_after:
+            d = np.array([0.0, 1.0])
+        edge = c + 0.25 * d
+    q = edge + rng.uniform(*gaps) * d  # the far floor's near edge
+    far = q + 4.0 * d
+    across = np.array([d[1], d[0]])
+    lo, hi = np.minimum(q, far) - across, np.maximum(q, far) + across
+    sc.plate(lo[0], hi[0], lo[1], hi[1])
+    sc.start, sc.start_rotation = (-2.5, 0.0, 0.0), _facing((1, 0))
+    g = q + 2.5 * d
+    sc.goal = (g[0], g[1], 0.0)
+    return sc
+
+
+def slabs(rng, name: str, n: int) -> Scene:
+    """``n`` slabs 1.2 to 2 m long and 1.5 m wide in a row, with gaps of 20 to 35 cm between
+    them (no ground below)."""
+    sc = Scene(name, "slabs")
+    x = 0.0
+    for k in range(n):
+        length = rng.uniform(1.2, 2.0) if 0 < k < n - 1 else 3.0
+        sc.plate(x, x + length, -0.75, 0.75)
+        x += length + (rng.uniform(0.2, 0.35) if k < n - 1 else 0.0)
+    sc.start, sc.start_rotation = (1.0, 0.0, 0.0), _facing((1, 0))
+    sc.goal = (x - 1.0, 0.0, 0.0)
+    return sc
+
+
+def gutter(rng, name: str, width: float) -> Scene:
+    """A floor with a gutter ``width`` m wide and 0.5 m deep across the way, and a corner to
+    turn after it."""
+    sc = Scene(name, "gutter")
+    at = rng.uniform(4.0, 6.0)
+    sc.plate(0.0, at, -1.5, 1.5)
+    sc.plate(at, at + width, -1.5, 1.5, -0.5)  # its bottom
+    sc.plate(at + width, at + width + 4.0, -1.5, 6.0)
+    sc.start, sc.start_rotation = (1.0, 0.0, 0.0), _facing((1, 0))
+    sc.goal = (at + width + 2.0, 4.5, 0.0)
+    return sc
+
+
+#: m: real stairs' riser and tread (``stairs_turn``).
+RISER, TREAD = 0.17, 0.28
+
+
+def stairs_turn(rng, name: str, n: int, down: bool = False) -> Scene:
+    """Real stairs: a floor, a flight of ``n`` risers of 17 cm with 28 cm treads up along x
+    to a landing (its top the n-th riser's) as deep as the stairs are wide, a 90-degree
+    turn left, a second flight of ``n`` risers up along y and a floor at the top; start at
+    the foot and the goal at the top, or (``down``) the reverse."""
+    w = rng.uniform(1.1, 1.5)
+    sc = Scene(name, "stairs")
+    sc.plate(-4.0, 0.0, -w / 2, w / 2)
+    for k in range(1, n):
+        sc.plate((k - 1) * TREAD, k * TREAD, -w / 2, w / 2, k * RISER)
+    xl = (n - 1) * TREAD
+    sc.plate(xl, xl + w, -w / 2, w / 2, n * RISER)  # the landing
+    for k in range(1, n):
+        y = w / 2 + (k - 1) * TREAD
+        sc.plate(xl, xl + w, y, y + TREAD, (n + k) * RISER)
+    yt = w / 2 + (n - 1) * TREAD
+    sc.plate(xl, xl + w, yt, yt + 4.0, 2 * n * RISER)
+    foot, top = (-3.0, 0.0, 0.0), (xl + w / 2, yt + 2.5, 2 * n * RISER)
+    if down:
+        sc.start, sc.start_rotation, sc.goal = top, _facing((0, -1)), foot
+    else:
+        sc.start, sc.start_rotation, sc.goal = foot, _facing((1, 0)), top
+    return sc
+
+
+def held_out_scenes(seed: int = 28) -> list[Scene]:
+    """Scenes of kinds the planner was never tuned on (issue 28), the same for the same seed."""
+    rng = np.random.default_rng(seed)
+    return [stones(rng, "stones_straight", 8), stones(rng, "stones_bend", 9, turn_after=5),
+            slabs(rng, "slabs", 5), gutter(rng, "gutter", 0.3),
+            stairs_turn(rng, "stairs_turn_up", 6), stairs_turn(rng, "stairs_turn_down", 6, down=True)]
 
 
 def benchmark_scenes(seed: int = 15) -> list[Scene]:

@@ -12,13 +12,15 @@ are cached per fine grid key, so the cache serves later plans on the same geomet
 
 Cost is time (each step's duration), plus ``turn_penalty`` seconds per radian of
 heading change, ``jump_penalty`` seconds per jump and ``run_penalty`` seconds per
-running step (so the path walks unless it must run). Steps walk on continuous ground;
-jump steps are taken only across a gap (where the ground between take-off and landing
-is missing), never on open floor. The heuristic is the walking distance to the goal on
+running step (so the path walks unless it must run). A walking or running step crosses
+any gap its swing clears when both its footprints stand (stepping stones, the gap between
+two slabs, a gutter); jump steps are taken only across a gap no such step spans (a
+stretch without ground wider than the longest step less the foot's length), never on
+open floor. The heuristic is the walking distance to the goal on
 a coarse grid of up to three levels per cell (``DistanceField``: a bridge over a floor
 is two levels; around walls; up and down no more than a step; over step edges only
-where a foot fits; across gaps only where a jump reaches, each jump counting what it
-and its run-up cost beyond their length), or the straight distance less the goal radius
+where a foot fits; across gaps only where a step or a jump reaches, each counting what it
+(a run, a jump and its run-up) costs beyond its length), or the straight distance less the goal radius
 where that is longer, over the metres per second of cost (turn penalty included) of the
 two cheapest alternating steps; it never overestimates. The search weighs it by
 ``heuristic_weight`` (weighted A*), starting at ``START_WEIGHT`` of w's excess over 1
@@ -69,6 +71,20 @@ def fine_xy(xy: np.ndarray, cell: float = FINE_CELL) -> np.ndarray:
     """(N, 2) int64 fine-grid cells (``cell`` m: FINE_CELL, a human's, or the body's
     ``Planner.fine_cell``) of positions (N, >=2) in metres."""
     return np.rint(np.asarray(xy, float)[..., :2] / cell).astype(np.int64)
+
+
+#: Gaits as numbers in the search's packed keys (``_pack``); any other gait takes the next.
+GAIT_IDS = {"walk": 0, "run": 1}
+
+
+def _pack(foot: int, gait: np.ndarray, xy: np.ndarray, heading: np.ndarray, cell: float, bins: int) -> np.ndarray:
+    """(N,) int64 keys of footprints of ``foot`` in gaits ``gait`` (N,) (``GAIT_IDS``) at
+    ``xy`` (N, 2) m turned ``heading`` (N,) rad, on a grid of ``cell`` m and ``bins``
+    headings (at most 256): each (foot, gait, cell x, cell y, heading bin) one int, cells
+    within 2**20 of the origin (20,000 km on a 2 cm grid)."""
+    c = np.rint(np.asarray(xy, float)[..., :2] / cell).astype(np.int64) + (1 << 20)
+    b = np.rint(np.asarray(heading, float) / (2 * np.pi) * bins).astype(np.int64) % bins
+    return (((c[:, 0] << 21) + c[:, 1]) << 8 | b) << 3 | (np.asarray(gait, np.int64) << 1) | int(foot)
 
 
 def fine_keys(xy: np.ndarray, heading: np.ndarray, cell: float = FINE_CELL) -> list[tuple[int, int, int]]:
@@ -274,6 +290,11 @@ class _Search:
     weight: float = 1.0  # the heuristic's weight now (``Planner._weigh``)
     seq: int = 0  # pushes so far (ties in the heap go first in, first out)
     cells: object = None  # the distance field's cells (``FieldCells``), built once per search
+    # each batch's successors still queued behind the one it has in the heap (in the order
+    # they leave it, last first), their f at the weight now, and the batch's first sequence
+    queued: list = field(default_factory=list)
+    f: list = field(default_factory=list)
+    seq0: list = field(default_factory=list)
 
     def push(self, node: SearchNode, h: float) -> None:
         """A checked footprint (a start footprint) into the open list."""
@@ -283,14 +304,51 @@ class _Search:
         heapq.heappush(self.heap, (node.cost + self.weight * h, self.seq, -1, len(self.nodes) - 1))
 
     def push_batch(self, batch: "_Batch") -> None:
-        """A node's successors, unchecked, into the open list (checked when popped)."""
+        """A node's successors, unchecked, into the open list (checked when popped). The
+        heap holds one entry per batch, its next successor by (f, sequence): the others
+        wait in the batch's own order (``queued``) and each takes the heap's place of the
+        one before as it leaves (``advance``), so the open list leaves in the order a heap
+        of every successor would, with a heap the size of the expansions."""
         self.batches.append(batch)
-        b = len(self.batches) - 1
-        f = (batch.g + self.weight * batch.h).tolist()
-        for j in range(len(f)):
-            self.seq += 1
-            heapq.heappush(self.heap, (f[j], self.seq, b, j))
-        self.generated += len(f)
+        n = len(batch.g)
+        self.seq0.append(self.seq)
+        self.seq += n
+        self.f.append([])
+        self.queued.append([])
+        self._queue(len(self.batches) - 1, np.arange(n))
+        self.generated += n
+
+    def _queue(self, b: int, rest: np.ndarray) -> None:
+        """Queue successors ``rest`` of batch ``b`` (none of them in the heap) at the weight
+        now, and put the first in the heap."""
+        batch = self.batches[b]
+        f = batch.g + self.weight * batch.h
+        self.f[b] = f.tolist()
+        rest = np.asarray(rest, np.int64)
+        self.queued[b] = rest[np.lexsort((rest, f[rest]))][::-1].tolist()
+        self.advance(b)
+
+    def advance(self, b: int) -> None:
+        """The next queued successor of batch ``b`` into the heap."""
+        if self.queued[b]:
+            j = self.queued[b].pop()
+            heapq.heappush(self.heap, (self.f[b][j], self.seq0[b] + j + 1, b, j))
+
+    def requeue(self, keep: Callable | None = None) -> None:
+        """The open list again at the weight now (and the batches' heuristics now), less
+        the entries ``keep(b, j)`` (b -1: a node j) refuses."""
+        heads = {e[2]: e[3] for e in self.heap if e[2] >= 0}
+        w = self.weight
+        self.heap = [(self.nodes[j].cost + w * self.h[j], q, -1, j) for _, q, b, j in self.heap
+                     if b < 0 and (keep is None or keep(-1, j))]
+        heapq.heapify(self.heap)
+        for b, batch in enumerate(self.batches):
+            rest = self.queued[b] + ([heads[b]] if b in heads else [])
+            if keep is not None:
+                rest = [j for j in rest if keep(b, j)]
+            self.queued[b] = []
+            if rest:
+                self._queue(b, np.array(rest))
 
     def stalled(self, idx: int) -> bool:
         """Whether the search has expanded ``STALL`` footprints since the heuristic of
@@ -301,6 +359,10 @@ class _Search:
             return False
         return self.expanded - self.best_h[1] > STALL and self.reroutes < MAX_REROUTES
 
+
+#: m: the ground under a way is sampled this far apart to measure its widest gap
+#: (``Planner._widest_gap``).
+GAP_SPACING = 0.05
 
 #: m: a step longer than this (a jump) is checked for obstacles all along its way
 LONG_WAY = 0.9
@@ -348,6 +410,15 @@ class Planner:
         self.cache.cell = self.fine_cell  # (a cache is kept per foot, so per body: its keys are this planner's)
 
     @property
+    def _gait_ids(self) -> np.ndarray:
+        """(S,) int64 each step's gait as a number (``GAIT_IDS``), for the search's keys."""
+        ids = getattr(self, "_gait_id_cache", None)
+        if ids is None or len(ids) != self.steps.n:
+            ids = np.array([GAIT_IDS.get(g, len(GAIT_IDS)) for g in self.steps.gait.tolist()], np.int64)
+            self._gait_id_cache = ids
+        return ids
+
+    @property
     def field_cell(self) -> float:
         """m: the distance field's grid."""
         return self.settings.length(FIELD_CELL)
@@ -370,20 +441,21 @@ class Planner:
         return footprint_support(self.ground, self.obstacles, pos, heading, self.forward, self.foot,
                                  step_height=self.max_step_height, clearance=self.clearance)
 
-    def _keys(self, foot: int, gaits, xy: np.ndarray, psi: np.ndarray) -> list[tuple]:
-        """Merge-grid keys (foot, gait, cell x, cell y, heading bin) of footprints."""
-        c = np.rint(xy / self.cell).astype(np.int64)
-        b = np.rint(psi / (2 * np.pi) * self.heading_bins).astype(np.int64) % self.heading_bins
-        return list(zip([foot] * len(c), list(gaits), c[:, 0].tolist(), c[:, 1].tolist(), b.tolist()))
+    def _keys(self, foot: int, gaits, xy: np.ndarray, psi: np.ndarray) -> list[int]:
+        """Merge-grid keys (foot, gait, cell x, cell y, heading bin, packed in one int:
+        ``_pack``) of footprints; ``gaits`` names or ``_gait_ids``."""
+        ids = np.array([GAIT_IDS.get(g, len(GAIT_IDS)) for g in gaits], np.int64) \
+            if len(gaits) and isinstance(gaits[0], str) else np.asarray(gaits, np.int64)
+        return _pack(foot, ids, xy, psi, self.cell, self.heading_bins).tolist()
 
     def _between(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """For footprint pairs (rows of a, b (N, 3)): (ground continues between them,
-        the way between them is clear of obstacles). Three points between are tested:
-        the ground must be under each within a step's height, and no higher than
-        MAX_BUMP over the higher footprint; no obstacle may stand there below head
-        height, nor closer than half the clearance at the hips."""
+        """For footprint pairs (rows of a, b (N, 3)): (no gap lies between them wider than
+        the library's steps span, ``_widest_gap``: only a jump may cross one, and a jump
+        only that; the way between them is clear of obstacles). Three points between are
+        tested: the ground no higher than MAX_BUMP over the higher footprint; no obstacle
+        may stand there below head height, nor closer than half the clearance at the hips."""
         pts, z = self._ground_between(a, b)
-        ground = np.isfinite(z).all(axis=1)
+        ground = self._widest_gap(a, b) <= self._gap_spanned()
         # a step does not pass over ground higher than both its ends (a landing's corner
         # cut from one flight to the other): the swinging foot would have to climb it
         clear = self._under_bump(a, b, z)
@@ -400,6 +472,37 @@ class Planner:
             if len(long):  # (a jump's three points may all fall inside a thick wall: look all along)
                 clear[long] = self._clear_along(a[long], b[long])
         return ground, clear
+
+    def _gap_spanned(self) -> float:
+        """m: the widest gap a step of the library that is not a jump spans with both its
+        footprints standing: its longest step less the foot's length."""
+        return self._step_reach() - (self.foot.back + self.foot.front)
+
+    def _widest_gap(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(N,) m: the longest stretch without ground (within a step's height) on the way
+        from each ``a`` to ``b`` (N, 3), sampled every GAP_SPACING m; 0 for a way no longer
+        than the widest gap a step spans (``_gap_spanned``: its gaps are all narrower)."""
+        out = np.zeros(len(a))
+        length = np.linalg.norm((b - a)[:, :2], axis=1)
+        long = np.flatnonzero(length > self._gap_spanned())
+        if not len(long):
+            return out
+        spacing = self._len(GAP_SPACING)
+        n = int(np.ceil(length[long].max() / spacing)) + 1
+        t = np.linspace(0.0, 1.0, n)
+        a_, b_ = a[long], b[long]
+        pts = a_[:, None] + (b_ - a_)[:, None] * t[None, :, None]
+        pts[..., 2] = np.maximum(a_[:, 2], b_[:, 2])[:, None] + self.max_step_height
+        hit = self.ground.ray_down(pts.reshape(-1, 3), 2 * self.max_step_height + self._len(0.2)).hit
+        miss = ~hit.reshape(len(long), n)
+        # the longest run of misses in each row
+        run = np.zeros(len(long), int)
+        best = np.zeros(len(long), int)
+        for k in range(n):
+            run = np.where(miss[:, k], run + 1, 0)
+            best = np.maximum(best, run)
+        out[long] = (best + 1) * length[long] / (n - 1) * (best > 0)  # (a run of k misses: k + 1 spacings at most)
+        return out
 
     def _ground_between(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(points (N, 3, 3) a quarter, half and three quarters of the way from each ``a``
@@ -497,7 +600,7 @@ class Planner:
         edge_cost = EDGE_COST if self.settings.heuristic_weight > 1.0 else 1.0
         return FieldCells.build(self.ground, self.obstacles, self.field_cell, self.clearance, self._jump_reach(),
                                 self.max_step_height, self._jump_extra(), edge_cost, self._stands,
-                                scale=self.settings.body_scale)
+                                scale=self.settings.body_scale, steps=self._gap_steps())
 
     def _stands(self, pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
         """(N,) whether a foot may stand on the ground at footprints ``pos`` (N, 3) turned
@@ -550,7 +653,7 @@ class Planner:
             bad = np.full(len(b.g), bool(flag[b.parent]))
             bad |= jump[b.sel] & (np.linalg.norm(b.nxt - where[:2], axis=1) <= self._len(REROUTE_RADIUS))
             out.append(bad.tolist())
-        search.heap = [e for e in search.heap if not (flag[e[3]] if e[2] < 0 else out[e[2]][e[3]])]
+        search.requeue(lambda b, j: not (flag[j] if b < 0 else out[b][j]))
 
     def _check_goal(self, goal: np.ndarray, goal_heading: float | None) -> None:
         """PlanError when no traversable surface lies under (or near above) the goal."""
@@ -576,7 +679,7 @@ class Planner:
             blocker = Rejections.of(self, nodes, goal, d0).words(self, near, goal)
             raise PlanError(
                 f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) cannot be reached: no walkable way, nor a "
-                f"gap a jump clip can clear, leads there from the start; the nearest reachable "
+                f"gap a step or a jump clip can clear, leads there from the start; the nearest reachable "
                 f"point is ({near[0]:.2f}, {near[1]:.2f}), {d0:.2f} m from the goal"
                 + (f"; {blocker}" if blocker else ""))
 
@@ -596,11 +699,7 @@ class Planner:
                 at = np.cumsum([0] + [len(b.g) for b in search.batches])
                 for k, batch in enumerate(search.batches):
                     batch.h[:] = h[at[k]:at[k + 1]]
-        w = search.weight
-        f = [(b.g + w * b.h).tolist() for b in search.batches]
-        search.heap = [(search.nodes[j].cost + w * search.h[j] if b < 0 else f[b][j], q, b, j)
-                       for _, q, b, j in search.heap]
-        heapq.heapify(search.heap)
+        search.requeue()
 
     def _weigh(self, search: _Search) -> None:
         """The weight grows from ``START_WEIGHT`` of the user's excess over 1 by a quarter
@@ -657,6 +756,7 @@ class Planner:
                 return None
             search.closed.add(key)
             return j
+        search.advance(b)
         batch = search.batches[b]
         key = batch.keys[j]
         if key in search.closed:
@@ -737,12 +837,11 @@ class Planner:
         st = self.steps
         change = np.where(st.gait[sel] != node.gait, self.settings.gait_change_penalty, 0.0)
         cost = node.cost + (search.base_cost[sel] + change + self._weave(search, node, sel))
-        fine = fine_keys(nxt, npsi, self.fine_cell)
-        keep = []
-        for j, (g, k, f) in enumerate(zip(cost.tolist(), keys, fine)):
-            kk = (k[0], k[1], f)
-            if search.best_g.get(kk, np.inf) > g:
-                search.best_g[kk] = g
+        fine = _pack(1 - node.foot, self._gait_ids[sel], nxt, npsi, self.fine_cell, FINE_HEADING_BINS).tolist()
+        best, keep, inf = search.best_g, [], np.inf
+        for j, (g, f) in enumerate(zip(cost.tolist(), fine)):
+            if best.get(f, inf) > g:
+                best[f] = g
                 keep.append(j)
         if not keep:
             return
@@ -781,8 +880,9 @@ class Planner:
         l_ = np.array([-f_[1], f_[0]])
         nxt = node.position[:2] + st.fwd[sel, None] * f_ + st.left[sel, None] * l_
         npsi = _wrap(node.heading + st.turn[sel])
-        keys = self._keys(1 - node.foot, st.gait[sel].tolist(), nxt, npsi)
-        todo = [j for j, k in enumerate(keys) if k not in search.closed]
+        keys = self._keys(1 - node.foot, self._gait_ids[sel], nxt, npsi)
+        closed = search.closed
+        todo = [j for j, k in enumerate(keys) if k not in closed]
         return sel[todo], nxt[todo], npsi[todo], [keys[j] for j in todo]
 
     def _supported(self, node: SearchNode, nxt: np.ndarray, npsi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -799,9 +899,10 @@ class Planner:
         return answers[:, 0].astype(bool), answers[:, 1]
 
     def _way_clear(self, node: SearchNode, steps: np.ndarray, to: np.ndarray, fine: list) -> np.ndarray:
-        """(K,) whether each step from ``node`` to ``to`` (K, 3) may be taken: a walking
-        step on continuous ground, a jump only across a gap, neither through an obstacle
-        (cached per fine cell pair)."""
+        """(K,) whether each step from ``node`` to ``to`` (K, 3) may be taken: a walking or
+        running step over ground or over any gap its swing clears (both its footprints
+        stand: stepping stones, the gap between two slabs, a gutter), a jump only across a
+        gap, neither through an obstacle (cached per fine cell pair)."""
         between = self.cache.between
         here = tuple(fine_xy(node.position[:2], self.fine_cell).tolist())
         pairs = [(here, k) for k in fine]
@@ -811,7 +912,7 @@ class Planner:
             for n, g_, c_ in zip(ask, ground.tolist(), clear.tolist()):
                 between[pairs[n]] = (g_, c_)
         gc = np.array([between[k] for k in pairs], dtype=bool).reshape(-1, 2)
-        return np.where(self.steps.jump[steps], ~gc[:, 0], gc[:, 0]) & gc[:, 1]
+        return np.where(self.steps.jump[steps], ~gc[:, 0], True) & gc[:, 1]
 
     def _dead_end(self, search: _Search) -> PlanError:
         """The PlanError of a search that found no path: where it got to (the footprint it
@@ -893,6 +994,32 @@ class Planner:
         over = np.where(st.foot[j][:, None] != st.foot[r][None], over, np.inf)
         return float(max(np.min(over), 0.0) * v) if np.isfinite(over).any() else 0.0
 
+    def _gap_steps(self) -> list[tuple[float, float]]:
+        """(reach m, extra m) of the walk's steps and then the run's (where they reach
+        further) over a gap, for the distance field's bridges: the gait's longest step,
+        from footprint to footprint, and a field cell more (a gap's border cells lie up to
+        a cell further apart than the footprints either side), and what the gait's steps
+        cost beyond their length at the heuristic's speed (the least of them: a walk's
+        nothing, a run's its penalty), so the heuristic stays a lower bound."""
+        st = self.steps
+        length, cost = self._step_costs()
+        v, _ = self._cost_speed()
+        out = []
+        for gait in ("walk", "run"):
+            own = (st.gait == gait) & ~st.jump
+            if not own.any():
+                continue
+            reach = float(length[own].max()) + self.field_cell
+            extra = float(max(np.min(cost[own] - length[own] / v), 0.0) * v)
+            if not out or reach > out[-1][0]:
+                out.append((reach, extra if out else 0.0))
+        return out
+
+    def _step_reach(self) -> float:
+        """m: the library's longest step that is not a jump, from footprint to footprint."""
+        walk = ~self.steps.jump
+        return float(np.hypot(self.steps.fwd[walk], self.steps.left[walk]).max()) if walk.any() else 0.0
+
     def _jump_reach(self) -> float:
         j = self.steps.jump
         return float(np.hypot(self.steps.fwd[j], self.steps.left[j]).max()) if j.any() else 0.0
@@ -918,8 +1045,8 @@ class Planner:
 class Rejections:
     """Why steps from some footprints were refused: reason -> (count, a landing point (3,)).
     Reasons: "obstacle" (the body would meet one), "off surface", "uneven" (a step edge
-    under the foot), "steep", "step height", "gap" (a walking step over missing ground),
-    "obstacle between", "jump on ground" (a jump where no gap is)."""
+    under the foot), "steep", "step height", "obstacle between", "jump on ground" (a jump
+    where no gap is that a step could not span)."""
 
     counts: dict
 
@@ -949,7 +1076,7 @@ class Rejections:
                 ground, clear = planner._between(np.repeat(node.position[None], ok.sum(), axis=0), to)
                 jump = st.jump[sel[ok]]
                 sub = np.where(~clear, "obstacle between", np.where(jump & ground, "jump on ground",
-                               np.where(~jump & ~ground, "gap", ""))).astype(object)
+                               "")).astype(object)
                 reason[np.flatnonzero(ok)] = sub
             for r, p, z in zip(reason.tolist(), nxt, sup.z):
                 if r:
@@ -1025,10 +1152,21 @@ def _gap_words(planner: "Planner", at: np.ndarray, near: np.ndarray, goal: np.nd
     far = edge + int(np.argmax(hit[edge:])) if hit[edge:].any() else -1
     where = f"the surface ends at ({pts[edge, 0]:.2f}, {pts[edge, 1]:.2f})"
     gap = f"no ground beyond it within {far_off:.0f} m" if far < 0 else f"the gap beyond is {t[far] - t[edge]:.2f} m wide"
+    return f"{where} and {gap}; {_reach_words(planner)}"
+
+
+def _reach_words(planner: "Planner") -> str:
+    """What the library's steps span over a gap, in words: its longest step (not a jump)
+    less the foot's length, and its jump's reach (or that it has no jump)."""
+    step, foot = planner._step_reach(), planner.foot.back + planner.foot.front
+    gait = "running" if (planner.steps.gait[~planner.steps.jump] == "run").any() \
+        and np.hypot(planner.steps.fwd, planner.steps.left)[~planner.steps.jump & (planner.steps.gait == "run")].max() \
+        >= step - 1e-9 else "walking"
+    words = (f"the library's longest {gait} step spans a gap of {max(step - foot, 0.0):.2f} m ({step:.2f} m from "
+             f"footprint to footprint, less the foot's {foot:.2f} m)")
     reach = planner._jump_reach()
-    jump = (f"the library's jump reaches {reach:.2f} m from take-off to landing, and needs a running step "
-            "before it" if reach > 0 else "the library has no jump clip to cross it")
-    return f"{where} and {gap}; {jump}"
+    return words + (f", and its jump reaches {reach:.2f} m from take-off to landing, after a running step"
+                    if reach > 0 else ", and it has no jump clip for a wider one")
 
 
 def _steps_ahead(planner: "Planner", near: np.ndarray, goal: np.ndarray) -> tuple[float, float] | None:
@@ -1201,8 +1339,13 @@ class FieldCells:
 
     @staticmethod
     def build(ground, obstacles, cell, clearance, jump_reach, step_height, jump_extra: float = 0.0,
-              edge_cost: float = 1.0, support: Callable | None = None, scale: float = 1.0) -> "FieldCells":
-        """The cells of ``DistanceField.build`` (same arguments, less the goal and ``avoid``)."""
+              edge_cost: float = 1.0, support: Callable | None = None, scale: float = 1.0,
+              steps: tuple = ()) -> "FieldCells":
+        """The cells of ``DistanceField.build`` (same arguments, less the goal and ``avoid``).
+        ``steps``: (reach m, extra m) of the library's gaits whose steps cross gaps (a walk
+        or run step over any gap its swing clears, ``Planner._gap_steps``), shortest
+        first: a gap is bridged up to each one's reach at its extra, beyond the last by
+        the jump's (up to ``jump_reach``, at ``jump_extra``)."""
         grid = _Grid.over(ground, cell, step_height, scale)
         has_ground, blocked = grid.ground_and_blocked(obstacles, clearance)
         walk = has_ground & ~blocked
@@ -1210,11 +1353,16 @@ class FieldCells:
             walk = grid.foot_room(support, walk)
         edges = grid.neighbour_edges(walk, step_height, grid.edge_cells(walk), edge_cost)
         walk_edges = tuple(np.concatenate(e) for e in zip(*edges))
-        bridges = grid.bridges(walk, ~has_ground.any(axis=0), blocked, jump_reach, step_height) \
-            if jump_reach > 0 else []
+        gap = grid.gaps(has_ground, step_height)
+        bridges, shortest = [], 1.5 * cell  # (beyond the 8 neighbours)
+        for reach, extra in list(steps) + [(jump_reach, jump_extra)]:
+            if reach > shortest:
+                got = grid.bridges(walk, gap, blocked, reach, step_height,
+                                   shortest if steps else 1.0)  # (a jump alone: over a metre, as ever)
+                bridges += [(a, b, c + extra) for a, b, c in got]
+                shortest = reach
         if bridges:
-            a, b, c = (np.concatenate(e) for e in zip(*bridges))
-            bridge_edges = (a, b, c + jump_extra)
+            bridge_edges = tuple(np.concatenate(e) for e in zip(*bridges))
         else:
             bridge_edges = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
         return FieldCells(grid, walk_edges, bridge_edges)
@@ -1396,11 +1544,22 @@ class _Grid:
                     out.append((self.ids[la][sa][m], self.ids[lb][sb][m], length))
         return out
 
+    def gaps(self, has_ground: np.ndarray, step_height: float) -> np.ndarray:
+        """(nx, ny) the cells of gaps: no ground at all (water between stepping stones), or
+        ground more than ``step_height`` below a neighbour's on either side (a gutter's,
+        a trench's bottom)."""
+        top = np.where(has_ground.any(axis=0), np.nanmax(np.where(has_ground, self.z, -np.inf), axis=0), -np.inf)
+        pt = np.pad(top, 1, constant_values=-np.inf)
+        sunk = np.zeros(top.shape, bool)
+        for a, b in ((pt[2:, 1:-1], pt[:-2, 1:-1]), (pt[1:-1, 2:], pt[1:-1, :-2])):
+            sunk |= (top < a - step_height) & (top < b - step_height) & np.isfinite(a) & np.isfinite(b)
+        return ~has_ground.any(axis=0) | sunk
+
     def bridges(self, walk: np.ndarray, void: np.ndarray, blocked: np.ndarray, jump_reach: float,
-                step_height: float) -> list[tuple]:
-        """(rows, cols, lengths) of straight bridges up to ``jump_reach`` between walkable
-        cell levels on the border of a gap (missing ground, ``void`` (nx, ny)), within a
-        step's height of each other, never across an obstacle."""
+                step_height: float, shortest: float = 1.0) -> list[tuple]:
+        """(rows, cols, lengths) of straight bridges longer than ``shortest`` m and up to
+        ``jump_reach`` between walkable cell levels on the border of a gap (``void`` (nx,
+        ny), ``gaps``), within a step's height of each other, never across an obstacle."""
         nx, ny = self.nx, self.ny
         pv = np.pad(void, 1)
         near_void = pv[2:, 1:-1] | pv[:-2, 1:-1] | pv[1:-1, 2:] | pv[1:-1, :-2]
@@ -1408,7 +1567,7 @@ class _Grid:
         bl, bi, bj = np.nonzero(border)
         r = int(np.ceil(jump_reach / self.cell))
         offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1)
-                if 1 < np.hypot(a, b) * self.cell <= jump_reach]
+                if shortest < np.hypot(a, b) * self.cell <= jump_reach and max(abs(a), abs(b)) > 1]
         out = []
         for a, b in offs:
             ti, tj = bi + a, bj + b
