@@ -228,14 +228,22 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     A[idx], R[idx] = ankle[idx], rot[idx]
     swing = ~planted & (prev >= 0) & (nxt < F)
     if swing.any() and ground_z is not None:
-        A = _stair_swing(A, swing & _over_edge(A, prev_c, nxt_c, ground_z), prev_c, nxt_c, x)
+        # (only a swing between footprints more than CLIMB_MIN apart in height is retimed:
+        # the others' ground is never asked)
+        edge = np.zeros(F, bool)
+        ask = swing & (np.abs(A[nxt_c, 2] - A[prev_c, 2]) > CLIMB_MIN)
+        if ask.any():
+            edge[ask] = _over_edge(A, prev_c[ask], nxt_c[ask], ground_z)
+        A = _stair_swing(A, edge, prev_c, nxt_c, x)
     return A, R
 
 
 def _over_edge(A: np.ndarray, a: np.ndarray, b: np.ndarray, ground_z) -> np.ndarray:
-    """(F,) whether the ground from ankle target ``A[a]`` to ``A[b]`` (each frame's last
-    and next planted frames) has a step's edge (``surface.steps_along``: a stair's
-    nosing, a kerb; not a slope, nor a gap), by ``ground_z`` (points -> heights)."""
+    """(n,) whether the ground from ankle target ``A[a]`` to ``A[b]`` (``a``, ``b`` (n,):
+    a swinging frame's last and next planted frames) has a step's edge
+    (``surface.steps_along``: a stair's nosing, a kerb; not a slope, nor a gap), by
+    ``ground_z`` (points -> heights). Each swing's way is sampled once, however many
+    frames it lasts (a frame's own planted frame, a way of no length, is never asked)."""
     pairs, inv = np.unique(np.c_[a, b], axis=0, return_inverse=True)
     pa, pb = A[pairs[:, 0]], A[pairs[:, 1]]
     jump = steps_along(ground_z, pa, pb, 0.5 * (pa[:, 2] + pb[:, 2]))  # (``ground_z`` looks 0.3 m up and down)
