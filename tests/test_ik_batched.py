@@ -1,6 +1,7 @@
 """The IK's ground asked once per swing (issue 28): ``swing_targets`` gives what it gave
-when it asked the ground along every frame's way (planted frames and all), and it asks
-only along the swings that change height."""
+when it asked the ground along every frame's way (planted frames and all, every way as
+densely as the longest), and it asks only along the swings that change height, each by
+its own length."""
 
 import numpy as np
 from hypothesis import given, settings
@@ -80,16 +81,16 @@ def test_swing_targets_ask_the_ground_per_swing_and_give_what_every_frame_gave(s
     A_ref, R_ref = _every_frame(planted, A0, R0, ankle, rot, _stairs)
     np.testing.assert_allclose(A, A_ref, atol=1e-12)
     np.testing.assert_allclose(R, R_ref, atol=1e-12)
-    # the ground asked along each swing that changes height by more than CLIMB_MIN, once
+    # the ground asked along each swing that changes height by more than CLIMB_MIN, once,
+    # by its own length (at most 3 cm between samples)
     prev, nxt = planted_either_side(planted)
     swing = ~planted & (prev >= 0) & (nxt < F)
-    climbs = len({(a, b) for a, b in zip(prev[swing], nxt[swing]) if abs(ankle[b, 2] - ankle[a, 2]) > CLIMB_MIN})
-    if not climbs:
+    ways = {(a, b) for a, b in zip(prev[swing], nxt[swing]) if abs(ankle[b, 2] - ankle[a, 2]) > CLIMB_MIN}
+    if not ways:
         assert not asked
     else:
         (n,) = asked
-        longest = max(np.hypot(*(ankle[b, :2] - ankle[a, :2])) for a, b in zip(prev[swing], nxt[swing]))
-        assert n <= climbs * (int(np.ceil(longest / 0.03)) + 1)
+        assert n == sum(int(np.ceil(np.hypot(*(ankle[b, :2] - ankle[a, :2])) / 0.03)) + 1 for a, b in ways)
 
 
 def test_a_swing_on_level_ground_asks_nothing():
@@ -100,3 +101,30 @@ def test_a_swing_on_level_ground_asks_nothing():
     asked = []
     swing_targets(planted, A0, R0, ankle, rot, lambda p: asked.append(len(p)) or np.zeros(len(p)))
     assert not asked
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.floats(-2, 2), st.floats(-2, 2), st.floats(-2, 2), st.floats(-2, 2)),
+                min_size=1, max_size=8), st.integers(3, 50))
+def test_each_way_sampled_by_its_own_length_finds_the_largest_step(ways, samples):
+    """``largest_step_along``: on ways all as long as one another (the same samples
+    ``steps_along`` takes), the largest of ``steps_along``'s steps (no ground: ``missing``);
+    a way no longer than the spacing takes its two ends."""
+    from footstep_planner.core.surface import largest_step_along
+
+    a = np.array([[x, y, 0.0] for x, y, _, _ in ways])
+    length = (samples - 0.5) * 0.03  # (half a spacing short of ``samples`` spacings: no rounding)
+    ang = np.array([np.arctan2(v, u) for _, _, u, v in ways])
+    b = a + length * np.c_[np.cos(ang), np.sin(ang), np.zeros(len(a))]
+
+    def ground(p):  # terraces 7 cm high every 0.3 m along x + y, no ground where x > 1.5
+        p = np.asarray(p, float)
+        return np.where(p[:, 0] > 1.5, np.nan, 0.07 * np.floor((p[:, 0] + p[:, 1]) / 0.3))
+
+    z = np.full(len(a), 0.5)
+    ref = steps_along(ground, a, b, z)
+    for missing in (0.0, np.inf):
+        got = largest_step_along(ground, a, b, z, missing=missing)
+        np.testing.assert_allclose(got, np.nan_to_num(ref, nan=missing).max(axis=1))
+    short = largest_step_along(ground, a, a + [0.01, 0.0, 0.0], z)
+    np.testing.assert_allclose(short, np.nan_to_num(np.abs(ground(a + [0.01, 0.0, 0.0]) - ground(a)), nan=np.inf))

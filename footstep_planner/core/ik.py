@@ -50,7 +50,7 @@ from .body import scaled_bases, scaled_points, scaled_rig
 from .offsets import body_offsets, smooth_offsets
 from .rig import Rig, forward_kinematics
 from .settings import Settings
-from .surface import EDGE_STEP, steps_along
+from .surface import EDGE_STEP, largest_step_along
 
 #: s: the finest level of the body's height offset (3.8.1) where the feet stand at
 #: different heights (``_on_steps``): it changes between stances over about this long.
@@ -241,13 +241,14 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
 def _over_edge(A: np.ndarray, a: np.ndarray, b: np.ndarray, ground_z) -> np.ndarray:
     """(n,) whether the ground from ankle target ``A[a]`` to ``A[b]`` (``a``, ``b`` (n,):
     a swinging frame's last and next planted frames) has a step's edge
-    (``surface.steps_along``: a stair's nosing, a kerb; not a slope, nor a gap), by
+    (``surface.largest_step_along``: a stair's nosing, a kerb; not a slope, nor a gap), by
     ``ground_z`` (points -> heights). Each swing's way is sampled once, however many
-    frames it lasts (a frame's own planted frame, a way of no length, is never asked)."""
+    frames it lasts, by its own length (``surface.largest_step_along``: a jump's long
+    way does not make every step's dense)."""
     pairs, inv = np.unique(np.c_[a, b], axis=0, return_inverse=True)
     pa, pb = A[pairs[:, 0]], A[pairs[:, 1]]
-    jump = steps_along(ground_z, pa, pb, 0.5 * (pa[:, 2] + pb[:, 2]))  # (``ground_z`` looks 0.3 m up and down)
-    edge = (np.nan_to_num(jump, nan=0.0) > CLIMB_MIN).any(axis=1)
+    # (``ground_z`` looks 0.3 m up and down; no ground under a sample is no edge)
+    edge = largest_step_along(ground_z, pa, pb, 0.5 * (pa[:, 2] + pb[:, 2]), missing=0.0) > CLIMB_MIN
     return edge[np.ravel(inv)]
 
 

@@ -31,7 +31,7 @@ from .refinement import Refined, refine
 from .settings import Settings
 from .smoothing import Smoothed, smooth_footprints
 from .steps import bend_chain
-from .surface import EDGE_STEP, FootShape, Ground, footprint_support, steps_along
+from .surface import EDGE_STEP, FootShape, Ground, footprint_support, largest_step_along
 from .timing import StageTimer
 from .trajectory import transfer_body
 from .turn_in_place import PIVOT
@@ -238,7 +238,7 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
 
     def crosses_edge(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) whether the ground from each footprint ``a`` (N, 3) to ``b`` (N, 3) has an
-        edge (``surface.steps_along``: a step of more than EDGE_STEP, or no surface): a
+        edge (``surface.largest_step_along``: a step of more than EDGE_STEP, or no surface): a
         footprint moved across one leaves the tread, kerb or floor it was planned on
         (smoothing and refinement keep each footprint on its side)."""
         a, b = np.asarray(a, float), np.asarray(b, float)
@@ -249,8 +249,7 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
             hit = ground.ray_down(p, 2 * step_height + 0.2 * k)
             return np.where(hit.hit, hit.z, np.nan)
 
-        jump = steps_along(under, a, b, np.maximum(a[:, 2], b[:, 2]) + step_height, k)
-        return (np.nan_to_num(jump, nan=np.inf) > EDGE_STEP * k).any(axis=1)
+        return largest_step_along(under, a, b, np.maximum(a[:, 2], b[:, 2]) + step_height, k) > EDGE_STEP * k
 
     snap.height = height
     snap.crosses_edge = crosses_edge
