@@ -36,7 +36,9 @@ STAGES = ("search", "smoothing", "refinement", "body_trajectory", "blend_groups"
 
 #: run in each fresh process, in the tree's own folder: one scene planned ``repeat`` times
 _CHILD = r"""
-import glob, json, os, sys
+import glob, json, os, sys, time
+if sys.argv[5] == "cpu":  # (every stage timer reads time.perf_counter)
+    time.perf_counter = time.process_time
 import bpy
 from footstep_planner import register
 from footstep_planner.blender import batch, mannequin, planning
@@ -67,11 +69,11 @@ print("PAIRED " + json.dumps({"stages": best, "quality": quality}))
 """
 
 
-def run_child(tree: str, scene: str, library: str, repeat: int, mocap: str) -> dict:
+def run_child(tree: str, scene: str, library: str, repeat: int, mocap: str, clock: str) -> dict:
     """One fresh process in ``tree``: its stage times (least of ``repeat``) and figures."""
     env = dict(os.environ, PYTHONPATH=tree, BLENDER_USER_RESOURCES=tempfile.mkdtemp(prefix="fp_paired_"))
-    res = subprocess.run([sys.executable, "-c", _CHILD, scene, library, str(repeat), mocap], cwd=tree, env=env,
-                         capture_output=True, text=True)
+    res = subprocess.run([sys.executable, "-c", _CHILD, scene, library, str(repeat), mocap, clock], cwd=tree,
+                         env=env, capture_output=True, text=True)
     shutil.rmtree(env["BLENDER_USER_RESOURCES"], ignore_errors=True)
     lines = [ln for ln in res.stdout.splitlines() if ln.startswith("PAIRED ")]
     if res.returncode != 0 or not lines:
@@ -111,6 +113,9 @@ def main() -> None:
     ap.add_argument("--mocap", default=MOCAP)
     ap.add_argument("--rounds", type=int, default=4)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--clock", choices=("cpu", "wall"), default="cpu",
+                    help="stage times in the processes' CPU seconds (default: steadier on a shared machine) "
+                         "or wall-clock seconds")
     args = ap.parse_args()
     made = None
     ref = args.ref_tree
@@ -126,12 +131,12 @@ def main() -> None:
             for r in range(args.rounds):
                 order = (("new", args.tree), ("ref", ref)) if r % 2 == 0 else (("ref", ref), ("new", args.tree))
                 for who, tree in order:
-                    runs[who].append(run_child(tree, scene, args.library, args.repeat, args.mocap))
+                    runs[who].append(run_child(tree, scene, args.library, args.repeat, args.mocap, args.clock))
                 load.append(os.getloadavg()[0])
             print(table(scene, runs), flush=True)
             print()
-        print(f"library {args.library}; today {args.tree}, reference {args.ref_tree or args.ref}; machine: "
-              f"{os.cpu_count()} CPUs, load average {min(load):.2f} to {max(load):.2f}")
+        print(f"{args.clock} clock; library {args.library}; today {args.tree}, reference {args.ref_tree or args.ref}; "
+              f"machine: {os.cpu_count()} CPUs, load average {min(load):.2f} to {max(load):.2f}")
     finally:
         if made:
             subprocess.run(["git", "-C", args.tree, "worktree", "remove", "--force", ref], capture_output=True)

@@ -101,6 +101,12 @@ def mesh_of(objects, depsgraph) -> TriMesh:
     return TriMesh.concat(parts)
 
 
+#: Points a ray cast takes at a time: each cast's Python results live only that long, so
+#: the garbage collector's work stays in proportion to the points (a single list of a
+#: long path's 200,000 results made each ray cost twice as much: 1.7 against 0.9 us).
+RAY_CHUNK = 512
+
+
 @dataclass
 class BvhGround:
     """Ground queries (core.surface.Ground) on a mathutils BVH tree: one C call a point."""
@@ -124,13 +130,15 @@ class BvhGround:
         owner = np.full(n, -1)
         if self.tree is not None and n:
             cast, down, dist = self.tree.ray_cast, (0.0, 0.0, -1.0), max_dist + 1e-9
-            res = [cast(q, down, dist) for q in p.tolist()]  # mathutils takes plain sequences
-            got = [i for i, r in enumerate(res) if r[0] is not None]
-            if got:
-                z[got] = [res[i][0][2] for i in got]
-                nn = np.array([res[i][1][:] for i in got])
-                nor[got] = nn * np.where(nn[:, 2:3] < 0, -1.0, 1.0)
-                owner[got] = self.mesh.owner[[res[i][2] for i in got]]
+            for s in range(0, n, RAY_CHUNK):  # (see RAY_CHUNK)
+                res = [cast(q, down, dist) for q in p[s:s + RAY_CHUNK].tolist()]  # mathutils takes plain sequences
+                got = [i for i, r in enumerate(res) if r[0] is not None]
+                if got:
+                    at = np.asarray(got) + s
+                    z[at] = [res[i][0][2] for i in got]
+                    nn = np.array([res[i][1][:] for i in got])
+                    nor[at] = nn * np.where(nn[:, 2:3] < 0, -1.0, 1.0)
+                    owner[at] = self.mesh.owner[[res[i][2] for i in got]]
         return GroundHit(owner >= 0, z, nor, owner)
 
     def nearest(self, points, max_dist: float = np.inf):
