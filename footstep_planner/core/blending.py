@@ -112,8 +112,8 @@ class ClipTrack:
 
         w = self.seam_share(t)
         F, B = q.shape[:2]
-        turn = Rotation.from_rotvec((w[:, None, None] * self.seam_rot[None]).reshape(-1, 3))
-        q = (turn * Rotation.from_quat(q.reshape(-1, 4))).as_quat().reshape(F, B, 4)
+        turn = Rotation.from_rotvec((w[:, None, None] * self.seam_rot[None]).reshape(-1, 3)).as_quat()
+        q = quaternions.multiply(turn, q.reshape(-1, 4)).reshape(F, B, 4)
         if self.seam_hips is not None:
             hq = (Rotation.from_rotvec(w[:, None] * self.seam_hips[None, :3]) * Rotation.from_quat(hq)).as_quat()
             hp = hp + w[:, None] * self.seam_hips[None, 3:]

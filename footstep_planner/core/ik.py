@@ -485,12 +485,13 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
         ankle_t, rot_t = _all_frame_targets(world, legs, tg, ground_z)
         if still is not None:
             ankle_t = np.stack([_low_swing(ankle_t[k], tg.weight[k] >= 1.0, still) for k in range(2)])
+        need = [None, None]
         for k in range(2):
-            ankle_t[k], rot_t[k] = _kept_over_footprints(
+            ankle_t[k], rot_t[k], need[k] = _kept_over_footprints_need(
                 ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t),
                 world[:, legs.thigh[k], :3, 3], MAX_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
-        lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t))
-                for k in range(2)]
+        lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t),
+                             need[k]) for k in range(2)]
         for k in range(2):
             ankle_t[k] = _swing_within_reach(ankle_t[k], lift[k], tg.weight[k] < 1.0, world[:, legs.thigh[k], :3, 3],
                                              legs.thigh_len[k] + legs.shin_len[k], _frame_rate(t))
@@ -857,7 +858,7 @@ def _lift_cone(planted: np.ndarray) -> np.ndarray:
 
 
 def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: list, planes, ground_z,
-                 fps: float = DEFAULT_FPS) -> np.ndarray:
+                 fps: float = DEFAULT_FPS, need: np.ndarray | None = None) -> np.ndarray:
     """(F,) m to lift one swinging foot's ankle (targets ``ankle`` (F, 3), ``rot`` (F, 3, 3))
     so that each of its ``sole`` points (``sole_points``: heel, ball, toe tip) keeps over
     the surface ``ground_z`` (points (M, 3) -> heights (M,), NaN for none; None: no lift)
@@ -866,12 +867,13 @@ def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: 
     ``GROUND_MARGIN`` at least, and from ``LIFT_RAMP`` s after liftoff to as long before
     the strike every point that much (or its clip's own clearance, if less): over a hill
     or a slope steepening ahead the foot rises with the ground. Eased over ``LIFT_EASE``
-    frames (``LIFT_RATE`` off a footprint); 0 where ``planted`` (F,)."""
+    frames (``LIFT_RATE`` off a footprint); 0 where ``planted`` (F,). ``need``: the free
+    frames' ``_lift_need`` of these targets, when measured already."""
     lift = np.zeros(len(ankle))
     free = np.flatnonzero(~planted)
     if ground_z is None or planes is None or not len(free):
         return lift
-    lift[free] = _lift_need(ankle, rot, free, sole, planes, ground_z, fps)
+    lift[free] = _lift_need(ankle, rot, free, sole, planes, ground_z, fps) if need is None else need
     if lift.any():  # rising ahead of time (a step's edge), never faster than LIFT_RATE off a footprint
         lift = np.maximum(lift, np.minimum(lower_smoothly(lift, LIFT_EASE), _lift_cone(planted)))
         lift[planted] = 0.0
@@ -895,9 +897,18 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
     changes). The foot rises off (comes down onto) its footprint before it goes on. Its
     height is kept (the lift does the rest). Unchanged elsewhere, and without
     ``ground_z``."""
+    return _kept_over_footprints_need(ankle, rot, planted, sole, planes, ground_z, fps, hip, reach)[:2]
+
+
+def _kept_over_footprints_need(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: list, planes,
+                               ground_z, fps: float = DEFAULT_FPS, hip: np.ndarray | None = None,
+                               reach: float = np.inf):
+    """``_kept_over_footprints``, and the lift its targets need at the free frames
+    (``_lift_need``) when it measured that of the targets it returns (None else): the
+    ground then is not asked twice (``_ground_lift``'s ``need``)."""
     free = np.flatnonzero(~planted)
     if ground_z is None or planes is None or not len(free) or not planted.any():
-        return ankle, rot
+        return ankle, rot, None
     F = len(planted)
     f = np.arange(F)
     prev, nxt = planted_either_side(planted)
@@ -910,9 +921,10 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
     pull = np.zeros(F)
     out_a, out_r = ankle, rot
     for _ in range(HOME_PASSES):  # each pass checks the eased draw of the one before
-        over = free[_lift_need(out_a, out_r, free, sole, planes, ground_z, fps) > cone[free] + CLEARANCE_TOL]
+        need = _lift_need(out_a, out_r, free, sole, planes, ground_z, fps)
+        over = free[need > cone[free] + CLEARANCE_TOL]
         if not len(over):
-            break
+            return out_a, out_r, need
         want = pull[over].copy()
         done = np.zeros(len(over), bool)
         for s in HOME_SHARES:  # a handful of trial shares, each over every flagged frame at once
@@ -928,13 +940,13 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
         grown[over] = np.maximum(pull[over], want)
         grown = np.minimum(ease_peaks(grown, HOME_RATE), cap)
         grown[planted] = 0.0
-        if np.allclose(grown, pull):
-            break
+        if np.allclose(grown, pull):  # (the targets the need was measured on)
+            return out_a, out_r, need
         pull = grown
         moved = np.flatnonzero(pull > 0)
         out_a, out_r = ankle.copy(), rot.copy()
         out_a[moved], out_r[moved] = _towards(ankle[moved], rot[moved], ankle[home[moved]], key[moved], pull[moved])
-    return out_a, out_r
+    return out_a, out_r, None
 
 
 def _towards(ankle: np.ndarray, rot: np.ndarray, to_a: np.ndarray, to_r: Rotation, share
