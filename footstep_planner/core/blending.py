@@ -211,6 +211,16 @@ def _unit3(m: np.ndarray) -> np.ndarray:
     return m / np.linalg.norm(m, axis=-2, keepdims=True)
 
 
+def _rotation_of(m: np.ndarray):
+    """scipy Rotations of matrices ``m`` (n, 3, 3): when they are all rotations (to 1e-9)
+    taken as they are, else orthogonalised first (scipy's SVD, a LAPACK call a matrix,
+    which gives the same rotation for a rotation)."""
+    from scipy.spatial.transform import Rotation
+
+    rigid = bool(len(m)) and np.abs(np.einsum("nji,njk->nik", m, m) - np.eye(3)).max() < 1e-9
+    return Rotation.from_matrix(m, assume_valid=rigid)
+
+
 def _raw_pose(quat: np.ndarray, hips: np.ndarray, rate: float, t: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(quats (F, B, 4), hips position (F, 3), hips quat (F, 4)) of a clip's pose
@@ -226,8 +236,8 @@ def _raw_pose(quat: np.ndarray, hips: np.ndarray, rate: float, t: np.ndarray
     q = quat[i0] * (1 - fr[..., None]) + quaternions.align(quat[i1], quat[i0]) * fr[..., None]
     q /= np.linalg.norm(q, axis=-1, keepdims=True)
     hp = hips[i0, :3, 3] * (1 - fr) + hips[i1, :3, 3] * fr
-    hq0 = Rotation.from_matrix(_unit3(hips[i0, :3, :3])).as_quat()
-    hq1 = quaternions.align(Rotation.from_matrix(_unit3(hips[i1, :3, :3])).as_quat(), hq0)
+    hq0 = _rotation_of(_unit3(hips[i0, :3, :3])).as_quat()
+    hq1 = quaternions.align(_rotation_of(_unit3(hips[i1, :3, :3])).as_quat(), hq0)
     hq = hq0 * (1 - fr) + hq1 * fr
     return q, hp, hq / np.linalg.norm(hq, axis=-1, keepdims=True)
 

@@ -210,7 +210,8 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     off = np.zeros((F, 3))
     turn = np.zeros((F, 3))
     off[idx] = ankle[idx] - A0[idx]
-    turn[idx] = Rotation.from_matrix(rot[idx] @ np.transpose(R0[idx], (0, 2, 1))).as_rotvec()
+    # (rotations of rigid bones: no orthogonalisation, which costs an SVD a frame)
+    turn[idx] = Rotation.from_matrix(rot[idx] @ np.transpose(R0[idx], (0, 2, 1)), assume_valid=True).as_rotvec()
     f = np.arange(F)
     prev, nxt = planted_either_side(planted)
     prev_c = np.where(prev < 0, nxt, prev)
@@ -916,7 +917,7 @@ def _kept_over_footprints_need(ankle: np.ndarray, rot: np.ndarray, planted: np.n
     home = np.where((prev >= 0) & ((x <= 0.5) | (nxt >= F)), prev, nxt)
     # the draw is gone by the middle of a swing between two footprints
     cap = np.where((prev >= 0) & (nxt < F), np.clip(4.0 * np.abs(x - 0.5), 0.0, 1.0), 1.0)
-    key = Rotation.from_matrix(rot[home])
+    key = Rotation.from_matrix(rot[home], assume_valid=True)  # (rigid: see swing_targets)
     cone = _lift_cone(planted)
     pull = np.zeros(F)
     out_a, out_r = ankle, rot
@@ -957,7 +958,7 @@ def _towards(ankle: np.ndarray, rot: np.ndarray, to_a: np.ndarray, to_r: Rotatio
     s = np.broadcast_to(np.asarray(share, float), (len(ankle),))
     a = ankle.copy()
     a[:, :2] += s[:, None] * (to_a[:, :2] - a[:, :2])
-    delta = (to_r * Rotation.from_matrix(rot).inv()).as_rotvec()
+    delta = (to_r * Rotation.from_matrix(rot, assume_valid=True).inv()).as_rotvec()
     return a, Rotation.from_rotvec(s[:, None] * delta).as_matrix() @ rot
 
 
@@ -1058,7 +1059,7 @@ def _solve_legs(rig: Rig, basis: np.ndarray, pose: np.ndarray, world: np.ndarray
         toe = rig.foot_chain(SIDES[k])[1]
         if toes is not None and toe is not None and toes[0][k].max() > 0.0:
             axis = rot_t[k] @ _lateral(rot_t[k], toes[1][k], toes[0][k] > 0)  # the foot's, as it bends
-            rel = np.linalg.inv(pose[:, foot, :3, :3]) @ pose[:, toe, :3, :3]  # the clip's toe on its foot
+            rel = np.swapaxes(pose[:, foot, :3, :3], 1, 2) @ pose[:, toe, :3, :3]  # the clip's toe on its foot (rigid)
             arm[toe] = inv_yaw @ Rotation.from_rotvec(axis * toes[0][k][:, None]).as_matrix() @ rot_t[k] @ rel
             chain.append(toe)
         p = rig.parents[thigh]
