@@ -63,8 +63,12 @@ for i in range(repeat):
     for k, v in doc["stages"].items():
         best[k] = v if k not in best or not k.endswith("_ms") else min(best[k], v)
     q = doc["quality"]
-    quality = {"skate_max_mm": q["foot_skate"]["max_mm"], "fp_err_max_mm": q["footprint_error"]["max_mm"],
-               "penetration_mm": q["penetration"]["max_mm"], "pops": q["pops"]["introduced"]["count"]}
+    pen = q["penetration"]
+    quality = {"skate_max_mm": q["foot_skate"]["max_mm"], "skate_mean_mm": q["foot_skate"]["mean_mm"],
+               "fp_err_max_mm": q["footprint_error"]["max_mm"], "penetration_mm": pen["max_mm"],
+               "tip_mm": pen.get("tip_max_mm"), "lowest_mm": pen.get("lowest_mm"),
+               "floating_mm": q["floating"]["max_mm"], "pops": q["pops"]["introduced"]["count"],
+               "goal_cm": round(q["goal"]["distance_m"] * 100, 2)}
 print("PAIRED " + json.dumps({"stages": best, "quality": quality}))
 """
 

@@ -551,10 +551,11 @@ def _swing_within_reach(ankle: np.ndarray, lift: np.ndarray, free: np.ndarray, h
 
 
 def _legs_in_world(pose: np.ndarray, legs: _Legs, pos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    """World matrices (F, B, 4, 4) of the leg bones (``legs.chain``; the other entries are
-    not set) from their armature-space matrices ``pose`` (F, B, 4, 4), the armature object
-    at ``pos`` (F, 3) m turned by ``yaw`` (F,) rad about +Z."""
-    w = np.empty_like(pose)
+    """World matrices (F, b, 4, 4) of the leg bones (``legs.chain``; the other entries are
+    not set; b: up to the last leg bone, not every bone, so a long path's world is no
+    larger than it needs) from their armature-space matrices ``pose`` (F, B, 4, 4), the
+    armature object at ``pos`` (F, 3) m turned by ``yaw`` (F,) rad about +Z."""
+    w = np.empty((len(pose), max(legs.chain) + 1, 4, 4))
     w[:, legs.chain] = body_frames(pos, yaw)[:, None] @ pose[:, legs.chain]
     return w
 
