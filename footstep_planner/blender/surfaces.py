@@ -141,6 +141,18 @@ class BvhGround:
                     owner[at] = self.mesh.owner[[res[i][2] for i in got]]
         return GroundHit(owner >= 0, z, nor, owner)
 
+    def heights(self, points, max_dist: float) -> np.ndarray:
+        """(N,) ``ray_down``'s heights alone (nan where nothing is hit), without its normals
+        and owners: one pass over the casts' results instead of four."""
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        z = np.full(len(p), np.nan)
+        if self.tree is not None and len(p):
+            cast, down, dist, nan = self.tree.ray_cast, (0.0, 0.0, -1.0), max_dist + 1e-9, float("nan")
+            for s in range(0, len(p), RAY_CHUNK):  # (see RAY_CHUNK)
+                z[s:s + RAY_CHUNK] = [nan if r[0] is None else r[0][2]
+                                      for r in (cast(q, down, dist) for q in p[s:s + RAY_CHUNK].tolist())]
+        return z
+
     def nearest(self, points, max_dist: float = np.inf):
         p = np.atleast_2d(np.asarray(points, dtype=np.float64))
         out = np.full((len(p), 3), np.nan)

@@ -31,7 +31,7 @@ from .refinement import Refined, refine
 from .settings import Settings
 from .smoothing import Smoothed, smooth_footprints
 from .steps import bend_chain
-from .surface import EDGE_STEP, FootShape, Ground, footprint_support, largest_step_along
+from .surface import EDGE_STEP, FootShape, Ground, footprint_support, ground_heights, largest_step_along
 from .timing import StageTimer
 from .trajectory import transfer_body
 from .turn_in_place import PIVOT
@@ -231,9 +231,8 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
     def height(pos: np.ndarray) -> np.ndarray:
         """The footprints dropped onto the surface under them (where there is one)."""
         pos = np.array(pos, float, copy=True)
-        top = pos + [0.0, 0.0, step_height]
-        hit = ground.ray_down(top, 2 * step_height)
-        pos[:, 2] = np.where(hit.hit, hit.z, pos[:, 2])
+        z = ground_heights(ground, pos + [0.0, 0.0, step_height], 2 * step_height)
+        pos[:, 2] = np.where(np.isfinite(z), z, pos[:, 2])
         return pos
 
     def crosses_edge(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -246,8 +245,7 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
             return np.zeros(0, bool)
 
         def under(p):
-            hit = ground.ray_down(p, 2 * step_height + 0.2 * k)
-            return np.where(hit.hit, hit.z, np.nan)
+            return ground_heights(ground, p, 2 * step_height + 0.2 * k)
 
         return largest_step_along(under, a, b, np.maximum(a[:, 2], b[:, 2]) + step_height, k) > EDGE_STEP * k
 
