@@ -27,7 +27,7 @@ from ..core.pipeline import synthesize as _synthesize
 from ..core.settings import Settings
 from ..core.steps import library_steps
 from ..core.pose import blend_pose, pose_bases
-from ..core.surface import FootShape, footprint_support
+from ..core.surface import FootShape, footprint_support, ground_heights
 from ..core.timing import StageTimer
 from .character import analyze_character, library_for
 from .scene import scene_fps
@@ -462,8 +462,7 @@ def solve(planned: Planned, settings: Settings) -> Solved:
     look = pl.settings.length(0.3)
 
     def ground_z(points):
-        hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, look], 2 * look)
-        return np.where(hit.hit, hit.z, np.nan)
+        return ground_heights(pl.ground, np.asarray(points, float) + [0.0, 0.0, look], 2 * look)
 
     with timer("ik"):
         ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,

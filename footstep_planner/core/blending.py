@@ -211,13 +211,17 @@ def _unit3(m: np.ndarray) -> np.ndarray:
     return m / np.linalg.norm(m, axis=-2, keepdims=True)
 
 
+#: A clip's matrices read from Blender (single precision) are rotations to about 1e-7.
+RIGID_TOL = 1e-6
+
+
 def _rotation_of(m: np.ndarray):
-    """scipy Rotations of matrices ``m`` (n, 3, 3): when they are all rotations (to 1e-9)
-    taken as they are, else orthogonalised first (scipy's SVD, a LAPACK call a matrix,
-    which gives the same rotation for a rotation)."""
+    """scipy Rotations of matrices ``m`` (n, 3, 3): when they are all rotations (to
+    RIGID_TOL) taken as they are, else orthogonalised first (scipy's SVD, a LAPACK call a
+    matrix, which gives the same rotation for a rotation, to that tolerance)."""
     from scipy.spatial.transform import Rotation
 
-    rigid = bool(len(m)) and np.abs(np.einsum("nji,njk->nik", m, m) - np.eye(3)).max() < 1e-9
+    rigid = bool(len(m)) and np.abs(np.einsum("nji,njk->nik", m, m) - np.eye(3)).max() < RIGID_TOL
     return Rotation.from_matrix(m, assume_valid=rigid)
 
 
