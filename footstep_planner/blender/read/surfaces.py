@@ -101,6 +101,12 @@ def mesh_of(objects, depsgraph) -> TriMesh:
     return TriMesh.concat(parts)
 
 
+#: Points a ray cast takes at a time: each cast's Python results live only that long, so
+#: the garbage collector's work stays in proportion to the points (a single list of a
+#: long path's 200,000 results made each ray cost twice as much: 1.7 against 0.9 us).
+RAY_CHUNK = 512
+
+
 @dataclass
 class BvhGround:
     """Ground queries (core.plan.surface.Ground) on a mathutils BVH tree: one C call a point."""
@@ -124,14 +130,28 @@ class BvhGround:
         owner = np.full(n, -1)
         if self.tree is not None and n:
             cast, down, dist = self.tree.ray_cast, (0.0, 0.0, -1.0), max_dist + 1e-9
-            res = [cast(q, down, dist) for q in p.tolist()]  # mathutils takes plain sequences
-            got = [i for i, r in enumerate(res) if r[0] is not None]
-            if got:
-                z[got] = [res[i][0][2] for i in got]
-                nn = np.array([res[i][1][:] for i in got])
-                nor[got] = nn * np.where(nn[:, 2:3] < 0, -1.0, 1.0)
-                owner[got] = self.mesh.owner[[res[i][2] for i in got]]
+            for s in range(0, n, RAY_CHUNK):  # (see RAY_CHUNK)
+                res = [cast(q, down, dist) for q in p[s:s + RAY_CHUNK].tolist()]  # mathutils takes plain sequences
+                got = [i for i, r in enumerate(res) if r[0] is not None]
+                if got:
+                    at = np.asarray(got) + s
+                    z[at] = [res[i][0][2] for i in got]
+                    nn = np.array([res[i][1][:] for i in got])
+                    nor[at] = nn * np.where(nn[:, 2:3] < 0, -1.0, 1.0)
+                    owner[at] = self.mesh.owner[[res[i][2] for i in got]]
         return GroundHit(owner >= 0, z, nor, owner)
+
+    def heights(self, points, max_dist: float) -> np.ndarray:
+        """(N,) ``ray_down``'s heights alone (nan where nothing is hit), without its normals
+        and owners: one pass over the casts' results instead of four."""
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        z = np.full(len(p), np.nan)
+        if self.tree is not None and len(p):
+            cast, down, dist, nan = self.tree.ray_cast, (0.0, 0.0, -1.0), max_dist + 1e-9, float("nan")
+            for s in range(0, len(p), RAY_CHUNK):  # (see RAY_CHUNK)
+                z[s:s + RAY_CHUNK] = [nan if r[0] is None else r[0][2]
+                                      for r in (cast(q, down, dist) for q in p[s:s + RAY_CHUNK].tolist())]
+        return z
 
     def nearest(self, points, max_dist: float = np.inf):
         p = np.atleast_2d(np.asarray(points, dtype=np.float64))

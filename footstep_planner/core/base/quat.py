@@ -38,3 +38,15 @@ def continuous(q: np.ndarray) -> np.ndarray:
     flip = np.cumprod(hemisphere_signs(out[1:], out[:-1]), axis=0)
     out[1:] *= flip[..., None]
     return out
+
+
+def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(..., 4) the Hamilton products a b of quaternions ``a``, ``b`` (..., 4, broadcast)
+    in scipy's order (x, y, z, w): the rotation b, then a (``Rotation(a) * Rotation(b)``),
+    without scipy's per-call cost on large stacks. Unit in, unit out (to rounding)."""
+    ax, ay, az, aw = np.moveaxis(np.asarray(a, float), -1, 0)
+    bx, by, bz, bw = np.moveaxis(np.asarray(b, float), -1, 0)
+    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw,
+                     aw * bw - ax * bx - ay * by - az * bz], axis=-1)

@@ -110,6 +110,17 @@ class Ground(Protocol):
         """(closest points (N, 3), distances (N,)); inf and nan beyond ``max_dist``."""
 
 
+def ground_heights(ground: Ground, points: np.ndarray, max_dist: float) -> np.ndarray:
+    """(N,) the height of the first surface below each point (N, 3), looking down at most
+    ``max_dist`` (nan where there is none): ``ray_down``'s heights, by the ground's own
+    ``heights`` where it has one (the Blender layer's skips the normals and owners)."""
+    own = getattr(ground, "heights", None)
+    if own is not None:
+        return own(points, max_dist)
+    hit = ground.ray_down(points, max_dist)
+    return np.where(hit.hit, hit.z, np.nan)
+
+
 # ----------------------------------------------------------------------------------
 # pure numpy implementation
 
@@ -288,6 +299,31 @@ def steps_along(height, a: np.ndarray, b: np.ndarray, z: np.ndarray, scale: floa
     pts[..., 2] = np.asarray(z, float)[:, None]
     h = np.asarray(height(pts.reshape(-1, 3)), float).reshape(len(a), k + 1)
     return np.abs(np.diff(h, axis=1))
+
+
+def largest_step_along(height, a: np.ndarray, b: np.ndarray, z: np.ndarray, scale: float = 1.0,
+                       missing: float = np.inf) -> np.ndarray:
+    """(N,) m the most the ground steps between consecutive samples along each way from
+    ``a`` to ``b`` (N, 3) (``steps_along``'s largest), each way sampled by its own length,
+    at most EDGE_SPACING (times the body's ``scale``) apart: a short way takes few
+    samples, whatever the longest (the cost is the ways' total length, not their number
+    times the longest). ``height`` and ``z`` as for ``steps_along``; ``missing`` stands
+    for a step to or from a sample without ground."""
+    a, b = np.atleast_2d(np.asarray(a, float)), np.atleast_2d(np.asarray(b, float))
+    n = len(a)
+    if not n:
+        return np.zeros(0)
+    k = np.maximum(np.ceil(np.linalg.norm(b[:, :2] - a[:, :2], axis=1) / (EDGE_SPACING * scale)), 1).astype(int)
+    way = np.repeat(np.arange(n), k + 1)
+    first = np.cumsum(k + 1) - (k + 1)  # each way's first sample
+    u = (np.arange(len(way)) - first[way]) / k[way]
+    pts = a[way] + u[:, None] * (b - a)[way]
+    pts[:, 2] = np.broadcast_to(np.asarray(z, float), (n,))[way]
+    h = np.asarray(height(pts), float)
+    d = np.abs(np.diff(h))
+    d[np.isnan(d)] = missing
+    d[first[1:] - 1] = 0.0  # (from one way's last sample to the next way's first: no step)
+    return np.maximum.reduceat(d, first)
 
 
 #: ``FootShape.probes`` under the front half of a foot: its front corners, its reference

@@ -17,7 +17,7 @@ from ..base.settings import Settings
 from ..base.timing import StageTimer
 from ..clips.rig import Rig, forward_kinematics
 from ..plan.setup import PlanSetup
-from ..plan.surface import footprint_support
+from ..plan.surface import footprint_support, ground_heights
 from ..synth.pipeline import Synthesis
 from .ik import IKResult, solve_ik, toe_tip
 from .pose import blend_pose, pose_bases
@@ -88,8 +88,7 @@ def solve(syn: Synthesis, setup: PlanSetup, settings: Settings) -> Solved:
     look = pl.settings.length(0.3)
 
     def ground_z(points):
-        hit = pl.ground.ray_down(np.asarray(points, float) + [0.0, 0.0, look], 2 * look)
-        return np.where(hit.hit, hit.z, np.nan)
+        return ground_heights(pl.ground, np.asarray(points, float) + [0.0, 0.0, look], 2 * look)
 
     with timer("ik"):
         ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,

@@ -50,7 +50,7 @@ from ..clips.body import scaled_bases, scaled_points, scaled_rig
 from .offsets import body_offsets, smooth_offsets
 from ..clips.rig import Rig, forward_kinematics
 from ..base.settings import Settings
-from ..plan.surface import EDGE_STEP, steps_along
+from ..plan.surface import EDGE_STEP, largest_step_along
 
 #: s: the finest level of the body's height offset (3.8.1) where the feet stand at
 #: different heights (``_on_steps``): it changes between stances over about this long.
@@ -210,7 +210,8 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     off = np.zeros((F, 3))
     turn = np.zeros((F, 3))
     off[idx] = ankle[idx] - A0[idx]
-    turn[idx] = Rotation.from_matrix(rot[idx] @ np.transpose(R0[idx], (0, 2, 1))).as_rotvec()
+    # (rotations of rigid bones: no orthogonalisation, which costs an SVD a frame)
+    turn[idx] = Rotation.from_matrix(rot[idx] @ np.transpose(R0[idx], (0, 2, 1)), assume_valid=True).as_rotvec()
     f = np.arange(F)
     prev, nxt = planted_either_side(planted)
     prev_c = np.where(prev < 0, nxt, prev)
@@ -228,18 +229,27 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     A[idx], R[idx] = ankle[idx], rot[idx]
     swing = ~planted & (prev >= 0) & (nxt < F)
     if swing.any() and ground_z is not None:
-        A = _stair_swing(A, swing & _over_edge(A, prev_c, nxt_c, ground_z), prev_c, nxt_c, x)
+        # (only a swing between footprints more than CLIMB_MIN apart in height is retimed:
+        # the others' ground is never asked)
+        edge = np.zeros(F, bool)
+        ask = swing & (np.abs(A[nxt_c, 2] - A[prev_c, 2]) > CLIMB_MIN)
+        if ask.any():
+            edge[ask] = _over_edge(A, prev_c[ask], nxt_c[ask], ground_z)
+        A = _stair_swing(A, edge, prev_c, nxt_c, x)
     return A, R
 
 
 def _over_edge(A: np.ndarray, a: np.ndarray, b: np.ndarray, ground_z) -> np.ndarray:
-    """(F,) whether the ground from ankle target ``A[a]`` to ``A[b]`` (each frame's last
-    and next planted frames) has a step's edge (``surface.steps_along``: a stair's
-    nosing, a kerb; not a slope, nor a gap), by ``ground_z`` (points -> heights)."""
+    """(n,) whether the ground from ankle target ``A[a]`` to ``A[b]`` (``a``, ``b`` (n,):
+    a swinging frame's last and next planted frames) has a step's edge
+    (``surface.largest_step_along``: a stair's nosing, a kerb; not a slope, nor a gap), by
+    ``ground_z`` (points -> heights). Each swing's way is sampled once, however many
+    frames it lasts, by its own length (``surface.largest_step_along``: a jump's long
+    way does not make every step's dense)."""
     pairs, inv = np.unique(np.c_[a, b], axis=0, return_inverse=True)
     pa, pb = A[pairs[:, 0]], A[pairs[:, 1]]
-    jump = steps_along(ground_z, pa, pb, 0.5 * (pa[:, 2] + pb[:, 2]))  # (``ground_z`` looks 0.3 m up and down)
-    edge = (np.nan_to_num(jump, nan=0.0) > CLIMB_MIN).any(axis=1)
+    # (``ground_z`` looks 0.3 m up and down; no ground under a sample is no edge)
+    edge = largest_step_along(ground_z, pa, pb, 0.5 * (pa[:, 2] + pb[:, 2]), missing=0.0) > CLIMB_MIN
     return edge[np.ravel(inv)]
 
 
@@ -476,12 +486,13 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
         ankle_t, rot_t = _all_frame_targets(world, legs, tg, ground_z)
         if still is not None:
             ankle_t = np.stack([_low_swing(ankle_t[k], tg.weight[k] >= 1.0, still) for k in range(2)])
+        need = [None, None]
         for k in range(2):
-            ankle_t[k], rot_t[k] = _kept_over_footprints(
+            ankle_t[k], rot_t[k], need[k] = _kept_over_footprints_need(
                 ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t),
                 world[:, legs.thigh[k], :3, 3], MAX_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
-        lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t))
-                for k in range(2)]
+        lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t),
+                             need[k]) for k in range(2)]
         for k in range(2):
             ankle_t[k] = _swing_within_reach(ankle_t[k], lift[k], tg.weight[k] < 1.0, world[:, legs.thigh[k], :3, 3],
                                              legs.thigh_len[k] + legs.shin_len[k], _frame_rate(t))
@@ -540,10 +551,11 @@ def _swing_within_reach(ankle: np.ndarray, lift: np.ndarray, free: np.ndarray, h
 
 
 def _legs_in_world(pose: np.ndarray, legs: _Legs, pos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    """World matrices (F, B, 4, 4) of the leg bones (``legs.chain``; the other entries are
-    not set) from their armature-space matrices ``pose`` (F, B, 4, 4), the armature object
-    at ``pos`` (F, 3) m turned by ``yaw`` (F,) rad about +Z."""
-    w = np.empty_like(pose)
+    """World matrices (F, b, 4, 4) of the leg bones (``legs.chain``; the other entries are
+    not set; b: up to the last leg bone, not every bone, so a long path's world is no
+    larger than it needs) from their armature-space matrices ``pose`` (F, B, 4, 4), the
+    armature object at ``pos`` (F, 3) m turned by ``yaw`` (F,) rad about +Z."""
+    w = np.empty((len(pose), max(legs.chain) + 1, 4, 4))
     w[:, legs.chain] = body_frames(pos, yaw)[:, None] @ pose[:, legs.chain]
     return w
 
@@ -848,7 +860,7 @@ def _lift_cone(planted: np.ndarray) -> np.ndarray:
 
 
 def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: list, planes, ground_z,
-                 fps: float = DEFAULT_FPS) -> np.ndarray:
+                 fps: float = DEFAULT_FPS, need: np.ndarray | None = None) -> np.ndarray:
     """(F,) m to lift one swinging foot's ankle (targets ``ankle`` (F, 3), ``rot`` (F, 3, 3))
     so that each of its ``sole`` points (``sole_points``: heel, ball, toe tip) keeps over
     the surface ``ground_z`` (points (M, 3) -> heights (M,), NaN for none; None: no lift)
@@ -857,12 +869,13 @@ def _ground_lift(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: 
     ``GROUND_MARGIN`` at least, and from ``LIFT_RAMP`` s after liftoff to as long before
     the strike every point that much (or its clip's own clearance, if less): over a hill
     or a slope steepening ahead the foot rises with the ground. Eased over ``LIFT_EASE``
-    frames (``LIFT_RATE`` off a footprint); 0 where ``planted`` (F,)."""
+    frames (``LIFT_RATE`` off a footprint); 0 where ``planted`` (F,). ``need``: the free
+    frames' ``_lift_need`` of these targets, when measured already."""
     lift = np.zeros(len(ankle))
     free = np.flatnonzero(~planted)
     if ground_z is None or planes is None or not len(free):
         return lift
-    lift[free] = _lift_need(ankle, rot, free, sole, planes, ground_z, fps)
+    lift[free] = _lift_need(ankle, rot, free, sole, planes, ground_z, fps) if need is None else need
     if lift.any():  # rising ahead of time (a step's edge), never faster than LIFT_RATE off a footprint
         lift = np.maximum(lift, np.minimum(lower_smoothly(lift, LIFT_EASE), _lift_cone(planted)))
         lift[planted] = 0.0
@@ -886,9 +899,18 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
     changes). The foot rises off (comes down onto) its footprint before it goes on. Its
     height is kept (the lift does the rest). Unchanged elsewhere, and without
     ``ground_z``."""
+    return _kept_over_footprints_need(ankle, rot, planted, sole, planes, ground_z, fps, hip, reach)[:2]
+
+
+def _kept_over_footprints_need(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarray, sole: list, planes,
+                               ground_z, fps: float = DEFAULT_FPS, hip: np.ndarray | None = None,
+                               reach: float = np.inf):
+    """``_kept_over_footprints``, and the lift its targets need at the free frames
+    (``_lift_need``) when it measured that of the targets it returns (None else): the
+    ground then is not asked twice (``_ground_lift``'s ``need``)."""
     free = np.flatnonzero(~planted)
     if ground_z is None or planes is None or not len(free) or not planted.any():
-        return ankle, rot
+        return ankle, rot, None
     F = len(planted)
     f = np.arange(F)
     prev, nxt = planted_either_side(planted)
@@ -896,14 +918,15 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
     home = np.where((prev >= 0) & ((x <= 0.5) | (nxt >= F)), prev, nxt)
     # the draw is gone by the middle of a swing between two footprints
     cap = np.where((prev >= 0) & (nxt < F), np.clip(4.0 * np.abs(x - 0.5), 0.0, 1.0), 1.0)
-    key = Rotation.from_matrix(rot[home])
+    key = Rotation.from_matrix(rot[home], assume_valid=True)  # (rigid: see swing_targets)
     cone = _lift_cone(planted)
     pull = np.zeros(F)
     out_a, out_r = ankle, rot
     for _ in range(HOME_PASSES):  # each pass checks the eased draw of the one before
-        over = free[_lift_need(out_a, out_r, free, sole, planes, ground_z, fps) > cone[free] + CLEARANCE_TOL]
+        need = _lift_need(out_a, out_r, free, sole, planes, ground_z, fps)
+        over = free[need > cone[free] + CLEARANCE_TOL]
         if not len(over):
-            break
+            return out_a, out_r, need
         want = pull[over].copy()
         done = np.zeros(len(over), bool)
         for s in HOME_SHARES:  # a handful of trial shares, each over every flagged frame at once
@@ -919,13 +942,13 @@ def _kept_over_footprints(ankle: np.ndarray, rot: np.ndarray, planted: np.ndarra
         grown[over] = np.maximum(pull[over], want)
         grown = np.minimum(ease_peaks(grown, HOME_RATE), cap)
         grown[planted] = 0.0
-        if np.allclose(grown, pull):
-            break
+        if np.allclose(grown, pull):  # (the targets the need was measured on)
+            return out_a, out_r, need
         pull = grown
         moved = np.flatnonzero(pull > 0)
         out_a, out_r = ankle.copy(), rot.copy()
         out_a[moved], out_r[moved] = _towards(ankle[moved], rot[moved], ankle[home[moved]], key[moved], pull[moved])
-    return out_a, out_r
+    return out_a, out_r, None
 
 
 def _towards(ankle: np.ndarray, rot: np.ndarray, to_a: np.ndarray, to_r: Rotation, share
@@ -936,7 +959,7 @@ def _towards(ankle: np.ndarray, rot: np.ndarray, to_a: np.ndarray, to_r: Rotatio
     s = np.broadcast_to(np.asarray(share, float), (len(ankle),))
     a = ankle.copy()
     a[:, :2] += s[:, None] * (to_a[:, :2] - a[:, :2])
-    delta = (to_r * Rotation.from_matrix(rot).inv()).as_rotvec()
+    delta = (to_r * Rotation.from_matrix(rot, assume_valid=True).inv()).as_rotvec()
     return a, Rotation.from_rotvec(s[:, None] * delta).as_matrix() @ rot
 
 
@@ -1037,7 +1060,7 @@ def _solve_legs(rig: Rig, basis: np.ndarray, pose: np.ndarray, world: np.ndarray
         toe = rig.foot_chain(SIDES[k])[1]
         if toes is not None and toe is not None and toes[0][k].max() > 0.0:
             axis = rot_t[k] @ _lateral(rot_t[k], toes[1][k], toes[0][k] > 0)  # the foot's, as it bends
-            rel = np.linalg.inv(pose[:, foot, :3, :3]) @ pose[:, toe, :3, :3]  # the clip's toe on its foot
+            rel = np.swapaxes(pose[:, foot, :3, :3], 1, 2) @ pose[:, toe, :3, :3]  # the clip's toe on its foot (rigid)
             arm[toe] = inv_yaw @ Rotation.from_rotvec(axis * toes[0][k][:, None]).as_matrix() @ rot_t[k] @ rel
             chain.append(toe)
         p = rig.parents[thigh]

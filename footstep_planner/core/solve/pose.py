@@ -70,7 +70,8 @@ def pose_bases(rig: Rig, quat: np.ndarray, hips_in_root: np.ndarray) -> np.ndarr
     its blended rotation; the bones above the hips stay at rest (the object carries the
     body), and the hips' basis puts the hips at ``hips_in_root`` in armature space."""
     F, B = quat.shape[:2]
-    basis = np.tile(np.eye(4), (F, B, 1, 1))
+    basis = np.zeros((F, B, 4, 4))  # (identities written in place: no tiled copy of a pose-sized array)
+    basis[..., 3, 3] = 1.0
     basis[..., :3, :3] = quat_to_matrix(quat)
     h = rig.role_index("hips")
     above = []

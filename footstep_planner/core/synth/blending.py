@@ -112,8 +112,8 @@ class ClipTrack:
 
         w = self.seam_share(t)
         F, B = q.shape[:2]
-        turn = Rotation.from_rotvec((w[:, None, None] * self.seam_rot[None]).reshape(-1, 3))
-        q = (turn * Rotation.from_quat(q.reshape(-1, 4))).as_quat().reshape(F, B, 4)
+        turn = Rotation.from_rotvec((w[:, None, None] * self.seam_rot[None]).reshape(-1, 3)).as_quat()
+        q = quaternions.multiply(turn, q.reshape(-1, 4)).reshape(F, B, 4)
         if self.seam_hips is not None:
             hq = (Rotation.from_rotvec(w[:, None] * self.seam_hips[None, :3]) * Rotation.from_quat(hq)).as_quat()
             hp = hp + w[:, None] * self.seam_hips[None, 3:]
@@ -211,13 +211,25 @@ def _unit3(m: np.ndarray) -> np.ndarray:
     return m / np.linalg.norm(m, axis=-2, keepdims=True)
 
 
+#: A clip's matrices read from Blender (single precision) are rotations to about 1e-7.
+RIGID_TOL = 1e-6
+
+
+def _rotation_of(m: np.ndarray):
+    """scipy Rotations of matrices ``m`` (n, 3, 3): when they are all rotations (to
+    RIGID_TOL) taken as they are, else orthogonalised first (scipy's SVD, a LAPACK call a
+    matrix, which gives the same rotation for a rotation, to that tolerance)."""
+    from scipy.spatial.transform import Rotation
+
+    rigid = bool(len(m)) and np.abs(np.einsum("nji,njk->nik", m, m) - np.eye(3)).max() < RIGID_TOL
+    return Rotation.from_matrix(m, assume_valid=rigid)
+
+
 def _raw_pose(quat: np.ndarray, hips: np.ndarray, rate: float, t: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(quats (F, B, 4), hips position (F, 3), hips quat (F, 4)) of a clip's pose
     samples ``quat`` (m, B, 4), ``hips`` (m, 4, 4) at ``rate`` Hz, at clip times t (F,):
     linear interpolation between the samples, quaternions normalised."""
-    from scipy.spatial.transform import Rotation
-
     m = len(quat)
     x = np.clip(np.asarray(t, float) * rate, 0.0, m - 1.0)
     i0 = np.minimum(x.astype(np.int64), max(m - 2, 0))
@@ -226,8 +238,8 @@ def _raw_pose(quat: np.ndarray, hips: np.ndarray, rate: float, t: np.ndarray
     q = quat[i0] * (1 - fr[..., None]) + quaternions.align(quat[i1], quat[i0]) * fr[..., None]
     q /= np.linalg.norm(q, axis=-1, keepdims=True)
     hp = hips[i0, :3, 3] * (1 - fr) + hips[i1, :3, 3] * fr
-    hq0 = Rotation.from_matrix(_unit3(hips[i0, :3, :3])).as_quat()
-    hq1 = quaternions.align(Rotation.from_matrix(_unit3(hips[i1, :3, :3])).as_quat(), hq0)
+    hq0 = _rotation_of(_unit3(hips[i0, :3, :3])).as_quat()
+    hq1 = quaternions.align(_rotation_of(_unit3(hips[i1, :3, :3])).as_quat(), hq0)
     hq = hq0 * (1 - fr) + hq1 * fr
     return q, hp, hq / np.linalg.norm(hq, axis=-1, keepdims=True)
 

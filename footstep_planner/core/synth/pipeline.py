@@ -32,7 +32,7 @@ from .refinement import Refined, refine
 from ..base.settings import Settings
 from .smoothing import Smoothed, smooth_footprints
 from ..clips.steps import bend_chain
-from ..plan.surface import EDGE_STEP, FootShape, Ground, footprint_support, steps_along
+from ..plan.surface import EDGE_STEP, FootShape, Ground, footprint_support, ground_heights, largest_step_along
 from ..base.timing import StageTimer
 from .trajectory import transfer_body
 
@@ -225,14 +225,13 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
     def height(pos: np.ndarray) -> np.ndarray:
         """The footprints dropped onto the surface under them (where there is one)."""
         pos = np.array(pos, float, copy=True)
-        top = pos + [0.0, 0.0, step_height]
-        hit = ground.ray_down(top, 2 * step_height)
-        pos[:, 2] = np.where(hit.hit, hit.z, pos[:, 2])
+        z = ground_heights(ground, pos + [0.0, 0.0, step_height], 2 * step_height)
+        pos[:, 2] = np.where(np.isfinite(z), z, pos[:, 2])
         return pos
 
     def crosses_edge(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) whether the ground from each footprint ``a`` (N, 3) to ``b`` (N, 3) has an
-        edge (``surface.steps_along``: a step of more than EDGE_STEP, or no surface): a
+        edge (``surface.largest_step_along``: a step of more than EDGE_STEP, or no surface): a
         footprint moved across one leaves the tread, kerb or floor it was planned on
         (smoothing and refinement keep each footprint on its side)."""
         a, b = np.asarray(a, float), np.asarray(b, float)
@@ -240,11 +239,9 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
             return np.zeros(0, bool)
 
         def under(p):
-            hit = ground.ray_down(p, 2 * step_height + 0.2 * k)
-            return np.where(hit.hit, hit.z, np.nan)
+            return ground_heights(ground, p, 2 * step_height + 0.2 * k)
 
-        jump = steps_along(under, a, b, np.maximum(a[:, 2], b[:, 2]) + step_height, k)
-        return (np.nan_to_num(jump, nan=np.inf) > EDGE_STEP * k).any(axis=1)
+        return largest_step_along(under, a, b, np.maximum(a[:, 2], b[:, 2]) + step_height, k) > EDGE_STEP * k
 
     snap.height = height
     snap.crosses_edge = crosses_edge

@@ -64,7 +64,13 @@ def mismatch(orig_pos, orig_heading, pos, heading) -> float:
     if len(pos) < 3:
         return 0.0
     tp, _ = local_targets(orig_pos, orig_heading, pos, heading)
-    return float(np.mean(np.linalg.norm(tp[:, :2] - pos[1:-1, :2], axis=1)))
+    return _mismatch_of(tp, pos)
+
+
+def _mismatch_of(targets: np.ndarray, pos: np.ndarray) -> float:
+    """``mismatch`` of footprints ``pos`` (N, 3) whose interior targets are ``targets``
+    (N-2, 3) (``local_targets``)."""
+    return float(np.mean(np.linalg.norm(targets[:, :2] - pos[1:-1, :2], axis=1)))
 
 
 def refine(orig_pos, orig_heading, desired_pos, desired_heading, iterations: int = 10,
@@ -101,8 +107,8 @@ def refine(orig_pos, orig_heading, desired_pos, desired_heading, iterations: int
     idx = np.flatnonzero(move[1:-1]) + 1
     start_p, start_h = pos[idx].copy(), head[idx].copy()
     edge = getattr(snap, "crosses_edge", None)
+    tp, th = local_targets(op, oh, pos, head)  # (each sweep's targets: the last sweep's mismatch's)
     for it in range(iterations):
-        tp, th = local_targets(op, oh, pos, head)
         # half-way: a simultaneous update alone flips left and right feet every sweep
         new_p = pos[idx] + DAMPING * (tp[idx - 1] - pos[idx])
         new_h = head[idx] + DAMPING * (th[idx - 1] - head[idx])
@@ -121,5 +127,6 @@ def refine(orig_pos, orig_heading, desired_pos, desired_heading, iterations: int
             new_p = np.where(ok[:, None], sp, back_p)
             new_h = np.where(ok, new_h, back_h)
         pos[idx], head[idx] = new_p, new_h
-        errs.append(mismatch(op, oh, pos, head))
+        tp, th = local_targets(op, oh, pos, head)
+        errs.append(_mismatch_of(tp, pos))
     return Refined(pos, head, np.array(errs), rejected)
