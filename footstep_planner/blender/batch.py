@@ -44,13 +44,27 @@ def scene_problems(scene, job: dict) -> list[str]:
         problems.append(f"no object named {job['character']!r} in {bpy.data.filepath or 'the scene'}")
     elif ob.type != "ARMATURE":
         problems.append(f"object {job['character']!r} is a {ob.type.lower()}, not an armature")
+    elif scene.objects.get(ob.name) is None:
+        problems.append(not_in_scene(scene, ob))
     for key in ("goal", "start"):
         if job.get(key) and scene.objects.get(job[key]) is None:
-            problems.append(f"no object named {job[key]!r} for the {key}")
+            problems.append(f"no object named {job[key]!r} for the {key} in scene {scene.name!r}"
+                            + _elsewhere(scene, job[key]))
     for name in job.get("via") or ():
         if scene.objects.get(name) is None:
-            problems.append(f"no object named {name!r} for a waypoint")
+            problems.append(f"no object named {name!r} for a waypoint in scene {scene.name!r}" + _elsewhere(scene, name))
     return problems
+
+
+def _elsewhere(scene, name: str) -> str:
+    """Where else an object of that name is: ' (it is in scene 'X': --scene X)', or ''."""
+    other = [s.name for s in bpy.data.scenes if s != scene and s.objects.get(name) is not None]
+    return f" (it is in scene {other[0]!r}: pick that scene with --scene {other[0]!r})" if other else ""
+
+
+def not_in_scene(scene, ob) -> str:
+    """One line: ``ob`` is not in ``scene`` (and which scene it is in)."""
+    return f"character {ob.name!r} is not in scene {scene.name!r}" + _elsewhere(scene, ob.name)
 
 
 def check_jobs(scene, raw: list) -> tuple[list[tuple[int, str, dict]], list[JobOutcome]]:
@@ -100,6 +114,27 @@ class Snapshot:
         self.ob.matrix_basis = self.matrix
 
 
+def clashing_jobs(scene, jobs: list) -> str | None:
+    """One line naming two jobs of one character that would overlap (they start on the
+    same frame) or replace one another (one bake name), or None. A job's length is known
+    only once it is planned: a job that overlaps an earlier one's bake when it runs fails
+    by itself (``bake.check_overlap``)."""
+    seen = {}
+    for job in jobs:
+        f = job.fields
+        ob = bpy.data.objects.get(f["character"])
+        start = int(scene.frame_current if f.get("frame_start") is None else f["frame_start"])
+        name = f.get("name") or f"{f['character']} to goal"
+        for key, why in (((f["character"], "start", start), f"both start on frame {start}"),
+                         ((f["character"], "name", name), f"both bake {name!r}")):
+            if key in seen:
+                return (f"jobs {seen[key].number} and {job.number} {why} on character "
+                        f"{ob.name if ob else f['character']!r}: each bake of a character needs its own name and "
+                        "frames (give each job a \"name\" and a \"frame_start\" after the other's end)")
+            seen[key] = job
+    return None
+
+
 def goal_and_start(scene, goal: str | None, heading_deg, start: str | None):
     """(goal position, goal heading (a Z rotation, rad) or None, start object or None)
     from the names a command or a job gives (``heading_deg``, when given, overrides the
@@ -133,7 +168,8 @@ def bake_job(scene, job: dict, common: dict, settings: Settings, plan=None) -> d
                        common.get("traversable", ()), common.get("obstacles", ()), name=job.get("name"),
                        frame_start=job.get("frame_start"), markers=bool(common.get("markers")),
                        body_on=str(job.get("body_on") or common.get("body_on") or "object").upper(),
-                       frame_range=not common.get("keep_frame_range"), route=route, splice=splice)
+                       frame_range=not common.get("keep_frame_range"), route=route, splice=splice,
+                       force=bool(common.get("force")), new_track=bool(common.get("new_track")))
     _route_report(doc, route, splice, job)
     return doc
 
@@ -199,4 +235,4 @@ def run_job(scene, job: Job, common: dict, settings: Settings, outputs: Outputs,
                                   [p for p in (job.report, job.out) if p])
 
 
-__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "goal_and_start", "run_job", "scene_problems"]
+__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "clashing_jobs", "not_in_scene", "goal_and_start", "run_job", "scene_problems"]

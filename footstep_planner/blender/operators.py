@@ -244,6 +244,10 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
 
     markers: BoolProperty(name="Footstep markers", default=False,
                           description="Add a timeline marker at each footstep")
+    new_track: BoolProperty(name="New Track", default=False,
+                            description="Bake beside the planner's earlier bake of this name, under a new name")
+    force: BoolProperty(name="Replace Edits", default=False,
+                        description="Bake over the planner's earlier bake of this name even if its keys were edited")
 
     _steps = None
     _timer = None
@@ -255,7 +259,8 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
         goal, heading = _goal(context)
         return planning.run_steps(context.scene, character(context), goal, heading, fs.start,
                                   _settings(context), markers=self.markers, body_on=fs.body_on,
-                                  frame_range=fs.grow_frame_range, route=_via(context, goal, heading))
+                                  frame_range=fs.grow_frame_range, route=_via(context, goal, heading),
+                                  force=self.force, new_track=self.new_track)
 
     def _finish(self, context, doc):
         import json
@@ -290,7 +295,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
             self._finish(context, done.value)
             return {"FINISHED"}
         except FootstepError as ex:
-            self.report({"ERROR"}, str(ex))
+            _refused(self, ex)
             return {"CANCELLED"}
 
     def invoke(self, context, event):
@@ -312,6 +317,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
 
     def modal(self, context, event):
         if event.type == "ESC":
+            self._steps.close()  # (a bake made already is taken back)
             self._end(context)
             self.report({"INFO"}, "bake cancelled: nothing was changed")
             return {"CANCELLED"}
@@ -330,8 +336,18 @@ class FOOTSTEP_OT_bake(_OnCharacter, bpy.types.Operator):
         except FootstepError as ex:
             self._end(context)
             context.workspace.status_text_set(None)
-            self.report({"ERROR"}, str(ex))
+            _refused(self, ex)
             return {"CANCELLED"}
+
+
+def _refused(op, ex) -> None:
+    """Report a refused bake; over an edited bake, offer to bake to a new track."""
+    from .bake import EditedBakeError
+
+    op.report({"ERROR"}, str(ex))
+    if isinstance(ex, EditedBakeError):
+        op.report({"WARNING"}, "to keep your edits, bake again with New Track (in the Bake operator's options) "
+                  "or give the bake another name; Replace Edits bakes over them")
 
 
 def _handles_of_last_plan(context) -> None:
@@ -417,9 +433,14 @@ class FOOTSTEP_OT_clear(_OnCharacter, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        from .bake import clear
+        from .bake import check_not_tweaking, clear
         from .handles import clear_handles
 
+        try:
+            check_not_tweaking(character(context))
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
         n = clear(character(context), context.scene)
         clear_handles(character(context))
         self.report({"INFO"}, f"removed {n} planner track(s)" if n else "nothing of the planner's to remove")
