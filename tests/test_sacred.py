@@ -337,8 +337,6 @@ def test_a_bake_measured_wrong_is_an_error_and_is_taken_back(fp, shot, cli, tmp_
     """A driver on the character's location (no check foresees it): the bake plays
     elsewhere, the measure says so, and the bake is an error, taken back; on the command
     line, exit 2 naming the figure, nothing written."""
-    import bpy
-
     scene, ob = shot
     _, _, errors = _mods(fp)
     fc = ob.driver_add("location", 0)

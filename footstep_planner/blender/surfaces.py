@@ -53,31 +53,67 @@ def effective_tag(ob, scene=None, parents=None) -> str:
     return "NONE"
 
 
-def tagged_objects(scene, traversable=(), obstacles=()) -> tuple[list, list]:
-    """(traversable, obstacle) mesh objects of ``scene``, with ``traversable`` and
-    ``obstacles`` naming extra objects tagged for this run only. Unknown names, and
-    named objects that are not meshes, raise SurfaceError naming them."""
+#: Object types with a surface (their evaluated mesh is walked on or avoided).
+SURFACE_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+
+
+def tagged_objects(scene, traversable=(), obstacles=(), skipped=None) -> tuple[list, list]:
+    """(traversable, obstacle) objects of ``scene`` with a surface (meshes, and curves,
+    surfaces, metaballs and texts by their evaluated mesh), with ``traversable`` and
+    ``obstacles`` naming extra objects tagged for this run only. A tagged object hidden
+    in the viewport or in a collection excluded from the view layer is left out, unless
+    named for this run; ``skipped`` (a list) gets (name, why) for each tagged object left
+    out (hidden, excluded, no surface). Unknown names, and named objects without a
+    surface, raise SurfaceError naming them."""
     extra = {}
     for names, tag in ((traversable, "TRAVERSABLE"), (obstacles, "OBSTACLE")):
         for name in names:
             ob = scene.objects.get(name)
             if ob is None:
                 raise SurfaceError(f"no object named {name!r} in scene {scene.name!r}")
-            if ob.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
+            if ob.type not in SURFACE_TYPES:
                 raise SurfaceError(f"object {name!r} is a {ob.type.lower()}, not a mesh; "
                                    "only meshes can be walked on or avoided")
             extra[name] = tag
     parents = _parents(scene)
     trav, obst = [], []
+    skipped = [] if skipped is None else skipped
+    layer = scene.view_layers[0] if bpy.context.scene != scene and len(scene.view_layers) else None
     for ob in scene.objects:
-        if ob.type != "MESH" and ob.name not in extra:
-            continue
         tag = extra.get(ob.name) or effective_tag(ob, scene, parents)
+        if tag == "NONE":
+            continue
+        if ob.type not in SURFACE_TYPES:
+            if ob.footstep.surface != "NONE":  # (its own tag: named when nothing else is walked on)
+                skipped.append((ob.name, f"is a {ob.type.lower()}, with no surface to walk on"))
+            continue
+        if ob.name not in extra:
+            why = _hidden(ob, layer)
+            if why:
+                skipped.append((ob.name, why))
+                continue
         if tag == "TRAVERSABLE":
             trav.append(ob)
         elif tag == "OBSTACLE":
             obst.append(ob)
     return sorted(trav, key=lambda o: o.name), sorted(obst, key=lambda o: o.name)
+
+
+def _hidden(ob, layer=None) -> str | None:
+    """Why a tagged object is not walked on: hidden in the viewport, or in a collection
+    excluded from the view layer (None: it is visible)."""
+    if ob.hide_viewport:
+        return "is disabled in viewports"
+    try:
+        visible = ob.visible_get(view_layer=layer) if layer is not None else ob.visible_get()
+    except (RuntimeError, TypeError):
+        return None
+    if visible:
+        return None
+    vl = layer or bpy.context.view_layer
+    if ob.name not in vl.objects:
+        return "is in a collection excluded from the view layer"
+    return "is hidden"
 
 
 def mesh_of(objects, depsgraph) -> TriMesh:
@@ -151,8 +187,14 @@ class BvhGround:
 def scene_surfaces(scene, depsgraph, traversable=(), obstacles=()):
     """(ground, obstacles) ground queries for a scene; SurfaceError when nothing is
     traversable."""
-    trav, obst = tagged_objects(scene, traversable, obstacles)
+    skipped = []
+    trav, obst = tagged_objects(scene, traversable, obstacles, skipped)
     if not trav:
+        if skipped:
+            name, why = skipped[0]
+            more = f" (and {len(skipped) - 1} more)" if len(skipped) > 1 else ""
+            raise SurfaceError(f"scene {scene.name!r} has nothing traversable to walk on: {name!r}, tagged, {why}"
+                               f"{more}; show it, or name it for this run (--traversable {name})")
         raise SurfaceError(f"scene {scene.name!r} has no traversable mesh: tag the floors "
                            "in Object Properties > Footstep, or pass --traversable NAME")
     return BvhGround(mesh_of(trav, depsgraph).without_undersides()), BvhGround(mesh_of(obst, depsgraph))
