@@ -10,9 +10,9 @@ import json
 import math
 from importlib import import_module
 
-import numpy as np
 import pytest
 
+from benchmarks import fuzz_cases
 from fingerprint import differences, fingerprint
 
 CHAR = "Footstep Mannequin"
@@ -23,7 +23,8 @@ def scene_file(tmp_path_factory, fp):
     """The Turns sample scene with the sample character, as an animator leaves it: the
     character turned a whole turn more than it faces (its Euler beyond 360 degrees), a
     clip active, an arm posed, a layer of their own in the NLA, markers of their own
-    (one named like the planner's), a longer frame range."""
+    (one named like the planner's), a longer frame range; and "Near", a goal 12
+    footprints along the way (short bakes)."""
     import bpy
 
     mannequin = import_module(fp.__name__ + ".blender.mannequin")
@@ -33,18 +34,10 @@ def scene_file(tmp_path_factory, fp):
     scene.render.fps = 30
     ob, _ = mannequin.add_to_scene(scene, "Start")
     ob.rotation_euler.z += 2 * math.pi
-    ad = ob.animation_data_create()
-    ad.action = bpy.data.actions["idle"]
-    ad.action_slot = ad.action.slots[0]
-    tr = ad.nla_tracks.new()
-    tr.name = "User layer"
-    tr.strips.new("wave", 1, bpy.data.actions["walk"]).action_slot = bpy.data.actions["walk"].slots[0]
-    tr.mute = True
+    fuzz_cases.lived_in(scene, ob)  # (its clip active, a layer and markers of the user's own)
     ob.pose.bones["upper_arm.L"].rotation_quaternion = (0.9, 0.3, 0.1, 0.0)
     ob.pose.bones["forearm.L"].rotation_mode = "XYZ"
     ob.pose.bones["forearm.L"].rotation_euler = (0.2, 7.0, 0.0)
-    scene.timeline_markers.new("FP review", frame=12)
-    scene.timeline_markers.new("FP 0 L", frame=40)
     scene.frame_end = 300
     planning = import_module(fp.__name__ + ".blender.planning")
     goal, heading = planning.goal_of(scene, "Goal")
@@ -254,12 +247,8 @@ def _cli_refuses(cli, tmp_path, capsys) -> str:
 # -- tweak mode ----------------------------------------------------------------------------------
 
 def _tweak(ob):
-    ad = ob.animation_data
-    tr = ad.nla_tracks["User layer"]
-    ad.nla_tracks.active = tr
-    tr.strips[0].select = True
-    ad.use_tweak_mode = True
-    assert ad.use_tweak_mode
+    fuzz_cases.SACRED["tweak_mode"][0](None, ob)  # (the user's layer's strip in tweak mode)
+    assert ob.animation_data.use_tweak_mode
 
 
 def test_tweak_mode_is_refused_in_one_line_by_the_command_line(fp, cli, shot, tmp_path, capsys):
@@ -285,14 +274,7 @@ def test_tweak_mode_is_refused_by_the_operators_with_nothing_changed(fp, shot):
 # -- wrong bakes never exit 0 ---------------------------------------------------------------------
 
 def _animated_parent(scene, ob):
-    import bpy
-
-    e = bpy.data.objects.new("Dolly", None)
-    scene.collection.objects.link(e)
-    ob.parent = e
-    e.keyframe_insert("location", frame=1)
-    e.location.x = 3.0
-    e.keyframe_insert("location", frame=100)
+    fuzz_cases.SACRED["animated_parent"][0](scene, ob)  # (parented to "Dolly", which moves)
     return "'Dolly'"
 
 
