@@ -395,3 +395,32 @@ def test_the_command_line_and_the_operator_on_an_edited_bake(fp, cli, shot, scen
     _same(before)
     assert bpy.ops.footstep.bake(new_track=True) == {"FINISHED"}
     assert f"Footstep: {CHAR} to goal (2)" in _tracks(ob)
+
+
+def test_a_job_failing_after_its_bake_gives_the_scene_back_exactly(fp, cli, scene_file, tmp_path, monkeypatch,
+                                                                   capsys):
+    """A job that fails once baked (here: a bug after the bake) is rolled back by identity:
+    the scene in memory is the file's again, the user's Euler beyond 360 and markers too."""
+    import bpy
+
+    batch = import_module(fp.__name__ + ".blender.batch")
+    real = batch.bake_job
+
+    def breaks(scene, job, common, settings):
+        real(scene, job, common, settings)
+        raise RuntimeError("after the bake")
+
+    bpy.ops.wm.open_mainfile(filepath=scene_file)
+    before = fingerprint()
+    monkeypatch.setattr(batch, "bake_job", breaks)
+    jobs = tmp_path / "jobs.json"
+    jobs.write_text(json.dumps([{"character": CHAR, "goal": "Near", "name": "a", "frame_start": 1}]))
+    assert cli(["bake", scene_file, "--job", str(jobs), "--markers"]) == 1
+    assert "0 of 1 jobs baked" in capsys.readouterr().out
+    _same(before)
+
+
+def test_build_graph_is_undoable(fp):
+    """Build Graph analyses the clips (it writes their summaries): it is an undo step."""
+    ops = import_module(fp.__name__ + ".blender.operators")
+    assert "UNDO" in ops.FOOTSTEP_OT_build_graph.bl_options

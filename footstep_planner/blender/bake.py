@@ -138,7 +138,7 @@ def character_state(ob) -> dict:
     return state
 
 
-def _give_back_state(ob, state: dict) -> None:
+def give_back_state(ob, state: dict) -> None:
     """Put the character's channels back as ``character_state`` read them."""
     from .scene import set_pose_channels
 
@@ -221,7 +221,7 @@ def _give_back(ob, scene, carried: dict) -> None:
     before = carried.get(BEFORE_PROP)
     if before:
         state = json.loads(before)
-        _give_back_state(ob, state)
+        give_back_state(ob, state)
         ad = ob.animation_data
         if (not state.get("anim_data") and ad is not None and ad.action is None and not len(ad.nla_tracks)
                 and not len(ad.drivers)):
@@ -811,4 +811,4 @@ def local_rotations(rig: Rig, pose: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(local[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
 
 
-__all__ = ["bake", "bake_name", "check_not_tweaking", "check_overlap", "clear", "discard", "settle", "evaluate_played", "local_rotations", "own_matrix_world", "owned_tracks", "root_bone", "BakeError"]
+__all__ = ["bake", "bake_name", "character_state", "give_back_state", "check_not_tweaking", "check_overlap", "clear", "discard", "settle", "evaluate_played", "local_rotations", "own_matrix_world", "owned_tracks", "root_bone", "BakeError"]

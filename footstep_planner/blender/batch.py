@@ -85,22 +85,35 @@ def check_jobs(scene, raw: list) -> tuple[list[tuple[int, str, dict]], list[JobO
 
 class Snapshot:
     """What a job may change in the scene, to roll a failed job back: the actions, the
-    character's NLA tracks and active action, the timeline markers and the frame range."""
+    character's NLA tracks (by identity, not name) and active action, the timeline markers
+    (each (name, frame)), the frame range, and the character's channels as typed."""
 
     def __init__(self, scene, ob):
+        from collections import Counter
+
+        from .bake import character_state
+
         self.scene, self.ob = scene, ob
         self.actions = set(bpy.data.actions)
         ad = ob.animation_data
-        self.tracks = set(t.name for t in ad.nla_tracks) if ad else set()
+        self.tracks = {t.as_pointer() for t in ad.nla_tracks} if ad else set()
         self.active = (ad.action, ad.action_slot) if ad else (None, None)
-        self.markers = set(m.name for m in scene.timeline_markers)
+        self.markers = Counter((m.name, m.frame) for m in scene.timeline_markers)
         self.range = (scene.frame_start, scene.frame_end)
-        self.matrix = ob.matrix_basis.copy()
+        self.state = character_state(ob)
 
     def restore(self) -> None:
+        from collections import Counter
+
+        from . import bake as baking
+
         ad = self.ob.animation_data
+        if ad is not None:  # (the job's bakes first, as Clear removes them; then anything else it added)
+            baking.remove_tracks(self.ob, self.scene, [t for t in baking.owned_tracks(self.ob)
+                                                       if t.as_pointer() not in self.tracks])
+            ad = self.ob.animation_data
         if ad is not None:
-            for t in [t for t in ad.nla_tracks if t.name not in self.tracks]:
+            for t in [t for t in ad.nla_tracks if t.as_pointer() not in self.tracks]:
                 ad.nla_tracks.remove(t)
             if ad.action != self.active[0]:
                 ad.action = self.active[0]
@@ -108,10 +121,13 @@ class Snapshot:
                     ad.action_slot = self.active[1]
         for act in [a for a in bpy.data.actions if a not in self.actions]:
             bpy.data.actions.remove(act)
-        for m in [m for m in self.scene.timeline_markers if m.name not in self.markers]:
-            self.scene.timeline_markers.remove(m)
+        have = Counter()
+        for m in list(self.scene.timeline_markers):
+            have[(m.name, m.frame)] += 1
+            if have[(m.name, m.frame)] > self.markers[(m.name, m.frame)]:
+                self.scene.timeline_markers.remove(m)
         self.scene.frame_start, self.scene.frame_end = self.range
-        self.ob.matrix_basis = self.matrix
+        baking.give_back_state(self.ob, self.state)
 
 
 def clashing_jobs(scene, jobs: list) -> str | None:

@@ -208,6 +208,7 @@ class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
 
     bl_idname = "footstep.build_graph"
     bl_label = "Build Graph"
+    bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
         import time
