@@ -117,3 +117,33 @@ def test_the_scene_at_fault_is_named_and_scene_picks_another(fp, two_scenes, cap
     assert "no scene named 'Nowhere'" in capsys.readouterr().err
     assert cli(args + ["--scene", name]) == 0
     assert json.loads(capsys.readouterr().out)["character"] == "Footstep Mannequin"
+
+
+def test_a_character_from_a_missing_library_is_named(fp, empty_scene, tmp_path, capsys):
+    import os
+
+    import bpy
+
+    cli = import_module(fp.__name__ + ".blender.cli").cli_main
+    ob = bpy.data.objects.new("Hero", bpy.data.armatures.new("Hero"))
+    bpy.context.scene.collection.objects.link(ob)
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "lib.blend"))
+    bpy.ops.wm.read_homefile(use_empty=True)
+    with bpy.data.libraries.load(str(tmp_path / "lib.blend"), link=True) as (_, dst):
+        dst.objects = ["Hero"]
+    bpy.context.scene.collection.objects.link(dst.objects[0])
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "shot.blend"))
+    os.rename(tmp_path / "lib.blend", tmp_path / "moved.blend")
+    for verb in ("plan", "bake"):
+        assert cli([verb, str(tmp_path / "shot.blend"), "--character", "Hero"]) == 2
+        err = capsys.readouterr().err
+        assert "Traceback" not in err and "comes from the library '//lib.blend', which is missing" in err
+
+
+def test_a_file_from_a_newer_blender_is_refused(fp, two_scenes, monkeypatch, capsys):
+    cli_mod = import_module(fp.__name__ + ".blender.cli")
+    monkeypatch.setattr(cli_mod, "file_version", lambda: (99, 1, 0))
+    path, name = two_scenes
+    assert cli_mod.cli_main(["bake", path, "--scene", name, "--character", "Footstep Mannequin"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "saved by a newer Blender (file version 99.1.0)" in err

@@ -42,6 +42,8 @@ def scene_problems(scene, job: dict) -> list[str]:
     ob = bpy.data.objects.get(job["character"])
     if ob is None:
         problems.append(f"no object named {job['character']!r} in {bpy.data.filepath or 'the scene'}")
+    elif missing_library(ob):
+        problems.append(missing_library(ob))
     elif ob.type != "ARMATURE":
         problems.append(f"object {job['character']!r} is a {ob.type.lower()}, not an armature")
     elif scene.objects.get(ob.name) is None:
@@ -54,6 +56,18 @@ def scene_problems(scene, job: dict) -> list[str]:
         if scene.objects.get(name) is None:
             problems.append(f"no object named {name!r} for a waypoint in scene {scene.name!r}" + _elsewhere(scene, name))
     return problems
+
+
+def missing_library(ob) -> str | None:
+    """One line when ``ob`` (or its data) is linked from a library file that is missing,
+    else None."""
+    ids = [ob] + ([ob.data] if ob.data is not None else [])
+    lib = next((i.library for i in ids if i.library is not None and (i.is_missing or i.library.is_missing)), None)
+    if lib is None and not ob.is_missing:
+        return None
+    where = f"the library {lib.filepath!r}" if lib is not None else "a library"
+    return (f"object {ob.name!r} comes from {where}, which is missing (moved or deleted?): relink it (File > "
+            "External Data > Find Missing Files, or Relocate in the Outliner's Blender File view) and bake again")
 
 
 def _elsewhere(scene, name: str) -> str:
@@ -251,4 +265,4 @@ def run_job(scene, job: Job, common: dict, settings: Settings, outputs: Outputs,
                                   [p for p in (job.report, job.out) if p])
 
 
-__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "clashing_jobs", "not_in_scene", "goal_and_start", "run_job", "scene_problems"]
+__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "clashing_jobs", "missing_library", "not_in_scene", "goal_and_start", "run_job", "scene_problems"]

@@ -306,12 +306,24 @@ def check_input(path: str, what: str = "file") -> str:
     return path
 
 
+def file_version() -> tuple:
+    """The Blender file version the open file was saved with."""
+    return tuple(bpy.data.version)
+
+
 def open_blend(path: str) -> None:
+    """Open a .blend file; CliError naming it when it can't be, or when a newer Blender
+    saved it (this one would lose what it can't read, behind its own warning)."""
     check_input(path, ".blend file")
     try:
         bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False)
     except RuntimeError as ex:
         raise CliError(f"{path}: cannot open: {str(ex).strip()}") from None
+    saved, ours = file_version(), tuple(bpy.app.version_file)
+    if saved > ours:
+        raise CliError(f"{path}: saved by a newer Blender (file version {'.'.join(map(str, saved))}) than this one "
+                       f"({bpy.app.version_string}, file version {'.'.join(map(str, ours))}): what it can't read "
+                       "would be lost; bake it with that Blender version or newer")
 
 
 def claim_blend(outs: Outputs, path: str | None, what: str) -> str | None:
@@ -363,6 +375,9 @@ def find_armature(name: str):
     ob = bpy.data.objects.get(name)
     if ob is None:
         raise CliError(f"no object named {name!r} in {bpy.data.filepath or 'the scene'}")
+    missing = batch.missing_library(ob)
+    if missing:
+        raise CliError(missing)
     if name not in bpy.context.scene.objects:
         raise CliError(batch.not_in_scene(bpy.context.scene, ob))
     if ob.type != "ARMATURE":
