@@ -10,6 +10,7 @@ import json
 import math
 from importlib import import_module
 
+import numpy as np
 import pytest
 
 from benchmarks import fuzz_cases
@@ -424,3 +425,29 @@ def test_build_graph_is_undoable(fp):
     """Build Graph analyses the clips (it writes their summaries): it is an undo step."""
     ops = import_module(fp.__name__ + ".blender.operators")
     assert "UNDO" in ops.FOOTSTEP_OT_build_graph.bl_options
+
+
+def test_an_earlier_bake_made_later_still_lets_the_later_one_play(fp, shot):
+    """A character with no track below the planner's: a bake at 2000, then one at 1. The
+    one at 1 holds its last pose only until 2000, where the other walks again from the
+    start (the later in time plays above, whichever was baked first)."""
+    import bpy
+
+    scene, ob = shot
+    ad = ob.animation_data
+    ad.nla_tracks.remove(ad.nla_tracks["User layer"])
+    ad.action = None
+    start = np.array(ob.matrix_world.translation)
+    late = _run(fp, scene, ob, name="late", frame_start=2000)
+    early = _run(fp, scene, ob, name="early", frame_start=1)
+    names = [t.name for t in ob.animation_data.nla_tracks]
+    assert names.index("Footstep: early") < names.index("Footstep: late")
+    near = np.array(scene.objects["Near"].location)
+
+    def at(frame):
+        scene.frame_set(frame)
+        return np.array(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).matrix_world.translation)
+
+    assert np.linalg.norm((at(early["frame_end"] + 100) - near)[:2]) < 0.5  # (holding where it arrived)
+    assert np.linalg.norm((at(2000) - start)[:2]) < 0.3  # (the later bake starts again from the start)
+    assert np.linalg.norm((at(late["frame_end"]) - near)[:2]) < 0.5
