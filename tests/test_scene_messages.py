@@ -147,3 +147,21 @@ def test_a_file_from_a_newer_blender_is_refused(fp, two_scenes, monkeypatch, cap
     assert cli_mod.cli_main(["bake", path, "--scene", name, "--character", "Footstep Mannequin"]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and "saved by a newer Blender (file version 99.1.0)" in err
+
+
+def test_floors_reached_through_a_collection_instance_are_walked_on(surfaces):
+    """A tagged floor in a collection the scene holds only as an instance (an empty
+    instancing it, moved 10 m along X): walked on where the instance stands."""
+    import bpy
+
+    surf, _ = surfaces
+    scene = bpy.context.scene
+    kit = bpy.data.collections.new("Kit")  # (not linked into the scene)
+    _floor(collection=kit)
+    e = bpy.data.objects.new("Kit instance", None)
+    e.instance_type, e.instance_collection = "COLLECTION", kit
+    e.location.x = 10.0
+    scene.collection.objects.link(e)
+    bpy.context.view_layer.update()
+    ground = _ground(surf, scene)
+    assert ground.ray_down([[10.5, 0.0, 1.0]], 3.0).hit[0] and not ground.ray_down([[0.0, 0.0, 1.0]], 3.0).hit[0]

@@ -1,8 +1,11 @@
 """Tagged meshes -> world-space triangles, and ground queries on mathutils.bvhtree.
 
-A mesh object is traversable or an obstacle by its own tag (``obj.footstep.surface``),
-or else by the tag of the nearest tagged collection it belongs to (collections inherit
-from their parents). Headless runs can add tags for one run by name.
+A mesh object (or a curve, surface, metaball or text, by its evaluated mesh) is
+traversable or an obstacle by its own tag (``obj.footstep.surface``), or else by the tag
+of the nearest tagged collection it belongs to (collections inherit from their parents);
+an object instanced through a collection instance is walked on where the instance stands.
+Objects hidden in the viewport or in an excluded collection are left out unless named.
+Headless runs can add tags for one run by name.
 """
 
 from __future__ import annotations
@@ -116,11 +119,33 @@ def _hidden(ob, layer=None) -> str | None:
     return "is hidden"
 
 
-def mesh_of(objects, depsgraph) -> TriMesh:
-    """World-space triangles of the objects as evaluated (modifiers applied)."""
+def instanced(scene, depsgraph) -> dict:
+    """Tag -> [(name, evaluated object, world matrix)] of the tagged surfaces that stand in
+    the scene as instances (a collection instanced by an empty): tagged by their own tag,
+    their collection's, or the instancing empty's own."""
+    out = {"TRAVERSABLE": [], "OBSTACLE": []}
+    if not any(o.instance_type == "COLLECTION" and o.instance_collection is not None for o in scene.objects):
+        return out  # (no collection instance: nothing to look through, however many particles)
+    parents = _parents(scene)
+    for inst in depsgraph.object_instances:
+        if not inst.is_instance or inst.object is None or inst.object.type not in SURFACE_TYPES:
+            continue
+        ob = inst.object.original
+        tag = effective_tag(ob, scene, parents)
+        if tag == "NONE" and inst.parent is not None:
+            tag = inst.parent.original.footstep.surface
+        if tag in out:
+            who = inst.parent.original.name if inst.parent is not None else "?"
+            out[tag].append((f"{who}/{ob.name}", inst.object, np.array(inst.matrix_world)))
+    return out
+
+
+def mesh_of(objects, depsgraph, placed=()) -> TriMesh:
+    """World-space triangles of the objects as evaluated (modifiers applied), and of the
+    ``placed`` ones ((name, evaluated object, world matrix): instances)."""
     parts = []
-    for i, ob in enumerate(objects):
-        ev = ob.evaluated_get(depsgraph)
+    items = [(ob.name, ob.evaluated_get(depsgraph), None) for ob in objects] + list(placed)
+    for name, ev, matrix in items:
         me = ev.to_mesh()
         try:
             me.calc_loop_triangles()
@@ -131,9 +156,9 @@ def mesh_of(objects, depsgraph) -> TriMesh:
             me.loop_triangles.foreach_get("vertices", tri)
         finally:
             ev.to_mesh_clear()
-        m = np.array(ev.matrix_world)
+        m = np.array(ev.matrix_world) if matrix is None else matrix
         co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-        parts.append(TriMesh(co, tri.reshape(-1, 3), np.zeros(nt, np.int64), (ob.name,)))
+        parts.append(TriMesh(co, tri.reshape(-1, 3), np.zeros(nt, np.int64), (name,)))
     return TriMesh.concat(parts)
 
 
@@ -189,7 +214,8 @@ def scene_surfaces(scene, depsgraph, traversable=(), obstacles=()):
     traversable."""
     skipped = []
     trav, obst = tagged_objects(scene, traversable, obstacles, skipped)
-    if not trav:
+    inst = instanced(scene, depsgraph)
+    if not trav and not inst["TRAVERSABLE"]:
         if skipped:
             name, why = skipped[0]
             more = f" (and {len(skipped) - 1} more)" if len(skipped) > 1 else ""
@@ -197,4 +223,5 @@ def scene_surfaces(scene, depsgraph, traversable=(), obstacles=()):
                                f"{more}; show it, or name it for this run (--traversable {name})")
         raise SurfaceError(f"scene {scene.name!r} has no traversable mesh: tag the floors "
                            "in Object Properties > Footstep, or pass --traversable NAME")
-    return BvhGround(mesh_of(trav, depsgraph).without_undersides()), BvhGround(mesh_of(obst, depsgraph))
+    return (BvhGround(mesh_of(trav, depsgraph, inst["TRAVERSABLE"]).without_undersides()),
+            BvhGround(mesh_of(obst, depsgraph, inst["OBSTACLE"])))
