@@ -1,20 +1,30 @@
 """The result baked into the character: one slotted Action per bake, in an NLA track the
 planner owns, and the scene read back as Blender plays it.
 
-What the planner owns is marked: its actions carry the custom property ``OWNED_PROP``
-(the character's name) and its NLA tracks are named ``TRACK_PREFIX`` + the plan's name,
-holding only such actions; its timeline markers start with ``MARKER_PREFIX``. A re-bake
-removes those and nothing else: the user's actions, tracks, strips, keyframes and
+What the planner owns it finds by identity, never by name: its actions carry the owner
+tag ``OWNED_PROP`` (the character's name) and the bake's name (``BAKE_NAME_PROP``); its
+NLA tracks are those holding only such actions (named ``TRACK_PREFIX`` + the bake's name
+when made, whatever the user renames them to); its timeline markers are the ones each
+action recorded making (``MARKERS_PROP``: a user's "FP review" is never touched). A
+bake replaces only the planner's bake of its name; several bakes of one character live
+side by side, stacked by time (``check_overlap`` refuses one that would overlap another),
+and a bake whose keys the animator edited is not baked over unless asked
+(``KEYS_PROP``, ``check_unedited``). The user's actions, tracks, strips, keyframes and
 markers are never touched.
 
 So that what plays is what was baked: Blender plays a character's active action over
 its NLA stack, so a bake *stashes* the active action the way Blender does (a muted NLA
-track ``[Action Stash]`` holding it, the active slot cleared) and records it on its own
-action; ``clear`` gives it back as it was. The scene's frame range grows to cover the
-bake (never shrinks), and ``clear`` puts it back when it is still as the bake left it.
+track ``[Action Stash]`` holding it, the active slot cleared). The scene's frame range
+grows to cover the bake (never shrinks). Every bake of a character carries the record of
+the character as it was before its first bake (``CARRIED``: its transform values as
+typed, pose channels and modes, the stash, the range); when the last goes, ``clear``
+gives it all back exactly. Scene states that would make a bake play elsewhere than
+planned are refused before anything changes (``check_scene``, ``check_leg_constraints``).
 """
 
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import bpy
@@ -183,8 +193,6 @@ def clear(ob, scene=None, name: str | None = None) -> int:
 
 def remove_tracks(ob, scene, tracks: list) -> int:
     """``clear`` of the given tracks of the planner's."""
-    import json
-
     acts = {st.action for tr in tracks for st in tr.strips}
     carried = next((_records(a) for a in acts if a.get(BEFORE_PROP) is not None or a.get(REST_PROP) is not None), {})
     made = [tuple(m) for a in acts for m in json.loads(a.get(MARKERS_PROP) or "[]")]
@@ -213,8 +221,6 @@ def _give_back(ob, scene, carried: dict) -> None:
     """What the character's first bake changed, as it was: the stashed active action,
     the object's and pose bones' channels, the frame range (if still as the bakes left
     it), no animation data if it had none."""
-    import json
-
     _unstash(ob, carried)
     if scene is not None:
         _give_back_range(scene, carried)
@@ -477,8 +483,6 @@ def new_track_name(ob, name: str) -> str:
 
 def _first_records(ob) -> dict:
     """The records of the character's first bake: its state as it is now."""
-    import json
-
     return {REST_PROP: [float(v) for row in ob.matrix_basis for v in row],
             BEFORE_PROP: json.dumps(character_state(ob))}
 
@@ -751,8 +755,6 @@ def _move_to_top(ad, tr) -> None:
 def _add_markers(scene, act, path, planted, frame_start: int) -> None:
     """A timeline marker ``FP <n> <L|R>`` at each footprint's stance frame; ``act``
     records them (the only markers its removal removes)."""
-    import json
-
     rate = scene_fps(scene)
     made = []
     for i, (f, (_, st, _)) in enumerate(zip(path, planted)):
