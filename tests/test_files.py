@@ -119,3 +119,8 @@ def test_only_this_codes_own_litter_is_removed(tmp_path):
         outs.write_text(str(tmp_path / "out.json"), "new")
         outs.commit()
     assert sorted(os.listdir(tmp_path)) == sorted(theirs + live + ["out.json"])
+
+
+def test_a_file_name_too_long_for_its_folder_is_refused_before_any_work(tmp_path):
+    with pytest.raises(OutputError, match="file name is 300 bytes long; its folder .* allows 255"):
+        Outputs().claim(str(tmp_path / ("x" * 295 + ".json")), "report of job 1")

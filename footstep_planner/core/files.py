@@ -64,6 +64,14 @@ def _probe_dir(directory: str) -> None:
     os.unlink(probe)
 
 
+def _name_max(directory: str) -> int:
+    """The longest file name (bytes) ``directory`` allows."""
+    try:
+        return int(os.pathconf(directory, "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return 255
+
+
 def _existing_parent(path: str) -> str:
     parent = os.path.dirname(os.path.abspath(path))
     while not os.path.exists(parent):
@@ -117,6 +125,11 @@ class Outputs:
         if not os.path.isdir(parent):
             raise OutputError(f"cannot write the {what} {path!r}: {parent} is a file, not a folder")
         _probe_dir(parent)
+        longest = _name_max(parent)
+        name = os.fsencode(os.path.basename(full))
+        if len(name) > longest:
+            raise OutputError(f"the {what}'s file name is {len(name)} bytes long; its folder {parent} allows "
+                              f"{longest}: give it a shorter name")
         self.claimed[full] = what
         return full
 
