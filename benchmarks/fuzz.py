@@ -53,7 +53,8 @@ NOISE = re.compile(r"^(\d\d:\d\d\.\d{3} |Info: |Read blend: |Warning: |BVH Expor
 CMU_WALK = os.path.join(os.path.dirname(ROOT), "shared", "mocap", "cmu", "cmu_16_16_walk.bvh")
 #: the pool is cached under a hash of these and ``fuzz_cases.POOL_VERSION`` (bump it when the builder changes)
 POOL_SOURCES = ["footstep_planner/blender/sample/mannequin.py", "footstep_planner/blender/sample/sample_scenes.py"] + [
-    f"footstep_planner/core/sample/{m}.py" for m in ("mannequin", "gait", "specs", "course", "feet", "body")]
+    f"footstep_planner/core/sample/{m}.py" for m in ("mannequin", "gait", "specs", "course", "feet", "body")] + [
+    "benchmarks/fuzz_cases.py"]
 
 
 def default_python() -> str:
@@ -89,6 +90,11 @@ def pool_items(folder: str, needs: set) -> tuple[dict, list]:
         items.append({"what": "sample", "path": sample, "report": report})
     if needs & {"@bvh", "@cmu"} and not os.path.exists(paths["@bvh"]):
         items.append({"what": "bvh", "path": paths["@bvh"]})
+    for key in sorted(k for k in needs if k.startswith("@sacred:")):
+        variant = key.split(":", 1)[1]
+        paths[key] = os.path.join(folder, f"sacred-{variant}.blend")
+        if not os.path.exists(paths[key]):
+            items.append({"what": "sacred", "variant": variant, "path": paths[key]})
     for key in sorted(k for k in needs if k.startswith("@scene:")):
         _, seed, j = key.split(":")
         spec = fc.scene_spec(int(seed), int(j))

@@ -63,7 +63,8 @@ class Case:
         return "--job" in self.argv
 
     def needs(self) -> set:
-        """The pool items the setup copies (``@scene:SEED:J``, ``@sample``, ``@bvh``, ``@cmu``, ``@report``)."""
+        """The pool items the setup copies (``@scene:SEED:J``, ``@sample``, ``@sacred:VARIANT``, ``@bvh``,
+        ``@cmu``, ``@report``)."""
         return {op[1] for op in self.setup if op[0] in ("copy", "bvh") and op[1].startswith("@")}
 
     def to_dict(self) -> dict:
@@ -251,8 +252,96 @@ def build_bvh(path: str) -> None:
     bpy.ops.export_anim.bvh(filepath=path, frame_start=start, frame_end=end, global_scale=100.0)
 
 
+def _sacred_tweak(scene, ob) -> None:
+    ad = ob.animation_data
+    tr = ad.nla_tracks["User layer"]
+    ad.nla_tracks.active = tr
+    tr.strips[0].select = True
+    ad.use_tweak_mode = True
+
+
+def _sacred_parent(scene, ob) -> None:
+    import bpy
+
+    e = bpy.data.objects.new("Dolly", None)
+    scene.collection.objects.link(e)
+    ob.parent = e
+    e.keyframe_insert("location", frame=1)
+    e.location.x = 3.0
+    e.keyframe_insert("location", frame=100)
+
+
+def _sacred_constraint(kind, bone=None):
+    def make(scene, ob):
+        c = (ob.pose.bones[bone] if bone else ob).constraints.new(kind)
+        c.target = scene.objects["Goal"]
+    return make
+
+
+def _sacred_driver(scene, ob) -> None:
+    ob.driver_add("location", 0).driver.expression = "4.0"
+
+
+def _sacred_collection(scene, ob) -> None:
+    import bpy
+
+    coll = bpy.data.collections.new(f"Footprints: {ob.name}")
+    scene.collection.children.link(coll)
+    coll.objects.link(bpy.data.objects.new("FP 000 L", None))
+
+
+#: issue 26's scene states (``build_sacred``): variant -> (what it does to the sample
+#: scene, what the bake must do: "ok" succeed, "fail" be refused)
+SACRED = {
+    "plain": (lambda scene, ob: None, "ok"),
+    "user_fp_markers": (lambda scene, ob: None, "ok"),
+    "user_collection": (_sacred_collection, "ok"),
+    "beyond_360": (lambda scene, ob: setattr(ob.rotation_euler, "z", ob.rotation_euler.z + 4 * math.pi), "ok"),
+    "tweak_mode": (_sacred_tweak, "fail"),
+    "animated_parent": (_sacred_parent, "fail"),
+    "copy_location": (_sacred_constraint("COPY_LOCATION"), "fail"),
+    "child_of": (_sacred_constraint("CHILD_OF"), "fail"),
+    "ik_on_shin": (_sacred_constraint("IK", "shin.L"), "fail"),
+    "time_remap": (lambda scene, ob: setattr(scene.render, "frame_map_new", 200), "fail"),
+    "solo_track": (lambda scene, ob: setattr(ob.animation_data.nla_tracks["User layer"], "is_solo", True), "fail"),
+    "driven_location": (_sacred_driver, "fail"),
+}
+
+
+def lived_in(scene, ob) -> None:
+    """The sample scene's character as an animator leaves it: its "idle" clip active, a
+    muted NLA layer of their own ("User layer", the walk), markers of their own (one
+    named like the planner's)."""
+    import bpy
+
+    ad = ob.animation_data_create()
+    ad.action = bpy.data.actions["idle"]
+    ad.action_slot = ad.action.slots[0]
+    tr = ad.nla_tracks.new()
+    tr.name = "User layer"
+    tr.strips.new("wave", 1, bpy.data.actions["walk"]).action_slot = bpy.data.actions["walk"].slots[0]
+    tr.mute = True
+    scene.timeline_markers.new("FP review", frame=12)
+    scene.timeline_markers.new("FP 0 L", frame=40)
+
+
+def build_sacred(variant: str, path: str) -> None:
+    """The sample scene as an animator leaves it (a clip active, a muted NLA layer of their
+    own, markers of their own, one named like the planner's), then ``SACRED[variant]``."""
+    import bpy
+
+    from footstep_planner.blender.sample import mannequin, sample_scenes
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = sample_scenes.build("turns")
+    _set_fps(scene, 30)
+    ob, _ = mannequin.add_to_scene(scene, "Start")
+    lived_in(scene, ob)
+    SACRED[variant][0](scene, ob)
+    bpy.ops.wm.save_as_mainfile(filepath=path, compress=True)
+
+
 def build_pool(items: list) -> None:
-    """The pool worker: each item {"what": "scene"|"sample"|"bvh", "path", ...}."""
+    """The pool worker: each item {"what": "scene"|"sample"|"sacred"|"bvh", "path", ...}."""
     from footstep_planner import register
 
     register()
@@ -261,6 +350,8 @@ def build_pool(items: list) -> None:
             build_scene(it["spec"], it["path"])
         elif it["what"] == "sample":
             build_sample(it["path"], it["report"])
+        elif it["what"] == "sacred":
+            build_sacred(it["variant"], it["path"])
         else:
             build_bvh(it["path"])
 
@@ -624,11 +715,13 @@ JOB_FILES = ["not json", "", "[]", "{}", "null", "[1, 2]", "[[]]", "NaN", "[" * 
 
 
 def _good_job(rng, n: int) -> dict:
+    """A good job; each of one character its own name and frames (two on one frame or of
+    one name are refused as a list, issue 26: ``gen_sacred`` tries that)."""
     job = {"character": CHAR, "goal": "Goal", "start": "Start"}
-    for key, value in (("name", f"hero {n} ✓"), ("frame_start", 100 * n), ("goal_heading", 90),
+    for key, value in (("name", f"hero {n} ✓"), ("frame_start", 3000 * n), ("goal_heading", 90),
                        ("body_on", "root"), ("settings", {"goal_radius": 0.5}), ("report", f"r{n}.json"),
                        ("out", f"o{n}.blend")):
-        if chance(rng, 0.25):
+        if chance(rng, 0.25) or key in ("name", "frame_start"):
             job[key] = value
     return job
 
@@ -863,9 +956,32 @@ def gen_bad_scene(rng, ctx, cid) -> Case:
     return case
 
 
+def gen_sacred(rng, ctx, cid) -> Case:
+    """Issue 26: a bake of the sample scene in a state animators leave scenes in; the ones
+    that would bake wrong must be refused ("fail": never exit 0), the others bake; or a
+    job list of two bakes of one character, at frames far apart (both bake) or on one
+    frame (refused before any runs)."""
+    variant = pick(rng, sorted(SACRED) + ["jobs_apart", "jobs_clash"])
+    base = variant if variant in SACRED else "plain"
+    case = Case(cid, "sacred", ["bake", "scene.blend"], [("copy", f"@sacred:{base}", "scene.blend")], note=variant,
+                expect=SACRED[base][1] if variant in SACRED else ("ok" if variant == "jobs_apart" else "fail"))
+    if variant.startswith("jobs"):
+        second = 2000 if variant == "jobs_apart" else 1
+        jobs = [{"character": CHAR, "goal": "Goal", "start": "Start", "name": "a", "frame_start": 1},
+                {"character": CHAR, "goal": "Goal", "start": "Start", "name": "b", "frame_start": second}]
+        case.setup.append(("text", "jobs.json", json.dumps(jobs)))
+        case.argv += ["--job", "jobs.json"]
+    else:
+        case.argv += ["--character", CHAR, "--goal", "Goal", "--start", "Start"]
+        case.argv += ["--markers"] if variant == "user_fp_markers" or chance(rng, 0.3) else []
+    _with_output(case, "--out", PLAIN_OUTPUTS["existing"](rng, ".blend", ctx) if chance(rng, 0.5)
+                 else Arg("baked.blend", note="new"))
+    return case
+
+
 KINDS = {"plan": gen_plan, "bake": gen_bake, "failed_bake": gen_failed_bake, "output_is_input": gen_output_is_input,
          "unwritable": gen_unwritable, "jobs": gen_jobs, "import_clips": gen_import_clips, "analyze": gen_analyze,
-         "plot": gen_plot, "paths": gen_paths, "bad_scene": gen_bad_scene}
+         "plot": gen_plot, "paths": gen_paths, "bad_scene": gen_bad_scene, "sacred": gen_sacred}
 
 
 def make_case(kind: str, seed: int, index: int, ctx: Ctx | None = None) -> Case:

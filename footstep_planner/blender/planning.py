@@ -196,13 +196,14 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
 
 def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
         obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
-        progress=None, body_on: str = "OBJECT", frame_range: bool = True, route=None, splice=None) -> dict:
+        progress=None, body_on: str = "OBJECT", frame_range: bool = True, route=None, splice=None,
+        force: bool = False, new_track: bool = False) -> dict:
     """Plan, synthesize, IK and bake ``ob`` walking to ``goal``; returns the report
     (plan, stage times in the layout of thesis Table 4.1, quality of the baked result).
-    ``progress(fraction, stage)`` is called between stages; ``route`` and ``splice`` as
-    for ``run_steps``."""
+    ``progress(fraction, stage)`` is called between stages; ``route``, ``splice``,
+    ``force`` and ``new_track`` as for ``run_steps``."""
     steps = run_steps(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
-                      name, frame_start, markers, body_on, frame_range, route, splice)
+                      name, frame_start, markers, body_on, frame_range, route, splice, force, new_track)
     while True:
         try:
             fraction, stage = next(steps)
@@ -214,7 +215,8 @@ def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, tr
 
 def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
               obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
-              body_on: str = "OBJECT", frame_range: bool = True, route=None, splice=None):
+              body_on: str = "OBJECT", frame_range: bool = True, route=None, splice=None, force: bool = False,
+              new_track: bool = False):
     """``run`` one stage at a time: a generator yielding (fraction done, next stage) and
     returning the report. Nothing in the scene changes before the last stage (the bake),
     so a caller may stop it at any yield and leave the scene as it was. ``route``
@@ -223,24 +225,36 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
     ``splice.after_bake(action, track, planted, frames, frame_start, fps)``: it may change
     the baked keys before they are measured and returns the timing they then have
     ((strike, stance, liftoff) s per footprint from ``frame_start``, and the number of
-    frames). Every bake records its footprints and their frames (``rebake.record``)."""
+    frames). Every bake records its footprints and their frames (``rebake.record``).
+    What would make the bake play elsewhere than planned (``bake.check_scene``, a
+    constraint on the legs) is refused before planning; a bake whose measured goal or
+    skate is beyond ``report.tolerances`` is taken back and refused (BakeError naming
+    the figure), the earlier bake of its name kept. ``force``: bake over an earlier bake
+    of this name whose keys were edited; ``new_track``: bake beside it under a new name
+    (``bake.new_track_name``)."""
     from .write import bake as baking
     from .write import rebake
 
     settings = settings or Settings()
     fps = scene_fps(scene)
     name = name or f"{ob.name} to goal"
+    beside = None
+    if new_track:
+        name, beside = baking.new_track_name(ob, name), name
     frame_start = int(scene.frame_current if frame_start is None else frame_start)
+    baking.check_scene(scene, ob, body_on)
     yield 0.0, "planning"
     planned = plan_and_synthesize(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
                                   route, frame_start)
     result, syn = planned.result, planned.synthesis
+    baking.check_leg_constraints(ob, planned.setup.rig)
     yield 0.5, "inverse kinematics"
     if splice is not None:
         splice.before_ik(planned)
     solved = planned.solved if planned.solved is not None and splice is None else solve(syn, planned.setup, settings)
     yield 0.7, "bake"
     timer = StageTimer()
+    replaced = []  # (the earlier bake of this name: muted until the new one is measured)
 
     def bake_it(spliced):
         """Bake (splicing into the old bake's keys, with ``spliced``) and record its timing:
@@ -248,26 +262,46 @@ def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=No
         with timer("bake"):
             act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
                                      result.footprints, syn.planted(), markers, body_on, frame_range,
-                                     rigify_ik_feet=settings.rigify_ik_feet)
-        planted, frames = syn.planted(), solved.ik.frames
-        if spliced:
-            planted, frames = splice.after_bake(act, track, planted, frames, frame_start, fps)
-        rebake.record(act, planted, syn.footprints, frame_start, fps)
+                                     rigify_ik_feet=settings.rigify_ik_feet, replaced=replaced, force=force,
+                                     beside=beside)
+        try:
+            planted, frames = syn.planted(), solved.ik.frames
+            if spliced:
+                planted, frames = splice.after_bake(act, track, planted, frames, frame_start, fps)
+            rebake.record(act, planted, syn.footprints, frame_start, fps)
+            baking.record_keys(act)
+        except BaseException:
+            baking.discard(ob, scene, track, replaced)
+            raise
         return act, track, planted, frames
 
     act, track, planted, frames = bake_it(splice is not None)
-    yield 0.85, "quality"
-    played = {}
-    qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted, frames,
-                   played)
-    if splice is not None and splice.span is not None and qual["foot_skate"]["max_mm"] > SPLICE_SKATE_MM:
-        # the edit turned the walk too far round the kept footprints for their keys to mix
-        # without a foot sliding: the whole path is baked instead
-        splice.slid_mm, splice.span = float(qual["foot_skate"]["max_mm"]), None
-        act, track, planted, frames = bake_it(False)
+    try:
+        yield 0.85, "quality"
         played = {}
         qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted,
                        frames, played)
+        if splice is not None and splice.span is not None and qual["foot_skate"]["max_mm"] > SPLICE_SKATE_MM:
+            # the edit turned the walk too far round the kept footprints for their keys to mix
+            # without a foot sliding: the whole path is baked instead
+            splice.slid_mm, splice.span = float(qual["foot_skate"]["max_mm"]), None
+            baking.discard(ob, scene, track, replaced)
+            act, track, planted, frames = bake_it(False)
+            played = {}
+            qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted,
+                           frames, played)
+        pl = planned.setup.planner
+        limits = report.tolerances(pl.settings.goal_radius, pl.settings.body_scale)
+        qual["tolerances"] = limits
+        faults = report.played_faults(qual, limits)
+        if faults:
+            raise baking.BakeError(f"the bake of {ob.name!r} is wrong: {'; '.join(faults)}: something in the scene "
+                                   "moves the character besides its bake (a parent, a constraint, a driver, an NLA "
+                                   "track, a time remap); nothing was baked")
+    except BaseException:  # (a wrong bake, a failure, or the caller stopping here: the bake taken back)
+        baking.discard(ob, scene, track, replaced)
+        raise
+    baking.settle(ob, scene, replaced)
     stages = stage_row(len(result.footprints), result.seconds, syn, pose_blend=solved.pose_seconds,
                        ik=solved.ik_seconds, bake=timer.seconds["bake"])
     doc = report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,

@@ -137,8 +137,8 @@ def normalised(job: dict) -> dict:
 def job_argv(job: dict, *, blend: str | None = None, out: str | None = None, report: str | None = None,
              common: dict | None = None) -> list[str]:
     """The ``footstep bake`` arguments that bake ``job`` alone (with the batch's ``common``
-    options: ``markers``, ``keep_frame_range``, ``traversable``, ``obstacles``, ``body_on``,
-    ``set`` (a list of NAME=VALUE)). Flamenco's job type builds the same command."""
+    options: ``markers``, ``keep_frame_range``, ``force``, ``new_track``, ``traversable``,
+    ``obstacles``, ``body_on``, ``set`` (a list of NAME=VALUE)). Flamenco's job type builds the same command."""
     common = common or {}
     argv = ["bake"] + ([blend] if blend else []) + ["--character", job["character"]]
     for key, flag in (("goal", "--goal"), ("start", "--start"), ("name", "--name")):
@@ -159,6 +159,8 @@ def job_argv(job: dict, *, blend: str | None = None, out: str | None = None, rep
             argv += [f"--{key}", common[key]]
     argv += ["--markers"] if common.get("markers") else []
     argv += ["--keep-frame-range"] if common.get("keep_frame_range") else []
+    argv += ["--force"] if common.get("force") else []
+    argv += ["--new-track"] if common.get("new_track") else []
     pairs = list(common.get("set") or []) + [f"{k}={v}" for k, v in (job.get("settings") or {}).items()]
     for pair in pairs:
         argv += ["--set", pair]

@@ -42,15 +42,43 @@ def scene_problems(scene, job: dict) -> list[str]:
     ob = bpy.data.objects.get(job["character"])
     if ob is None:
         problems.append(f"no object named {job['character']!r} in {bpy.data.filepath or 'the scene'}")
+    elif missing_library(ob):
+        problems.append(missing_library(ob))
     elif ob.type != "ARMATURE":
         problems.append(f"object {job['character']!r} is a {ob.type.lower()}, not an armature")
+    elif scene.objects.get(ob.name) is None:
+        problems.append(not_in_scene(scene, ob))
     for key in ("goal", "start"):
         if job.get(key) and scene.objects.get(job[key]) is None:
-            problems.append(f"no object named {job[key]!r} for the {key}")
+            problems.append(f"no object named {job[key]!r} for the {key} in scene {scene.name!r}"
+                            + _elsewhere(scene, job[key]))
     for name in job.get("via") or ():
         if scene.objects.get(name) is None:
-            problems.append(f"no object named {name!r} for a waypoint")
+            problems.append(f"no object named {name!r} for a waypoint in scene {scene.name!r}" + _elsewhere(scene, name))
     return problems
+
+
+def missing_library(ob) -> str | None:
+    """One line when ``ob`` (or its data) is linked from a library file that is missing,
+    else None."""
+    ids = [ob] + ([ob.data] if ob.data is not None else [])
+    lib = next((i.library for i in ids if i.library is not None and (i.is_missing or i.library.is_missing)), None)
+    if lib is None and not ob.is_missing:
+        return None
+    where = f"the library {lib.filepath!r}" if lib is not None else "a library"
+    return (f"object {ob.name!r} comes from {where}, which is missing (moved or deleted?): relink it (File > "
+            "External Data > Find Missing Files, or Relocate in the Outliner's Blender File view) and bake again")
+
+
+def _elsewhere(scene, name: str) -> str:
+    """Where else an object of that name is: ' (it is in scene 'X': --scene X)', or ''."""
+    other = [s.name for s in bpy.data.scenes if s != scene and s.objects.get(name) is not None]
+    return f" (it is in scene {other[0]!r}: pick that scene with --scene {other[0]!r})" if other else ""
+
+
+def not_in_scene(scene, ob) -> str:
+    """One line: ``ob`` is not in ``scene`` (and which scene it is in)."""
+    return f"character {ob.name!r} is not in scene {scene.name!r}" + _elsewhere(scene, ob.name)
 
 
 def check_jobs(scene, raw: list) -> tuple[list[tuple[int, str, dict]], list[JobOutcome]]:
@@ -71,22 +99,35 @@ def check_jobs(scene, raw: list) -> tuple[list[tuple[int, str, dict]], list[JobO
 
 class Snapshot:
     """What a job may change in the scene, to roll a failed job back: the actions, the
-    character's NLA tracks and active action, the timeline markers and the frame range."""
+    character's NLA tracks (by identity, not name) and active action, the timeline markers
+    (each (name, frame)), the frame range, and the character's channels as typed."""
 
     def __init__(self, scene, ob):
+        from collections import Counter
+
+        from ..write.bake import character_state
+
         self.scene, self.ob = scene, ob
         self.actions = set(bpy.data.actions)
         ad = ob.animation_data
-        self.tracks = set(t.name for t in ad.nla_tracks) if ad else set()
+        self.tracks = {t.as_pointer() for t in ad.nla_tracks} if ad else set()
         self.active = (ad.action, ad.action_slot) if ad else (None, None)
-        self.markers = set(m.name for m in scene.timeline_markers)
+        self.markers = Counter((m.name, m.frame) for m in scene.timeline_markers)
         self.range = (scene.frame_start, scene.frame_end)
-        self.matrix = ob.matrix_basis.copy()
+        self.state = character_state(ob)
 
     def restore(self) -> None:
+        from collections import Counter
+
+        from ..write import bake as baking
+
         ad = self.ob.animation_data
+        if ad is not None:  # (the job's bakes first, as Clear removes them; then anything else it added)
+            baking.remove_tracks(self.ob, self.scene, [t for t in baking.owned_tracks(self.ob)
+                                                       if t.as_pointer() not in self.tracks])
+            ad = self.ob.animation_data
         if ad is not None:
-            for t in [t for t in ad.nla_tracks if t.name not in self.tracks]:
+            for t in [t for t in ad.nla_tracks if t.as_pointer() not in self.tracks]:
                 ad.nla_tracks.remove(t)
             if ad.action != self.active[0]:
                 ad.action = self.active[0]
@@ -94,10 +135,34 @@ class Snapshot:
                     ad.action_slot = self.active[1]
         for act in [a for a in bpy.data.actions if a not in self.actions]:
             bpy.data.actions.remove(act)
-        for m in [m for m in self.scene.timeline_markers if m.name not in self.markers]:
-            self.scene.timeline_markers.remove(m)
+        have = Counter()
+        for m in list(self.scene.timeline_markers):
+            have[(m.name, m.frame)] += 1
+            if have[(m.name, m.frame)] > self.markers[(m.name, m.frame)]:
+                self.scene.timeline_markers.remove(m)
         self.scene.frame_start, self.scene.frame_end = self.range
-        self.ob.matrix_basis = self.matrix
+        baking.give_back_state(self.ob, self.state)
+
+
+def clashing_jobs(scene, jobs: list) -> str | None:
+    """One line naming two jobs of one character that would overlap (they start on the
+    same frame) or replace one another (one bake name), or None. A job's length is known
+    only once it is planned: a job that overlaps an earlier one's bake when it runs fails
+    by itself (``bake.check_overlap``)."""
+    seen = {}
+    for job in jobs:
+        f = job.fields
+        ob = bpy.data.objects.get(f["character"])
+        start = int(scene.frame_current if f.get("frame_start") is None else f["frame_start"])
+        name = f.get("name") or f"{f['character']} to goal"
+        for key, why in (((f["character"], "start", start), f"both start on frame {start}"),
+                         ((f["character"], "name", name), f"both bake {name!r}")):
+            if key in seen:
+                return (f"jobs {seen[key].number} and {job.number} {why} on character "
+                        f"{ob.name if ob else f['character']!r}: each bake of a character needs its own name and "
+                        "frames (give each job a \"name\" and a \"frame_start\" after the other's end)")
+            seen[key] = job
+    return None
 
 
 def goal_and_start(scene, goal: str | None, heading_deg, start: str | None):
@@ -133,7 +198,8 @@ def bake_job(scene, job: dict, common: dict, settings: Settings, plan=None) -> d
                        common.get("traversable", ()), common.get("obstacles", ()), name=job.get("name"),
                        frame_start=job.get("frame_start"), markers=bool(common.get("markers")),
                        body_on=str(job.get("body_on") or common.get("body_on") or "object").upper(),
-                       frame_range=not common.get("keep_frame_range"), route=route, splice=splice)
+                       frame_range=not common.get("keep_frame_range"), route=route, splice=splice,
+                       force=bool(common.get("force")), new_track=bool(common.get("new_track")))
     _route_report(doc, route, splice, job)
     return doc
 
@@ -199,4 +265,4 @@ def run_job(scene, job: Job, common: dict, settings: Settings, outputs: Outputs,
                                   [p for p in (job.report, job.out) if p])
 
 
-__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "goal_and_start", "run_job", "scene_problems"]
+__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "clashing_jobs", "missing_library", "not_in_scene", "goal_and_start", "run_job", "scene_problems"]

@@ -92,6 +92,8 @@ def _scene_options(character_required: bool) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(add_help=False)
     p.add_argument("blend", nargs="?", metavar="SCENE.blend",
                    help="the scene (default: the file Blender has open)")
+    p.add_argument("--scene", type=_text, metavar="NAME", help="the scene of the file to work in "
+                   "(default: the file's active scene)")
     p.add_argument("--character", type=_text, required=character_required, metavar="ARMATURE")
     p.add_argument("--goal", type=_text, metavar="OBJECT", help="walk to this object (default: the 3D cursor)")
     p.add_argument("--goal-heading", type=_finite, metavar="DEG",
@@ -199,6 +201,10 @@ def _add_bake(sub) -> None:
                    help="key the body on the armature object (default) or on the rig's root bone")
     p.add_argument("--keep-frame-range", action="store_true",
                    help="leave the scene's frame range as it is (by default it grows to cover the bake)")
+    p.add_argument("--force", action="store_true",
+                   help="bake over the planner's earlier bake of this name even when its keys were edited since")
+    p.add_argument("--new-track", action="store_true",
+                   help="bake beside the planner's earlier bake of this name, under a new name (\"NAME (2)\")")
     p.add_argument("--job", metavar="JOBS.json", help="several jobs, run one after another")
     p.add_argument("--plan", metavar="PLAN.json", help="bake this plan (from plan --out-plan, maybe edited): "
                    "its locked and moved footprints are kept, the way around what changed is searched "
@@ -302,12 +308,24 @@ def check_input(path: str, what: str = "file") -> str:
     return path
 
 
+def file_version() -> tuple:
+    """The Blender file version the open file was saved with."""
+    return tuple(bpy.data.version)
+
+
 def open_blend(path: str) -> None:
+    """Open a .blend file; CliError naming it when it can't be, or when a newer Blender
+    saved it (this one would lose what it can't read, behind its own warning)."""
     check_input(path, ".blend file")
     try:
         bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False)
     except RuntimeError as ex:
         raise CliError(f"{path}: cannot open: {str(ex).strip()}") from None
+    saved, ours = file_version(), tuple(bpy.app.version_file)
+    if saved > ours:
+        raise CliError(f"{path}: saved by a newer Blender (file version {'.'.join(map(str, saved))}) than this one "
+                       f"({bpy.app.version_string}, file version {'.'.join(map(str, ours))}): what it can't read "
+                       "would be lost; bake it with that Blender version or newer")
 
 
 def claim_blend(outs: Outputs, path: str | None, what: str) -> str | None:
@@ -343,10 +361,27 @@ def set_scene_fps(scene, fps: float) -> None:
     scene.render.fps_base = scene.render.fps / fps
 
 
+def pick_scene(name: str | None):
+    """The scene to work in: ``--scene NAME`` (made the active one), else the active one."""
+    if name is None:
+        return bpy.context.scene
+    scene = bpy.data.scenes.get(name)
+    if scene is None:
+        raise CliError(f"no scene named {name!r} in {bpy.data.filepath or 'the file'}; its scenes: "
+                       + ", ".join(repr(s.name) for s in bpy.data.scenes))
+    bpy.context.window.scene = scene
+    return scene
+
+
 def find_armature(name: str):
     ob = bpy.data.objects.get(name)
     if ob is None:
         raise CliError(f"no object named {name!r} in {bpy.data.filepath or 'the scene'}")
+    missing = batch.missing_library(ob)
+    if missing:
+        raise CliError(missing)
+    if name not in bpy.context.scene.objects:
+        raise CliError(batch.not_in_scene(bpy.context.scene, ob))
     if ob.type != "ARMATURE":
         raise CliError(f"object {name!r} is a {ob.type.lower()}, not an armature")
     return ob
@@ -554,7 +589,7 @@ def _plan(args) -> int:
         settings = settings_from_args(args.set)
         if args.blend:
             open_blend(args.blend)
-        scene = bpy.context.scene
+        scene = pick_scene(args.scene)
         ob = find_armature(args.character)
         goal, heading, start = batch.goal_and_start(scene, args.goal, args.goal_heading, args.start)
         route = _via_route(scene, args, goal, heading)
@@ -607,6 +642,7 @@ def _common(args, names: bool = False) -> dict:
     """The options every job of a bake shares: as ``core.jobs.job_argv`` takes them, or
     with ``names`` the object lists split as ``batch.bake_job`` takes them."""
     common = {"markers": args.markers, "keep_frame_range": args.keep_frame_range, "body_on": args.body_on,
+              "force": args.force, "new_track": args.new_track,
               "traversable": args.traversable, "obstacles": args.obstacles, "set": list(args.set)}
     if names:
         common["traversable"], common["obstacles"] = _names(args.traversable), _names(args.obstacles)
@@ -627,6 +663,7 @@ def _bake(args) -> int:
         settings = settings_from_args(args.set)
         if args.blend:
             open_blend(args.blend)
+        pick_scene(args.scene)
         if raw is not None:
             return _bake_jobs(args, raw, settings, outs, out)
         report = outs.claim(args.report, "--report") if args.report is not None else None
@@ -689,6 +726,9 @@ def _bake_jobs(args, raw: list, settings: Settings, outs: Outputs, out: str | No
 
     t0 = time.perf_counter()
     jobs, outcomes = _prepare_jobs(args, raw, outs)
+    clash = batch.clashing_jobs(bpy.context.scene, jobs)
+    if clash:
+        raise CliError(clash)
     progress, done = Progress(len(jobs), "jobs"), []
 
     def tell(o: JobOutcome) -> None:

@@ -158,10 +158,9 @@ def _foot_vertices(ob, mesh, groups, centre: np.ndarray, radius: float):
     return co[near], w
 
 
-def _require_default_inheritance(ob, rig: Rig) -> None:
-    """RigError naming the bones of the legs' chains (and their ancestors, as the armature
-    parents them: a foot parented to the root checks the root) that use non-default
-    inherit flags: the planner's forward kinematics would misplace them."""
+def leg_bones(rig: Rig) -> list[int]:
+    """The bones of the hips and the legs' chains and their ancestors, as the armature
+    parents them (a foot parented to the root: the root too), in index order."""
     used = set()
     for role in ("hips", "thigh_l", "shin_l", "foot_l", "toe_l", "thigh_r", "shin_r", "foot_r", "toe_r"):
         name = rig.roles.roles.get(role)
@@ -169,7 +168,14 @@ def _require_default_inheritance(ob, rig: Rig) -> None:
         while b >= 0 and b not in used:
             used.add(b)
             b = int(rig.armature_parents[b])
-    odd = [rig.names[i] for i in sorted(used) if _odd_inheritance(ob.data.bones[rig.names[i]])]
+    return sorted(used)
+
+
+def _require_default_inheritance(ob, rig: Rig) -> None:
+    """RigError naming the bones of the legs' chains (and their ancestors, as the armature
+    parents them: a foot parented to the root checks the root) that use non-default
+    inherit flags: the planner's forward kinematics would misplace them."""
+    odd = [rig.names[i] for i in leg_bones(rig) if _odd_inheritance(ob.data.bones[rig.names[i]])]
     if odd:
         raise RigError(f"armature {ob.name!r}: bones {', '.join(odd[:5])} use non-default inherit flags, "
                        "which the planner does not support on the hips and legs")
@@ -221,8 +227,7 @@ def sample_basis(ob, action, frames: np.ndarray, rig: Rig | None = None) -> np.n
     and in world units (an evenly scaled object's scale, ``object_scale``), as
     ``core.clips.clip.clip_motion`` takes them. The armature's pose is restored afterwards."""
     pbones = ob.pose.bones
-    saved = np.empty(len(pbones) * 16, dtype=np.float32)
-    pbones.foreach_get("matrix_basis", saved)
+    saved = pose_channels(ob)
     out = np.empty((len(frames), len(pbones), 4, 4))
     try:  # (a channel the action doesn't key stays at rest, whatever played before)
         pbones.foreach_set("matrix_basis", np.tile(np.eye(4, dtype=np.float32).ravel(), len(pbones)))
@@ -230,11 +235,48 @@ def sample_basis(ob, action, frames: np.ndarray, rig: Rig | None = None) -> np.n
             ob.pose.apply_pose_from_action(action, evaluation_time=float(f))
             out[i] = _matrices(pbones, "matrix_basis")
     finally:
-        pbones.foreach_set("matrix_basis", saved)
+        set_pose_channels(ob, saved)
     if rig is None:
         return out
     s = object_scale(ob)
     return planner_basis(rig, out if s == 1.0 else scaled_bases(out, s))
+
+
+#: A pose bone's channels, as typed (``pose_channels``), with their sizes.
+POSE_CHANNELS = (("location", 3), ("rotation_quaternion", 4), ("rotation_euler", 3), ("rotation_axis_angle", 4),
+                 ("scale", 3))
+
+
+def pose_channels(ob) -> dict:
+    """Every pose bone's channels as they are typed (an Euler beyond 360 degrees too: not
+    its matrix, which would rewrite them) and rotation mode, to put back exactly with
+    ``set_pose_channels``."""
+    pbs = ob.pose.bones
+    saved = {"bones": [pb.name for pb in pbs], "modes": [pb.rotation_mode for pb in pbs]}
+    for attr, n in POSE_CHANNELS:
+        buf = np.empty(len(pbs) * n, np.float32)
+        pbs.foreach_get(attr, buf)
+        saved[attr] = buf
+    return saved
+
+
+def set_pose_channels(ob, saved: dict) -> None:
+    """Put back the channels ``pose_channels`` read (by bone name where bones changed)."""
+    pbs = ob.pose.bones
+    if [pb.name for pb in pbs] == list(saved["bones"]):
+        for pb, mode in zip(pbs, saved["modes"]):
+            if pb.rotation_mode != mode:
+                pb.rotation_mode = mode
+        for attr, n in POSE_CHANNELS:
+            pbs.foreach_set(attr, np.asarray(saved[attr], np.float32))
+        return
+    for i, name in enumerate(saved["bones"]):
+        pb = pbs.get(name)
+        if pb is None:
+            continue
+        pb.rotation_mode = saved["modes"][i]
+        for attr, n in POSE_CHANNELS:
+            setattr(pb, attr, [float(v) for v in saved[attr][i * n:(i + 1) * n]])
 
 
 def clip_from_action(ob, action, rig: Rig | None = None, fps: float | None = None) -> ClipMotion:

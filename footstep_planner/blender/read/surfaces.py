@@ -1,8 +1,11 @@
 """Tagged meshes -> world-space triangles, and ground queries on mathutils.bvhtree.
 
-A mesh object is traversable or an obstacle by its own tag (``obj.footstep.surface``),
-or else by the tag of the nearest tagged collection it belongs to (collections inherit
-from their parents). Headless runs can add tags for one run by name.
+A mesh object (or a curve, surface, metaball or text, by its evaluated mesh) is
+traversable or an obstacle by its own tag (``obj.footstep.surface``), or else by the tag
+of the nearest tagged collection it belongs to (collections inherit from their parents);
+an object instanced through a collection instance is walked on where the instance stands.
+Objects hidden in the viewport or in an excluded collection are left out unless named.
+Headless runs can add tags for one run by name.
 """
 
 from __future__ import annotations
@@ -53,26 +56,45 @@ def effective_tag(ob, scene=None, parents=None) -> str:
     return "NONE"
 
 
-def tagged_objects(scene, traversable=(), obstacles=()) -> tuple[list, list]:
-    """(traversable, obstacle) mesh objects of ``scene``, with ``traversable`` and
-    ``obstacles`` naming extra objects tagged for this run only. Unknown names, and
-    named objects that are not meshes, raise SurfaceError naming them."""
+#: Object types with a surface (their evaluated mesh is walked on or avoided).
+SURFACE_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+
+
+def tagged_objects(scene, traversable=(), obstacles=(), skipped=None) -> tuple[list, list]:
+    """(traversable, obstacle) objects of ``scene`` with a surface (meshes, and curves,
+    surfaces, metaballs and texts by their evaluated mesh), with ``traversable`` and
+    ``obstacles`` naming extra objects tagged for this run only. A tagged object hidden
+    in the viewport or in a collection excluded from the view layer is left out, unless
+    named for this run; ``skipped`` (a list) gets (name, why) for each tagged object left
+    out (hidden, excluded, no surface). Unknown names, and named objects without a
+    surface, raise SurfaceError naming them."""
     extra = {}
     for names, tag in ((traversable, "TRAVERSABLE"), (obstacles, "OBSTACLE")):
         for name in names:
             ob = scene.objects.get(name)
             if ob is None:
                 raise SurfaceError(f"no object named {name!r} in scene {scene.name!r}")
-            if ob.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
+            if ob.type not in SURFACE_TYPES:
                 raise SurfaceError(f"object {name!r} is a {ob.type.lower()}, not a mesh; "
                                    "only meshes can be walked on or avoided")
             extra[name] = tag
     parents = _parents(scene)
     trav, obst = [], []
+    skipped = [] if skipped is None else skipped
+    layer = scene.view_layers[0] if bpy.context.scene != scene and len(scene.view_layers) else None
     for ob in scene.objects:
-        if ob.type != "MESH" and ob.name not in extra:
-            continue
         tag = extra.get(ob.name) or effective_tag(ob, scene, parents)
+        if tag == "NONE":
+            continue
+        if ob.type not in SURFACE_TYPES:
+            if ob.footstep.surface != "NONE":  # (its own tag: named when nothing else is walked on)
+                skipped.append((ob.name, f"is a {ob.type.lower()}, with no surface to walk on"))
+            continue
+        if ob.name not in extra:
+            why = _hidden(ob, layer)
+            if why:
+                skipped.append((ob.name, why))
+                continue
         if tag == "TRAVERSABLE":
             trav.append(ob)
         elif tag == "OBSTACLE":
@@ -80,11 +102,50 @@ def tagged_objects(scene, traversable=(), obstacles=()) -> tuple[list, list]:
     return sorted(trav, key=lambda o: o.name), sorted(obst, key=lambda o: o.name)
 
 
-def mesh_of(objects, depsgraph) -> TriMesh:
-    """World-space triangles of the objects as evaluated (modifiers applied)."""
+def _hidden(ob, layer=None) -> str | None:
+    """Why a tagged object is not walked on: hidden in the viewport, or in a collection
+    excluded from the view layer (None: it is visible)."""
+    if ob.hide_viewport:
+        return "is disabled in viewports"
+    try:
+        visible = ob.visible_get(view_layer=layer) if layer is not None else ob.visible_get()
+    except (RuntimeError, TypeError):
+        return None
+    if visible:
+        return None
+    vl = layer or bpy.context.view_layer
+    if ob.name not in vl.objects:
+        return "is in a collection excluded from the view layer"
+    return "is hidden"
+
+
+def instanced(scene, depsgraph) -> dict:
+    """Tag -> [(name, evaluated object, world matrix)] of the tagged surfaces that stand in
+    the scene as instances (a collection instanced by an empty): tagged by their own tag,
+    their collection's, or the instancing empty's own."""
+    out = {"TRAVERSABLE": [], "OBSTACLE": []}
+    if not any(o.instance_type == "COLLECTION" and o.instance_collection is not None for o in scene.objects):
+        return out  # (no collection instance: nothing to look through, however many particles)
+    parents = _parents(scene)
+    for inst in depsgraph.object_instances:
+        if not inst.is_instance or inst.object is None or inst.object.type not in SURFACE_TYPES:
+            continue
+        ob = inst.object.original
+        tag = effective_tag(ob, scene, parents)
+        if tag == "NONE" and inst.parent is not None:
+            tag = inst.parent.original.footstep.surface
+        if tag in out:
+            who = inst.parent.original.name if inst.parent is not None else "?"
+            out[tag].append((f"{who}/{ob.name}", inst.object, np.array(inst.matrix_world)))
+    return out
+
+
+def mesh_of(objects, depsgraph, placed=()) -> TriMesh:
+    """World-space triangles of the objects as evaluated (modifiers applied), and of the
+    ``placed`` ones ((name, evaluated object, world matrix): instances)."""
     parts = []
-    for i, ob in enumerate(objects):
-        ev = ob.evaluated_get(depsgraph)
+    items = [(ob.name, ob.evaluated_get(depsgraph), None) for ob in objects] + list(placed)
+    for name, ev, matrix in items:
         me = ev.to_mesh()
         try:
             me.calc_loop_triangles()
@@ -95,9 +156,9 @@ def mesh_of(objects, depsgraph) -> TriMesh:
             me.loop_triangles.foreach_get("vertices", tri)
         finally:
             ev.to_mesh_clear()
-        m = np.array(ev.matrix_world)
+        m = np.array(ev.matrix_world) if matrix is None else matrix
         co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-        parts.append(TriMesh(co, tri.reshape(-1, 3), np.zeros(nt, np.int64), (ob.name,)))
+        parts.append(TriMesh(co, tri.reshape(-1, 3), np.zeros(nt, np.int64), (name,)))
     return TriMesh.concat(parts)
 
 
@@ -171,8 +232,16 @@ class BvhGround:
 def scene_surfaces(scene, depsgraph, traversable=(), obstacles=()):
     """(ground, obstacles) ground queries for a scene; SurfaceError when nothing is
     traversable."""
-    trav, obst = tagged_objects(scene, traversable, obstacles)
-    if not trav:
+    skipped = []
+    trav, obst = tagged_objects(scene, traversable, obstacles, skipped)
+    inst = instanced(scene, depsgraph)
+    if not trav and not inst["TRAVERSABLE"]:
+        if skipped:
+            name, why = skipped[0]
+            more = f" (and {len(skipped) - 1} more)" if len(skipped) > 1 else ""
+            raise SurfaceError(f"scene {scene.name!r} has nothing traversable to walk on: {name!r}, tagged, {why}"
+                               f"{more}; show it, or name it for this run (--traversable {name})")
         raise SurfaceError(f"scene {scene.name!r} has no traversable mesh: tag the floors "
                            "in Object Properties > Footstep, or pass --traversable NAME")
-    return BvhGround(mesh_of(trav, depsgraph).without_undersides()), BvhGround(mesh_of(obst, depsgraph))
+    return (BvhGround(mesh_of(trav, depsgraph, inst["TRAVERSABLE"]).without_undersides()),
+            BvhGround(mesh_of(obst, depsgraph, inst["OBSTACLE"])))

@@ -239,7 +239,9 @@ def rebake_handles(scene, ob, settings=None, name: str | None = None, body_on: s
     tracks = owned_tracks(ob)
     frame_start = int(tracks[0].strips[0].frame_start) if tracks else None
     if name is None and tracks:
-        name = tracks[0].name.split(": ", 1)[-1]
+        from ..write.bake import bake_name
+
+        name = bake_name(tracks[0].strips[0].action)
     goal = plan.goal if plan.goal is not None else plan.footprints[-1].position
     doc = planning.run(scene, ob, goal, None, None, settings, name=name, frame_start=frame_start,
                        body_on=body_on, frame_range=frame_range, route=route, splice=splice)

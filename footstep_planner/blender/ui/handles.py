@@ -30,24 +30,27 @@ SIZE = 0.08
 
 
 def collection_name(ob) -> str:
+    """The name the planner gives the character's handles' collection (Blender suffixes
+    it, ``.001``, when a collection of the user's has it: the planner's is found by its
+    owner tag, ``owned_collection``, never by name)."""
     return f"Footprints: {ob.name}"
 
 
 def owned_collection(ob):
-    coll = bpy.data.collections.get(collection_name(ob))
-    return coll if coll is not None and coll.get(OWNED) == ob.name else None
+    """The planner's collection of ``ob``'s handles: the one carrying its owner tag."""
+    return next((c for c in bpy.data.collections if c.get(OWNED) == ob.name and c.get(META) is not None), None)
 
 
 def clear_handles(ob) -> int:
     """Remove the character's handles and their collection (only what the planner made)."""
-    coll = owned_collection(ob)
-    if coll is None:
-        return 0
     n = 0
-    for h in [o for o in coll.objects if o.get(OWNED) == ob.name]:
-        bpy.data.objects.remove(h)
-        n += 1
-    if not coll.objects and not coll.children:
+    while (coll := owned_collection(ob)) is not None:
+        for h in [o for o in coll.objects if o.get(OWNED) == ob.name and o.get(INDEX) is not None]:
+            bpy.data.objects.remove(h)
+            n += 1
+        if coll.objects or coll.children:  # (the user put things of theirs in it: it stays, untagged)
+            del coll[OWNED]
+            continue
         bpy.data.collections.remove(coll)
     return n
 

@@ -253,6 +253,7 @@ class FOOTSTEP_OT_build_graph(_OnCharacter, bpy.types.Operator):
 
     bl_idname = "footstep.build_graph"
     bl_label = "Build Graph"
+    bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
         import time
@@ -289,6 +290,10 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
 
     markers: BoolProperty(name="Footstep markers", default=False,
                           description="Add a timeline marker at each footstep")
+    new_track: BoolProperty(name="New Track", default=False,
+                            description="Bake beside the planner's earlier bake of this name, under a new name")
+    force: BoolProperty(name="Replace Edits", default=False,
+                        description="Bake over the planner's earlier bake of this name even if its keys were edited")
 
     _steps = None
     _before: set = set()
@@ -301,7 +306,8 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
         goal, heading = _goal(context)
         return planning.run_steps(context.scene, character(context), goal, heading, fs.start,
                                   _settings(context), markers=self.markers, body_on=fs.body_on,
-                                  frame_range=fs.grow_frame_range, route=_via(context, goal, heading))
+                                  frame_range=fs.grow_frame_range, route=_via(context, goal, heading),
+                                  force=self.force, new_track=self.new_track)
 
     def _finish(self, context, doc):
         import json
@@ -336,7 +342,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
             self._finish(context, done.value)
             return {"FINISHED"}
         except FootstepError as ex:
-            self.report({"ERROR"}, str(ex))
+            _refused(self, ex)
             return {"CANCELLED"}
 
     def invoke(self, context, event):
@@ -368,18 +374,19 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
             return {"FINISHED"}
         except FootstepError as ex:
             self._end(context)
-            self.report({"ERROR"}, str(ex))
+            _refused(self, ex)
             return {"CANCELLED"}
 
     def _cancel(self, context):
-        """Esc: stop before the next stage. Before the bake nothing has changed; after it
-        (while its quality is measured) the bake is in the scene and stays, one undo step,
-        and the report names it."""
+        """Esc: stop before the next stage. Stopping takes back whatever the run made (a
+        bake written but not yet measured is taken back, ``planning.run_steps``), so the
+        scene is as it was; should anything of the run be left in the scene, it is named,
+        and it is one undo step."""
         self._end(context)
         self._steps.close()
         ob = character(context)
         kept = [tr for key, tr in _owned(ob).items() if key not in self._before] if ob is not None else []
-        if not self._written and not kept:
+        if not kept:  # (before the bake, or a bake taken back before its quality was measured)
             self.report({"INFO"}, "bake cancelled: nothing was changed")
             return {"CANCELLED"}
         what = "; ".join(f"NLA track {tr.name!r} (action {tr.strips[0].action.name!r}, frames "
@@ -394,6 +401,16 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
 
 #: ``planning.run_steps``' stage that comes once the bake is in the scene
 WRITTEN_BEFORE = "quality"
+
+
+def _refused(op, ex) -> None:
+    """Report a refused bake; over an edited bake, offer to bake to a new track."""
+    from ..write.bake import EditedBakeError
+
+    op.report({"ERROR"}, str(ex))
+    if isinstance(ex, EditedBakeError):
+        op.report({"WARNING"}, "to keep your edits, bake again with New Track (in the Bake operator's options) "
+                  "or give the bake another name; Replace Edits bakes over them")
 
 
 def _handles_of_last_plan(context) -> None:
@@ -479,9 +496,14 @@ class FOOTSTEP_OT_clear(_OnCharacter, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        from ..write.bake import clear
+        from ..write.bake import check_not_tweaking, clear
         from .handles import clear_handles
 
+        try:
+            check_not_tweaking(character(context))
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
         n = clear(character(context), context.scene)
         clear_handles(character(context))
         self.report({"INFO"}, f"removed {n} planner track(s)" if n else "nothing of the planner's to remove")

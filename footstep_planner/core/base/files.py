@@ -1,9 +1,12 @@
 """Files a command writes, as one transaction: nothing lost, ever.
 
 Every output is first written to a temporary file beside its destination and renamed
-into place only when the command has succeeded (``Outputs.commit``); a failed or
-interrupted command discards the temporary files (``Outputs.discard``) and leaves every
-existing file as it was. An output that is one of the command's inputs (the same file,
+over it in one step (``os.replace``) only when the command has succeeded
+(``Outputs.commit``): at every instant the destination is the old file or the whole new
+one, even when the process is killed. A failed or interrupted command discards the
+temporary files (``Outputs.discard``) and leaves every existing file as it was. What a
+killed run leaves (hidden temporary and backup files named by this module's own pattern,
+``litter``) is removed by the next run that writes there. An output that is one of the command's inputs (the same file,
 also through a symbolic or hard link), or two outputs at one path, are refused before
 any work (``Outputs.claim``).
 
@@ -16,6 +19,7 @@ import contextlib
 import errno
 import json
 import os
+import re
 import shutil
 import signal
 import tempfile
@@ -58,6 +62,14 @@ def _probe_dir(directory: str) -> None:
         raise OutputError(f"cannot write into {directory}: {describe_os_error(ex, directory).split(': ', 1)[1]}") from None
     os.close(fd)
     os.unlink(probe)
+
+
+def _name_max(directory: str) -> int:
+    """The longest file name (bytes) ``directory`` allows."""
+    try:
+        return int(os.pathconf(directory, "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return 255
 
 
 def _existing_parent(path: str) -> str:
@@ -113,6 +125,11 @@ class Outputs:
         if not os.path.isdir(parent):
             raise OutputError(f"cannot write the {what} {path!r}: {parent} is a file, not a folder")
         _probe_dir(parent)
+        longest = _name_max(parent)
+        name = os.fsencode(os.path.basename(full))
+        if len(name) > longest:
+            raise OutputError(f"the {what}'s file name is {len(name)} bytes long; its folder {parent} allows "
+                              f"{longest}: give it a shorter name")
         self.claimed[full] = what
         return full
 
@@ -132,7 +149,8 @@ class Outputs:
         full = os.path.abspath(path)
         self._make_dirs(os.path.dirname(full))
         base, ext = os.path.splitext(os.path.basename(full))
-        fd, tmp = tempfile.mkstemp(prefix=f".{base[:100]}.", suffix=f".tmp{ext[:20]}", dir=os.path.dirname(full))
+        fd, tmp = tempfile.mkstemp(prefix=f".{base[:100]}.fp{os.getpid()}.", suffix=f".tmp{ext[:20]}",
+                                   dir=os.path.dirname(full))
         os.close(fd)
         os.unlink(tmp)  # (a random name kept free: a writer that finds a file there may back it up)
         self._staged.append((tmp, full))
@@ -203,41 +221,123 @@ class Outputs:
 
 
 def _aside(final: str) -> str:
-    """A free name beside ``final`` to keep the file it replaces until all are in place."""
-    fd, bak = tempfile.mkstemp(prefix=f".{os.path.basename(final)[:100]}.", suffix=".old",
+    """A free name beside ``final`` for a backup of the file it replaces, kept until all
+    the command's files are in place."""
+    fd, bak = tempfile.mkstemp(prefix=f".{os.path.basename(final)[:100]}.fp{os.getpid()}.", suffix=".old",
                                dir=os.path.dirname(final))
     os.close(fd)
     os.unlink(bak)
     return bak
 
 
+def _backup(final: str) -> str:
+    """A backup of ``final`` beside it (a hard link, else a copy; a symbolic link: one
+    to the same target); ``final`` stays in place."""
+    bak = _aside(final)
+    if os.path.islink(final):
+        os.symlink(os.readlink(final), bak)
+        return bak
+    try:
+        os.link(final, bak)
+    except OSError:
+        shutil.copy2(final, bak)
+    return bak
+
+
 def _swap_in(staged: list[tuple[str, str]]) -> None:
-    """Put every staged file in place, all or none: each file it replaces is first moved
-    aside, and if any move fails (a file the system won't let go of), everything moved is
-    put back as it was and the error raised."""
-    aside, placed = [], []
+    """Put every staged file in place, all or none: each replaces its destination in one
+    step (``os.replace``: the destination is never missing); a backup of each file
+    replaced is kept until all are in place, and if any replace fails (a file the system
+    won't let go of), the files already replaced are put back from their backups and the
+    error raised."""
+    backups, placed = {}, []
     try:
         for tmp, final in staged:
             if os.path.lexists(final):
-                bak = _aside(final)
-                os.rename(final, bak)
-                aside.append((final, bak))
+                backups[final] = _backup(final)
         for tmp, final in staged:
             if os.path.exists(tmp):
                 os.chmod(tmp, 0o644 & ~_umask())
-            os.rename(tmp, final)
+            os.replace(tmp, final)
             placed.append(final)
     except BaseException:
         for final in placed:
             with contextlib.suppress(OSError):
-                os.unlink(final)
-        for final, bak in aside:
+                if final in backups:
+                    os.replace(backups.pop(final), final)
+                else:
+                    os.unlink(final)
+        for bak in backups.values():
             with contextlib.suppress(OSError):
-                os.rename(bak, final)
+                os.unlink(bak)
         raise
-    for _, bak in aside:
+    for bak in backups.values():
         with contextlib.suppress(OSError):
             os.unlink(bak)
+    for final in dict.fromkeys(final for _, final in staged):
+        remove_litter(final)
+
+
+def _litter_pattern(final: str) -> re.Pattern:
+    """The names of the hidden files this module makes beside ``final``: its temporary
+    files (``.<base>.fp<pid>.<random>.tmp<ext>``) and backups
+    (``.<name>.fp<pid>.<random>.old``), and the same without the process id (this module's
+    earlier versions)."""
+    name = os.path.basename(final)
+    base, ext = os.path.splitext(name)
+    rnd = r"[a-z0-9_]{8}"
+    return re.compile(rf"^(?:\.{re.escape(base[:100])}\.(?:fp(\d+)\.)?{rnd}\.tmp{re.escape(ext[:20])}"
+                      rf"|\.{re.escape(name[:100])}\.(?:fp(\d+)\.)?{rnd}\.old)$")
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+#: s: a temporary file of this module without a process id in its name (an earlier
+#: version's) is litter once this old
+LITTER_AGE = 60.0
+
+
+def litter(final: str) -> list[str]:
+    """The hidden temporary and backup files an interrupted run writing ``final`` left
+    beside it: named by this module's pattern, and made by a process no longer running
+    (or, without a process id in the name, not touched for ``LITTER_AGE`` seconds)."""
+    import time
+
+    folder = os.path.dirname(os.path.abspath(final))
+    pat = _litter_pattern(final)
+    out = []
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(folder):
+            m = pat.match(entry.name)
+            if m is None or entry.is_dir(follow_symlinks=False):
+                continue
+            pid = m.group(1) or m.group(2)
+            if pid is not None and _alive(int(pid)):
+                continue
+            if pid is None and time.time() - entry.stat(follow_symlinks=False).st_mtime < LITTER_AGE:
+                continue
+            out.append(entry.path)
+    return sorted(out)
+
+
+def remove_litter(final: str) -> list[str]:
+    """Remove ``litter(final)``; returns what went."""
+    gone = []
+    for path in litter(final):
+        with contextlib.suppress(OSError):
+            os.unlink(path)
+            gone.append(path)
+    return gone
 
 
 @contextlib.contextmanager
@@ -262,4 +362,4 @@ def _umask() -> int:
     return mask
 
 
-__all__ = ["OutputError", "Outputs", "describe_os_error", "same_file"]
+__all__ = ["OutputError", "Outputs", "describe_os_error", "litter", "remove_litter", "same_file"]

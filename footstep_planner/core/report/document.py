@@ -93,6 +93,33 @@ def measure_bake(world: np.ndarray, bone_rot: np.ndarray, body_pos: np.ndarray, 
     return qual
 
 
+#: A bake as played is wrong (an error, not a result) when its body ends this much
+#: further from the goal than the plan's own goal radius, or a planted foot slides more
+#: than this (a human's metres; times the body's size).
+PLAYED_GOAL_SLACK = 0.25
+PLAYED_SKATE_MAX = 0.1
+
+
+def tolerances(goal_radius: float, scale: float = 1.0) -> dict:
+    """The limits ``played_faults`` holds a bake to, for a plan of ``goal_radius`` (m) and
+    a body ``scale`` times a human's: goal distance (m) and foot skate (mm)."""
+    return {"goal_m": round(float(goal_radius + PLAYED_GOAL_SLACK * scale), 4),
+            "foot_skate_mm": round(float(PLAYED_SKATE_MAX * scale * 1000.0), 3)}
+
+
+def played_faults(quality: dict, limits: dict) -> list[str]:
+    """What of a bake's measured quality (``measure_bake``) is beyond ``limits``
+    (``tolerances``): each a phrase naming the figure and its limit."""
+    out = []
+    dist = (quality.get("goal") or {}).get("distance_m")
+    if dist is not None and np.isfinite(dist) and dist > limits["goal_m"]:
+        out.append(f"as played it ends {dist:.2f} m from the goal (the limit is {limits['goal_m']:.2f} m)")
+    skate = (quality.get("foot_skate") or {}).get("max_mm")
+    if skate is not None and np.isfinite(skate) and skate > limits["foot_skate_mm"]:
+        out.append(f"a planted foot slides {skate:.0f} mm as played (the limit is {limits['foot_skate_mm']:.0f} mm)")
+    return out
+
+
 def feet_points(bones: Sequence[str], heel_local: np.ndarray, toe_local: np.ndarray) -> dict:
     """What ``measure_bake`` measures on each foot, for anyone to measure it again: the left
     and right foot bones' names and the heel and toe points (homogeneous, in each foot

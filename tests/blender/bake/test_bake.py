@@ -180,11 +180,11 @@ def test_rebake_replaces_only_the_planners_own_and_clear_removes_it(fp, jumps_ba
     assert not [a for a in clips.analyses if a.name.startswith("Footstep ")]  # a bake is never a clip
     n_actions = len(bpy.data.actions)
     scene.frame_set(200)  # the bake has turned and moved the object here: the plan must not care
-    again = _run(fp, scene, ob, name="leap again", frame_start=1)
+    again = _run(fp, scene, ob, name="leap", frame_start=1)  # (a bake replaces the planner's bake of its name)
     assert again["quality"]["goal"]["distance_m"] < 0.05
     assert len(again["footprints"]) == len(doc["footprints"])
     ours = [t.name for t in ob.animation_data.nla_tracks if t.name.startswith("Footstep: ")]
-    assert ours == ["Footstep: leap again"]
+    assert ours == ["Footstep: leap"]
     assert len(bpy.data.actions) == n_actions  # the old bake's action went with its track
     assert _snapshot(ob, scene) == before
     bake = import_module(fp.__name__ + ".blender.write.bake")
@@ -277,7 +277,7 @@ def test_cli_bake_verb_with_jobs(fp, tmp_path, capsys):
     jobs.write_text(json.dumps([
         {"character": "CMU", "goal": "Goal", "start": "Start", "name": "to goal", "report": str(tmp_path / "a.json")},
         {"character": "Nobody", "goal": "Goal"},  # fails: no such character; the others still run
-        {"character": "CMU", "goal": "Start", "start": "Goal", "name": "back", "frame_start": 400,
+        {"character": "CMU", "goal": "Start", "start": "Goal", "name": "back", "frame_start": 3000,
          "report": str(tmp_path / "c.json")},
     ]))
     cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
@@ -288,10 +288,10 @@ def test_cli_bake_verb_with_jobs(fp, tmp_path, capsys):
     assert "job 2 (Nobody to Goal)" in captured.err and "'Nobody'" in captured.err
     assert "2 of 3 jobs baked, 1 failed" in captured.out and " invalid " in captured.out
     a, c = (json.loads((tmp_path / n).read_text()) for n in ("a.json", "c.json"))
-    assert a["quality"]["goal"]["distance_m"] < 0.05 and c["frame_start"] == 400
+    assert a["quality"]["goal"]["distance_m"] < 0.05 and c["frame_start"] == 3000
     bpy.ops.wm.open_mainfile(filepath=out_blend)
     names = [t.name for t in bpy.data.objects["CMU"].animation_data.nla_tracks]
-    assert names.count("Footstep: back") == 1 and "Footstep: to goal" not in names  # one bake a character
+    assert names.count("Footstep: back") == 1 and names.count("Footstep: to goal") == 1  # each bake its own track
     assert cli(["bake", path, "--character", "CMU", "--goal", "Goal", "--start", "Start",
                 "--report", str(tmp_path / "one.json")]) == 0
     assert json.loads((tmp_path / "one.json").read_text())["quality"]["foot_skate"]["max_mm"] < 10.0
@@ -395,3 +395,23 @@ def test_without_a_start_the_character_starts_where_it_stands_and_rebakes_the_sa
     assert a.shape == b.shape and np.abs(a - b).max() < 1e-3  # (the report rounds to 0.1 mm)
     assert again["quality"]["goal"]["distance_m"] < 0.05
     bpy.ops.wm.read_homefile(use_empty=True)
+
+
+def test_bake_and_clear_give_back_the_whole_scene_with_a_cmu_character(fp):
+    """Issue 26: a CMU (BVH) character with animation of the user's own (an active clip,
+    an NLA layer, a marker), baked twice with markers and cleared: the whole scene's
+    fingerprint as before."""
+    from fingerprint import differences, fingerprint
+
+    scene, ob = _scene(fp, "obstacles")
+    _user_animation(ob, scene)
+    del ob["transform_before"]
+    ob.rotation_euler.z += 4 * np.pi  # (typed beyond 360 degrees)
+    before = fingerprint()
+    first = _run(fp, scene, ob, name="one", frame_start=1, markers=True)
+    _run(fp, scene, ob, name="two", frame_start=first["frame_end"] + 1, markers=True)
+    scene.frame_set(first["frame_end"])
+    scene.frame_current = before["scenes"][scene.name]["current"]
+    assert import_module(fp.__name__ + ".blender.write.bake").clear(ob, scene) == 2
+    after = fingerprint()
+    assert after == before, "\n".join(differences(before, after)[:20])

@@ -187,7 +187,7 @@ def test_ctrl_c_of_a_real_process(shot):
     """SIGINT to ``python -m footstep_planner bake --job`` after its first job: status 130,
     one line, and neither the scene nor any report written."""
     jobs = shot / "jobs.json"
-    jobs.write_text(json.dumps([{"character": CHAR, "goal": "Goal", "name": f"j{i}", "frame_start": 1 + 800 * i}
+    jobs.write_text(json.dumps([{"character": CHAR, "goal": "Goal", "name": f"j{i}", "frame_start": 1 + 1000 * i}
                                 for i in range(6)]))
     args = [sys.executable, "-m", "footstep_planner", "bake", str(shot / "shot.blend"), "--job", str(jobs),
             "--out", str(shot / "previous.blend"), "--report", str(shot / "r.json")]
@@ -345,8 +345,9 @@ def test_a_jobs_result_does_not_depend_on_the_jobs_before_it(cli, shot, fp):
         sc.collection.objects.link(e)
     bpy.ops.wm.save_as_mainfile(filepath=scene)
     jobs = shot / "jobs.json"
-    jobs.write_text(json.dumps([{"character": CHAR, "goal": g, "name": g, "report": str(shot / f"{g}.json")}
-                                for g in ("Goal", "Side", "Mid")]))
+    jobs.write_text(json.dumps([{"character": CHAR, "goal": g, "name": g, "report": str(shot / f"{g}.json"),
+                                 "frame_start": 1 + 2000 * i}  # (each bake of a character its own frames)
+                                for i, g in enumerate(("Goal", "Side", "Mid"))]))
     assert cli(["bake", scene, "--job", str(jobs)]) == 0
     assert cli(["bake", scene, "--character", CHAR, "--goal", "Mid", "--report", str(shot / "alone.json")]) == 0
     serial, alone = (json.loads((shot / n).read_text()) for n in ("Mid.json", "alone.json"))

@@ -33,6 +33,8 @@ SAMPLE = [
     ("import_clips-1-16", "BVH files with NaN, a 1e-300 s frame time, 99999 channels; --out immutable"),
     ("analyze-1-14", "a BVH file with two joints of one name"),
     ("jobs-1-13", "a job list with one good job and one with an empty start: one bakes"),
+    ("sacred-1-5", "issue 26: the character's NLA in tweak mode (was a traceback): refused in one line"),
+    ("sacred-1-3", "issue 26: a driver on the character's location (baked wrong, exit 0): an error"),
 ]
 
 
@@ -64,3 +66,10 @@ def test_no_traceback_and_nothing_changed_it_did_not_own(records, cid, what):
 def test_nothing_left_behind(records, cid, what):
     rec = records[cid]
     assert not rec.get("litter"), f"{what}:\n{fuzz.describe(rec, 20, lines=8)}"
+
+
+@pytest.mark.parametrize("cid,what", [c for c in SAMPLE if c[0].startswith("sacred")],
+                         ids=[cid for cid, _ in SAMPLE if cid.startswith("sacred")])
+def test_a_wrong_bake_never_exits_0(records, cid, what):
+    rec = records[cid]
+    assert not rec["unexpected"] and rec["status"] != 0, f"{what}:\n{fuzz.describe(rec, 20, lines=8)}"

@@ -71,14 +71,20 @@ def test_a_generated_rigify_rig_walks_the_turns_as_played(fp, rigify_turns):
     q = planning.measure(scene, rig, planned, solved, 1, goal, planned.goal_heading, 30.0)
     assert q["foot_skate"]["max_mm"] < 5.0 and q["footprint_error"]["max_mm"] < 5.0
     assert q["goal"]["distance_m"] < 0.05
-    # the same from the panel: Bake, then Clear gives the rig back its own animation
+    # the same from the panel: Bake, then Clear gives the whole scene back as it was (issue 26)
+    from fingerprint import differences, fingerprint
+
+    assert bake.clear(rig, scene) == 1
     fs = scene.footstep
     fs.character, fs.goal = rig, scene.objects["Goal"]
+    before = fingerprint()
     with bpy.context.temp_override(scene=scene, active_object=rig, object=rig):
         assert bpy.ops.footstep.bake() == {"FINISHED"}
         assert "frames baked" in fs.last_report and len(bake.owned_tracks(rig)) == 1
         assert bpy.ops.footstep.clear() == {"FINISHED"}
     assert not bake.owned_tracks(rig)
+    after = fingerprint()
+    assert after == before, "\n".join(differences(before, after)[:20])
     bpy.ops.wm.read_homefile(use_empty=True)
 
 

@@ -66,6 +66,7 @@ def _bake(fp, walk, ik_feet: bool):
     scene, rig, planned, solved, settings = walk
     bake, planning = _mod(fp, "blender.write.bake"), _mod(fp, "blender.planning")
     r = planned.setup.rig
+    bake.clear(rig, scene)  # (each bake measured alone: bakes of other names would overlap it)
     act, _ = bake.bake(rig, scene, r, solved.ik, solved.spin, "ik" if ik_feet else "fk", 1,
                        planned.result.footprints, planned.synthesis.planted(), rigify_ik_feet=ik_feet)
     world = bake.evaluate_played(scene, rig, r, 1, solved.ik.frames)[0]
@@ -147,6 +148,7 @@ def test_the_setting_reaches_the_bake(fp, walk):
     scene, rig, planned, solved, settings = walk
     planning = _mod(fp, "blender.planning")
     goal, heading = planning.goal_of(scene, "Goal")
+    _mod(fp, "blender.bake").clear(rig, scene)  # (the other tests' bakes, at the same frames)
     doc = planning.run(scene, rig, goal, heading, scene.objects["Start"], settings, name="run ik", frame_start=1)
     paths = {p for p, _ in _fcurves(bpy.data.actions[doc["action"]])}
     assert 'pose.bones["foot_ik.L"].location' in paths and 'pose.bones["thigh_fk.L"].rotation_quaternion' not in paths
