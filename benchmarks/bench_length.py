@@ -52,6 +52,7 @@ def main() -> None:
     from footstep_planner.blender.command import batch
     from footstep_planner.blender.sample import mannequin
     from footstep_planner.blender import planning
+    from footstep_planner.core.solve.frames import solve
     from footstep_planner.blender.sample.sample_scenes import build
     from footstep_planner.blender.read.surfaces import BvhGround
     from footstep_planner.core.base.settings import Settings
@@ -87,9 +88,8 @@ def main() -> None:
         best = {}
         for _ in range(args.repeat):
             syn = planning.synthesize(scene, res_k, floor_setup)
-            planned = planning.Planned(res_k, floor_setup, syn, None)
             t0 = time.perf_counter()
-            solved = planning.solve(planned, Settings())
+            solved = solve(syn, floor_setup, Settings())
             whole = time.perf_counter() - t0
             sec = {s: syn.seconds[s] for s in STAGES[:4]}
             sec.update(pose_blend=solved.pose_seconds, ik=solved.ik_seconds)
