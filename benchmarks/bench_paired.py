@@ -9,7 +9,8 @@ shows whatever the machine's speed or load.
 ``--ref`` makes a temporary git worktree of that commit (removed at the end);
 ``--ref-tree`` uses a checkout already made. Each round runs one process per tree
 (alternating which goes first); each process runs ``planning.run`` (search to bake)
-``--repeat`` times on one scene and keeps each stage's least time. The table gives, per
+``--repeat`` times on one scene and keeps each stage's least time (the first run of a
+process pays for lazy imports: keep ``--repeat`` at 2 or more). The table gives, per
 stage, the median over the rounds of each tree's times (ms), their ratio (today over the
 reference) and the range over the rounds; ``frame`` is smoothing to bake (IK and bake
 included, the search not) over the frames. It also prints the played figures of both
@@ -131,6 +132,9 @@ def main() -> None:
         subprocess.run(["git", "-C", args.tree, "worktree", "add", "--detach", ref, args.ref], check=True,
                        capture_output=True)
     try:
+        for tree in (args.tree, ref):  # (a fresh checkout's modules compiled before any round)
+            subprocess.run([sys.executable, "-m", "compileall", "-q", os.path.join(tree, "footstep_planner")],
+                           capture_output=True)
         load = [os.getloadavg()[0]]
         for scene in args.scenes.split(","):
             runs = {"new": [], "ref": []}
