@@ -12,8 +12,9 @@ Every file a verb writes goes through ``core.base.files.Outputs``: claimed befor
 place when the verb has succeeded. Stdout carries the verb's results only
 (``console.say``); Blender's own log lines and progress go to stderr.
 
-This module holds the verbs only: the argument parser and one function per verb. The
-tables they print are in ``core/report/tables.py``, the demo's pictures in ``review.py``, the
+This module holds the argument parser and the plan, bake, plot and demo verbs; the clip
+verbs (import-clips, analyze) are in ``clip_verbs.py``, the files and scenes they share in
+``blend_io.py``. The tables they print are in ``core/report/tables.py``, the demo's pictures in ``review.py``, the
 job lists in ``core/jobs.py`` and ``batch.py``.
 """
 
@@ -41,10 +42,10 @@ from . import batch
 from .batch import BUG_LINE
 from .console import Progress, results_on_stdout, say
 from ..read.scene import scene_fps
+from .blend_io import (CliError, blend_writer, claim_blend, csv_names, find_armature, open_blend, pick_scene,
+                       read_text, set_scene_fps, settings_from_args)
+from .clip_verbs import _analyze, _import_clips
 
-
-class CliError(FootstepError):
-    """An expected problem: its message is printed without a traceback."""
 
 
 # -- the parser ---------------------------------------------------------------------
@@ -289,295 +290,6 @@ def _run_guarded(args) -> int:
 
 # -- helpers the verbs share --------------------------------------------------------
 
-def settings_from_args(pairs) -> Settings:
-    """The Settings of ``--set NAME=VALUE`` options, each converted and range-checked by
-    the setting's own declaration (a SettingsError names the setting)."""
-    return Settings.from_pairs(pairs)
-
-
-def check_input(path: str, what: str = "file") -> str:
-    """``path`` if it is a readable file; a CliError naming it otherwise."""
-    if os.path.isdir(path):
-        raise CliError(f"{path}: is a folder, not a {what}")
-    if not os.path.exists(path):
-        raise CliError(f"{path}: no such file")
-    if not os.path.isfile(path):
-        raise CliError(f"{path}: not a regular file (a pipe or a device?), not a {what}")
-    if not os.access(path, os.R_OK):
-        raise CliError(f"{path}: cannot read it (permission denied)")
-    return path
-
-
-def file_version() -> tuple:
-    """The Blender file version the open file was saved with."""
-    return tuple(bpy.data.version)
-
-
-def open_blend(path: str) -> None:
-    """Open a .blend file; CliError naming it when it can't be, or when a newer Blender
-    saved it (this one would lose what it can't read, behind its own warning)."""
-    check_input(path, ".blend file")
-    try:
-        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False)
-    except RuntimeError as ex:
-        raise CliError(f"{path}: cannot open: {str(ex).strip()}") from None
-    saved, ours = file_version(), tuple(bpy.app.version_file)
-    if saved > ours:
-        raise CliError(f"{path}: saved by a newer Blender (file version {'.'.join(map(str, saved))}) than this one "
-                       f"({bpy.app.version_string}, file version {'.'.join(map(str, ours))}): what it can't read "
-                       "would be lost; bake it with that Blender version or newer")
-
-
-def claim_blend(outs: Outputs, path: str | None, what: str) -> str | None:
-    """Claim a .blend output (refused unless it ends in .blend)."""
-    if path is None:
-        return None
-    if not path.lower().endswith(".blend"):
-        raise CliError(f"the {what} {path!r} must be a .blend file")
-    return outs.claim(path, what)
-
-
-def blend_writer(final: str):
-    """A writer for ``Outputs.stage``: save a copy of the open file at the temporary path
-    (the open file keeps its own path)."""
-    def write(tmp: str) -> None:
-        try:
-            bpy.ops.wm.save_as_mainfile(filepath=tmp, compress=True, copy=True)
-        except RuntimeError as ex:
-            raise CliError(f"cannot save {final}: {str(ex).strip().splitlines()[-1]}") from None
-        if not os.path.isfile(tmp) or os.path.getsize(tmp) == 0:
-            raise CliError(f"cannot save {final}: Blender wrote nothing (is the disk full?)")
-    return write
-
-
-def empty_scene(fps: float | None) -> None:
-    bpy.ops.wm.read_homefile(use_empty=True)
-    if fps:
-        set_scene_fps(bpy.context.scene, fps)
-
-
-def set_scene_fps(scene, fps: float) -> None:
-    scene.render.fps = max(1, int(round(fps)))
-    scene.render.fps_base = scene.render.fps / fps
-
-
-def pick_scene(name: str | None):
-    """The scene to work in: ``--scene NAME`` (made the active one), else the active one."""
-    if name is None:
-        return bpy.context.scene
-    scene = bpy.data.scenes.get(name)
-    if scene is None:
-        raise CliError(f"no scene named {name!r} in {bpy.data.filepath or 'the file'}; its scenes: "
-                       + ", ".join(repr(s.name) for s in bpy.data.scenes))
-    bpy.context.window.scene = scene
-    return scene
-
-
-def find_armature(name: str):
-    ob = bpy.data.objects.get(name)
-    if ob is None:
-        raise CliError(f"no object named {name!r} in {bpy.data.filepath or 'the scene'}")
-    missing = batch.missing_library(ob)
-    if missing:
-        raise CliError(missing)
-    if name not in bpy.context.scene.objects:
-        raise CliError(batch.not_in_scene(bpy.context.scene, ob))
-    if ob.type != "ARMATURE":
-        raise CliError(f"object {name!r} is a {ob.type.lower()}, not an armature")
-    return ob
-
-
-def _names(csv: str) -> list[str]:
-    return [n.strip() for n in csv.split(",") if n.strip()]
-
-
-def _clip_files_or_blend(args) -> tuple[list, list]:
-    """(clip files, .blend files) among ``analyze``'s inputs; CliError for anything else,
-    or a mix."""
-    from ..read.clips import CLIP_EXTENSIONS
-
-    files = [p for p in args.inputs if p.lower().endswith(CLIP_EXTENSIONS)]
-    blends = [p for p in args.inputs if p.lower().endswith(".blend")]
-    other = [p for p in args.inputs if p not in files and p not in blends]
-    if other:
-        raise CliError(f"{other[0]}: neither a clip file ({', '.join(CLIP_EXTENSIONS)}) nor a .blend file")
-    if files and blends or len(blends) > 1:
-        raise CliError("give clip files (BVH, FBX, glTF), or one .blend, not both")
-    return files, blends
-
-
-def _characters_of_blend(args, blends) -> list:
-    """The armatures with clips of the .blend (or the open file), or ``--character``."""
-    if blends:
-        open_blend(blends[0])
-    if args.fps:
-        set_scene_fps(bpy.context.scene, args.fps)
-    if args.character:
-        return [find_armature(args.character)]
-    from ..read.scene import armature_actions
-
-    characters = [o for o in bpy.data.objects if o.type == "ARMATURE" and armature_actions(o)]
-    if not characters:
-        raise CliError(f"{bpy.data.filepath or 'the scene'} has no armature with clips")
-    return characters
-
-
-def _each_clip_file(files, fps):
-    """Each clip file imported on its own into an empty scene (files of different
-    skeletons are fine; each file's clips keep their names): yields (armature or None,
-    {clip or file: message} of those refused) while that scene is open."""
-    from ..read.clips import import_clip_files
-
-    fps = fps or _first_fps(files)
-    for path in files:
-        empty_scene(fps)
-        outcomes, readable = _readable([path])
-        ob = None
-        if readable:
-            done = import_clip_files(readable)
-            ob, outcomes = done.armature, done.outcomes
-        yield ob, {o.take or os.path.basename(o.path): o.error for o in outcomes if o.error}
-
-
-def _readable(paths) -> tuple[list, list]:
-    """(outcomes refusing the paths that are no readable file, the others)."""
-    from ..read.clips import ClipOutcome
-
-    refused, readable = [], []
-    for path in paths:
-        try:
-            readable.append(check_input(path, "clip file"))
-        except CliError as ex:
-            refused.append(ClipOutcome(os.path.abspath(path), error=str(ex)))
-    return refused, readable
-
-
-def _first_fps(paths) -> float | None:
-    """The frame rate of the first of ``paths`` that can be read, or None."""
-    from ..read.clips import clip_fps
-
-    for path in paths:
-        try:
-            return clip_fps(check_input(path, "clip file"))
-        except FootstepError:
-            continue
-    return None
-
-
-def _read_text(path: str, what: str) -> str:
-    check_input(path, what)
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return fh.read()
-    except UnicodeDecodeError as ex:
-        raise CliError(f"{path}: not a text file ({ex.reason} at byte {ex.start})") from None
-
-
-# -- the verbs ----------------------------------------------------------------------
-
-def _import_clips(args) -> int:
-    from ..read.clips import ClipImport, import_clip_files
-
-    with Outputs(args.clips + [args.blend or bpy.data.filepath]) as outs:
-        out = claim_blend(outs, args.out, "--out library")
-        if args.blend:
-            open_blend(args.blend)
-        elif bpy.data.filepath == "" and not args.into:
-            empty_scene(args.fps or _first_fps(args.clips))
-        if args.fps and args.blend:
-            set_scene_fps(bpy.context.scene, args.fps)
-        target = find_armature(args.into) if args.into else None
-        unreadable, readable = _readable(args.clips)
-        done = (import_clip_files(readable, target=target, name=args.name, scale=args.scale) if readable
-                else ClipImport(target))
-        order = {os.path.abspath(p): i for i, p in reversed(list(enumerate(args.clips)))}
-        done.outcomes = sorted(unreadable + done.outcomes, key=lambda o: order.get(o.path, len(order)))
-        for o in done.refused:
-            print(f"footstep: error: {o.error}", file=sys.stderr)
-        for line in done.report():
-            say(line)
-        if not done.actions:
-            return 2  # (nothing imported: nothing written)
-        ob = done.armature
-        if not ob.animation_data:
-            ob.animation_data_create()
-        if ob.animation_data.action is None:
-            ob.animation_data.action = done.actions[0]
-            ob.animation_data.action_slot = done.actions[0].slots[0]
-        outs.stage(out, blend_writer(out))
-        outs.commit()
-    say(f"saved {out}")
-    return min(100, len(done.refused))
-
-
-def _analyze(args) -> int:
-    settings = settings_from_args(args.set)
-    with Outputs(args.inputs + [bpy.data.filepath]) as outs:
-        if args.plot:
-            outs.claim(os.path.join(args.plot, ".footstep-plots"), "--plot folder")
-        files, blends = _clip_files_or_blend(args)
-        characters = (_each_clip_file(files, args.fps) if files
-                      else ((ob, {}) for ob in _characters_of_blend(args, blends)))
-        out = [_analyze_one(args, settings, outs, ob, refused) for ob, refused in characters]
-        outs.commit()
-    failed = [msg for *_, errors in out for msg in errors.values()]
-    _print_analyses(args, out, failed, bool(files))
-    for msg in failed:
-        print(f"footstep: error: {msg}", file=sys.stderr)
-    if files and all(name is None for name, *_ in out):
-        return 2  # (no clip file could be read)
-    return min(100, len(failed))
-
-
-def _analyze_one(args, settings, outs: Outputs, ob, refused: dict) -> tuple:
-    """(armature's name, analyses, library, {clip: reason refused}) of one character
-    (None: a clip file refused as a whole), only the ``--clip`` clips."""
-    from ..read.character import analyze_character, library_for
-
-    wanted = lambda name: not args.clip or name in args.clip  # noqa: E731
-    errors = {n: m for n, m in refused.items() if wanted(n)}
-    if ob is None:
-        return None, [], None, errors
-    result = analyze_character(ob, settings)
-    analyses = [a for a in result.analyses if wanted(a.name)]
-    errors.update((n, m) for n, m in result.errors.items() if wanted(n))
-    if args.plot:
-        _plot_clips(outs, analyses, args.plot)
-    return ob.name, analyses, library_for(ob, result) if analyses else None, errors
-
-
-def _plot_clips(outs: Outputs, analyses, folder: str) -> None:
-    from ...core.report.plots import plot_clip
-
-    scratch = outs.scratch(folder)
-    for a in analyses:
-        made = plot_clip(a, os.path.join(scratch, f"{a.name}.png"))
-        outs.adopt(made, os.path.join(folder, os.path.basename(made)))
-
-
-def _print_analyses(args, out, failed, from_files) -> None:
-    """The table (or JSON) of every clip: each analysed one's figures, each refused one
-    with its reason (``"error"``)."""
-    def rows(analyses, errors):
-        return [{**a.to_dict(), "error": None} for a in analyses] + [
-            {"name": n, "error": m} for n, m in errors.items()]
-
-    if args.json:
-        doc = {"characters": [
-            {"armature": name, "clips": rows(analyses, errors),
-             "library": lib.to_dict() if lib else None} for name, analyses, lib, errors in out if name is not None],
-            "errors": failed}
-        if from_files:  # clip files: one object per clip, flat, in file order
-            doc = {"clips": [r for _, analyses, _, errors in out for r in rows(analyses, errors)], "errors": failed}
-        say(json.dumps(doc, indent=1))
-    elif from_files:
-        say(format_table("clip files", [a for _, analyses, _, _ in out for a in analyses],
-                         [(n, m) for *_, errors in out for n, m in errors.items()]))
-    else:
-        for name, analyses, lib, errors in out:
-            say(format_table(name, analyses, list(errors.items())))
-            if lib is not None:
-                say(format_library(lib))
 
 
 def _plan(args) -> int:
@@ -594,7 +306,7 @@ def _plan(args) -> int:
         goal, heading, start = batch.goal_and_start(scene, args.goal, args.goal_heading, args.start)
         route = _via_route(scene, args, goal, heading)
         planned = planning.plan_and_synthesize(scene, ob, goal, heading, start, settings,
-                                               _names(args.traversable), _names(args.obstacles), route)
+                                               csv_names(args.traversable), csv_names(args.obstacles), route)
         result, syn = planned.result, planned.synthesis
         doc = plan_report(result, syn, ob.name, goal, scene.frame_current)
         if planned.performance is not None:
@@ -619,14 +331,14 @@ def _via_route(scene, args, goal, heading):
     """The route through ``--via``'s waypoints (then the goal), or None."""
     from ..ui.directing import via_route
 
-    return via_route(scene, _names(args.via), args.goal or "the goal", goal, heading,
+    return via_route(scene, csv_names(args.via), args.goal or "the goal", goal, heading,
                      _pairs(args.pause, "--pause"), _pairs(args.arrive, "--arrive"))
 
 
 def _pairs(csv: str, option: str) -> dict:
     """NAME=NUMBER,... as a dict; CliError naming the option and the pair at fault."""
     out = {}
-    for item in _names(csv):
+    for item in csv_names(csv):
         name, eq, value = item.rpartition("=")
         try:
             number = float(value)
@@ -645,7 +357,7 @@ def _common(args, names: bool = False) -> dict:
               "force": args.force, "new_track": args.new_track,
               "traversable": args.traversable, "obstacles": args.obstacles, "set": list(args.set)}
     if names:
-        common["traversable"], common["obstacles"] = _names(args.traversable), _names(args.obstacles)
+        common["traversable"], common["obstacles"] = csv_names(args.traversable), csv_names(args.obstacles)
     return common
 
 
@@ -659,7 +371,7 @@ def _bake(args) -> int:
     with Outputs([args.blend or bpy.data.filepath, args.job, args.plan]) as outs:
         out = claim_blend(outs, args.out, "--out scene")
         plan = _read_plan(args.plan) if args.plan else None
-        raw = read_jobs(_read_text(args.job, "job list"), args.job) if args.job else None
+        raw = read_jobs(read_text(args.job, "job list"), args.job) if args.job else None
         settings = settings_from_args(args.set)
         if args.blend:
             open_blend(args.blend)
@@ -669,7 +381,7 @@ def _bake(args) -> int:
         report = outs.claim(args.report, "--report") if args.report is not None else None
         job = {"character": args.character or (plan.character if plan else None), "goal": args.goal,
                "start": args.start, "name": args.name, "frame_start": args.frame_start,
-               "goal_heading": args.goal_heading, "body_on": args.body_on, "via": _names(args.via),
+               "goal_heading": args.goal_heading, "body_on": args.body_on, "via": csv_names(args.via),
                "pause": _pairs(args.pause, "--pause"), "arrive": _pairs(args.arrive, "--arrive")}
         problems = batch.scene_problems(bpy.context.scene, job)
         if problems:
@@ -689,7 +401,7 @@ def _bake(args) -> int:
 def _read_plan(path: str):
     from ...core.plan.plan_file import read_plan
 
-    return read_plan(_read_text(path, "plan"), path)
+    return read_plan(read_text(path, "plan"), path)
 
 
 def _job_paths(args, outs: Outputs, n: int, job: dict, many: bool) -> tuple[str | None, str | None]:
@@ -793,7 +505,7 @@ def _plot(args) -> int:
 def _plan_report(path: str) -> dict:
     """A plan report's document, checked for its synthesis section."""
     try:
-        doc = json.loads(_read_text(path, "plan report"))
+        doc = json.loads(read_text(path, "plan report"))
     except (ValueError, RecursionError) as ex:
         raise CliError(f"cannot read the plan report {path!r}: {str(ex)[:200]}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("synthesis"), dict):

@@ -560,7 +560,7 @@ def check_leg_constraints(ob, rig: Rig) -> None:
     """BakeError naming the bone and constraint, for a constraint on the hips or a leg
     (or their ancestors) of a rig the bake keys directly (a Rigify rig's constraints are
     its own machinery, keyed through its controls)."""
-    from . import rigify
+    from .. import rigify
 
     if rigify.is_rigify(ob):
         return
