@@ -134,7 +134,8 @@ class _Modal:
     """Drives an operator's own modal code as Blender would (invoke, timer events, then
     Esc), on an object standing in for the running operator."""
 
-    METHODS = ("invoke", "modal", "_begin", "_end", "_start", "_finish", "_cancel", "_stopped", "_analysed")
+    METHODS = ("invoke", "modal", "_begin", "_end", "_start", "_finish", "_cancel", "_stopped", "_analysed", "_apply",
+               "execute")
 
     def __init__(self, fp, cls, context, monkeypatch, **props):
         ops = _mod(fp, "operators")
@@ -249,3 +250,40 @@ def test_generate_sample_clips_cancelled_at_once_changes_nothing(fp, bare_manneq
     assert run.esc() == {"CANCELLED"}
     assert run.reports == [({"INFO"}, "clip generation cancelled: nothing was changed")]
     assert len(bpy.data.actions) == n_actions and run.status[-1] is None
+
+
+def _library(ob):
+    return [(c.name, c.usage, c.summary) for c in ob.data.footstep.clips]
+
+
+def test_analyze_clips_shows_progress_and_esc_changes_nothing(fp, mannequin_scene, monkeypatch):
+    import bpy
+
+    scene, ob = mannequin_scene
+    for c in ob.data.footstep.clips:
+        c.summary = "as the user last saw it"
+    before = _library(ob)
+    run = _Modal(fp, _mod(fp, "operators").FOOTSTEP_OT_analyze_clips, bpy.context, monkeypatch, reset=False)
+    n = len(run.op._names)
+    assert n >= 10
+    for k in range(3):
+        assert run.tick() == {"RUNNING_MODAL"}
+    assert run.progress == [1, 2, 3] and f"3 of {n} clips" in run.status[-1]
+    assert run.esc() == {"CANCELLED"}
+    assert run.reports == [({"INFO"}, f"analysis cancelled after 3 of {n} clips: nothing was changed")]
+    assert _library(ob) == before and run.status[-1] is None
+
+
+def test_analyze_clips_stepped_gives_what_a_script_gets(fp, mannequin_scene, monkeypatch):
+    import bpy
+
+    scene, ob = mannequin_scene
+    assert bpy.ops.footstep.analyze_clips() == {"FINISHED"}  # (a script: execute)
+    whole = _library(ob)
+    for c in ob.data.footstep.clips:
+        c.summary = ""
+    run = _Modal(fp, _mod(fp, "operators").FOOTSTEP_OT_analyze_clips, bpy.context, monkeypatch, reset=False)
+    for _ in range(len(run.op._names)):
+        result = run.tick()
+    assert result == {"FINISHED"} and _library(ob) == whole
+    assert run.reports[-1][1].endswith(f"analysed {len(run.op._names)} clip(s)") and run.status[-1] is None

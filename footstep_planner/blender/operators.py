@@ -136,9 +136,10 @@ def _settings(context):
     return settings_from_props(context.scene.footstep.settings)
 
 
-class FOOTSTEP_OT_analyze_clips(_OnCharacter, bpy.types.Operator):
+class FOOTSTEP_OT_analyze_clips(_OnCharacter, _Stepped, bpy.types.Operator):
     """Analyse the character's clips (contacts, speed, stride, tau, gait) and, unless the
-    clip library was edited by hand, propose its blend groups"""
+    clip library was edited by hand, propose its blend groups (from the UI: one clip at a
+    time with progress; Esc cancels and changes nothing)"""
 
     bl_idname = "footstep.analyze_clips"
     bl_label = "Analyze Clips"
@@ -147,12 +148,26 @@ class FOOTSTEP_OT_analyze_clips(_OnCharacter, bpy.types.Operator):
     reset: BoolProperty(name="Reset Library", default=False,
                                   description="Replace an edited clip library by the proposal")
 
+    _names: list = []
+    _result = None
+
     def execute(self, context):
-        from .character import analyze_character, library_for, summary, write_library
+        from .character import analyze_character
 
         ob = character(context)
         try:
             result = analyze_character(ob, _settings(context))
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        return self._apply(context, ob, result)
+
+    def _apply(self, context, ob, result):
+        """Store what the analysis found: the proposed library, or the summaries of an
+        edited one (checked to still fit)."""
+        from .character import library_for, summary, write_library
+
+        try:
             if self.reset or not ob.data.footstep.library_edited:
                 from ..core.library import propose_library
 
@@ -171,6 +186,43 @@ class FOOTSTEP_OT_analyze_clips(_OnCharacter, bpy.types.Operator):
         self.report({"INFO"}, f"{ob.name}: analysed {len(result.analyses)} clip(s)"
                     + (f", {len(result.errors)} failed" if result.errors else ""))
         return {"FINISHED"}
+
+    def invoke(self, context, event):
+        from .scene import armature_actions
+
+        self._names, self._result = [a.name for a in armature_actions(character(context))], None
+        if len(self._names) < 2:
+            return self.execute(context)
+        return self._begin(context, len(self._names))
+
+    def modal(self, context, event):
+        from .character import analyze_character
+
+        done = 0 if self._result is None else len(self._result.analyses) + len(self._result.errors)
+        if event.type == "ESC":
+            self._end(context)
+            self.report({"INFO"}, f"analysis cancelled after {done} of {len(self._names)} clips: nothing was changed")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        ob, name = character(context), self._names[done]
+        try:
+            part = analyze_character(ob, _settings(context), actions=[bpy.data.actions[name]])
+        except (FootstepError, KeyError) as ex:
+            self._end(context)
+            self.report({"ERROR"}, str(ex) if isinstance(ex, FootstepError) else f"the clip {name!r} is gone")
+            return {"CANCELLED"}
+        if self._result is None:
+            self._result = part
+        else:
+            self._result.analyses += part.analyses
+            self._result.errors.update(part.errors)
+        context.window_manager.progress_update(done + 1)
+        if done + 1 < len(self._names):
+            _status(context, f"Footstep: analysed {name} ({done + 1} of {len(self._names)} clips)... (Esc to cancel)")
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        return self._apply(context, ob, self._result)
 
 
 class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
