@@ -186,6 +186,7 @@ def test_esc_after_the_bake_is_written_keeps_it_and_says_so(fp, mannequin_scene,
 
     scene, ob = mannequin_scene
     bake = _mod(fp, "bake")
+    range_before = (scene.frame_start, scene.frame_end)
     run = _Bake(fp, bpy.context, monkeypatch)
     for _ in range(4):  # planning, inverse kinematics, bake: the quality is measured next
         assert run.tick() == {"RUNNING_MODAL"}
@@ -197,6 +198,8 @@ def test_esc_after_the_bake_is_written_keeps_it_and_says_so(fp, mannequin_scene,
     assert repr(kept.strips[0].action.name) in msg and "quality figures were not measured" in msg
     strip = kept.strips[0]
     assert f"frames {strip.frame_start:.0f}-{strip.frame_end:.0f}" in msg
+    if (scene.frame_start, scene.frame_end) != range_before:  # (the bake grew it: that is kept too)
+        assert f"frame range {scene.frame_start}-{scene.frame_end} (was {range_before[0]}-{range_before[1]})" in msg
     assert scene.footstep.last_report == msg
     assert run.status[-1] is None and "end" in run.progress
     assert bake.owned_tracks(ob) == [kept]  # the bake stays as written

@@ -343,6 +343,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
 
     _steps = None
     _before: set = set()
+    _range = (1, 250)
     _written = False
 
     def _start(self, context):
@@ -393,6 +394,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
     def invoke(self, context, event):
         ob = character(context)
         self._before = set(_owned(ob))
+        self._range = (context.scene.frame_start, context.scene.frame_end)
         self._written = False
         try:
             self._steps = self._start(context)
@@ -433,11 +435,19 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
         if not self._written and not kept:
             self.report({"INFO"}, "bake cancelled: nothing was changed")
             return {"CANCELLED"}
+        from .bake import STASH_PROP
+
         what = "; ".join(f"NLA track {tr.name!r} (action {tr.strips[0].action.name!r}, frames "
                          f"{tr.strips[0].frame_start:.0f}-{tr.strips[-1].frame_end:.0f})" for tr in kept)
+        also = [f"the active action {st.action[STASH_PROP]!r} stashed in a muted NLA track"
+                for tr in kept for st in tr.strips[:1] if st.action.get(STASH_PROP)]
+        sc = context.scene
+        if (sc.frame_start, sc.frame_end) != tuple(self._range):
+            also.append(f"the scene's frame range {sc.frame_start}-{sc.frame_end} (was {self._range[0]}-"
+                        f"{self._range[1]})")
         msg = (f"bake cancelled while its quality was measured: the bake was already written and is kept: "
-               f"{what or 'the planner track on ' + ob.name}; its quality figures were not measured "
-               "(Clear or Undo removes it)")
+               f"{what or 'the planner track on ' + ob.name}" + "".join(f", with {a}" for a in also)
+               + "; its quality figures were not measured (Clear or Undo removes it)")
         context.scene.footstep.last_report = msg
         self.report({"WARNING"}, msg)
         return {"FINISHED"}  # (what is kept is one undo step)
