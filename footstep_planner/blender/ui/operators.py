@@ -137,9 +137,10 @@ def _settings(context):
     return settings_from_props(context.scene.footstep.settings)
 
 
-class FOOTSTEP_OT_analyze_clips(_OnCharacter, bpy.types.Operator):
+class FOOTSTEP_OT_analyze_clips(_OnCharacter, _Stepped, bpy.types.Operator):
     """Analyse the character's clips (contacts, speed, stride, tau, gait) and, unless the
-    clip library was edited by hand, propose its blend groups"""
+    clip library was edited by hand, propose its blend groups (from the UI: one clip at a
+    time with progress; Esc cancels and changes nothing)"""
 
     bl_idname = "footstep.analyze_clips"
     bl_label = "Analyze Clips"
@@ -148,12 +149,26 @@ class FOOTSTEP_OT_analyze_clips(_OnCharacter, bpy.types.Operator):
     reset: BoolProperty(name="Reset Library", default=False,
                                   description="Replace an edited clip library by the proposal")
 
+    _names: list = []
+    _result = None
+
     def execute(self, context):
-        from ..read.character import analyze_character, library_for, summary, write_library
+        from ..read.character import analyze_character
 
         ob = character(context)
         try:
             result = analyze_character(ob, _settings(context))
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        return self._apply(context, ob, result)
+
+    def _apply(self, context, ob, result):
+        """Store what the analysis found: the proposed library, or the summaries of an
+        edited one (checked to still fit)."""
+        from ..read.character import library_for, summary, write_library
+
+        try:
             if self.reset or not ob.data.footstep.library_edited:
                 from ...core.clips.library import propose_library
 
@@ -172,6 +187,43 @@ class FOOTSTEP_OT_analyze_clips(_OnCharacter, bpy.types.Operator):
         self.report({"INFO"}, f"{ob.name}: analysed {len(result.analyses)} clip(s)"
                     + (f", {len(result.errors)} failed" if result.errors else ""))
         return {"FINISHED"}
+
+    def invoke(self, context, event):
+        from ..read.scene import armature_actions
+
+        self._names, self._result = [a.name for a in armature_actions(character(context))], None
+        if len(self._names) < 2:
+            return self.execute(context)
+        return self._begin(context, len(self._names))
+
+    def modal(self, context, event):
+        from ..read.character import analyze_character
+
+        done = 0 if self._result is None else len(self._result.analyses) + len(self._result.errors)
+        if event.type == "ESC":
+            self._end(context)
+            self.report({"INFO"}, f"analysis cancelled after {done} of {len(self._names)} clips: nothing was changed")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        ob, name = character(context), self._names[done]
+        try:
+            part = analyze_character(ob, _settings(context), actions=[bpy.data.actions[name]])
+        except (FootstepError, KeyError) as ex:
+            self._end(context)
+            self.report({"ERROR"}, str(ex) if isinstance(ex, FootstepError) else f"the clip {name!r} is gone")
+            return {"CANCELLED"}
+        if self._result is None:
+            self._result = part
+        else:
+            self._result.analyses += part.analyses
+            self._result.errors.update(part.errors)
+        context.window_manager.progress_update(done + 1)
+        if done + 1 < len(self._names):
+            _status(context, f"Footstep: analysed {name} ({done + 1} of {len(self._names)} clips)... (Esc to cancel)")
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        return self._apply(context, ob, self._result)
 
 
 class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
@@ -297,6 +349,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
 
     _steps = None
     _before: set = set()
+    _range = (1, 250)
     _written = False
 
     def _start(self, context):
@@ -348,6 +401,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
     def invoke(self, context, event):
         ob = character(context)
         self._before = set(_owned(ob))
+        self._range = (context.scene.frame_start, context.scene.frame_end)
         self._written = False
         try:
             self._steps = self._start(context)
@@ -389,11 +443,19 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
         if not kept:  # (before the bake, or a bake taken back before its quality was measured)
             self.report({"INFO"}, "bake cancelled: nothing was changed")
             return {"CANCELLED"}
+        from ..write.bake import STASH_PROP
+
         what = "; ".join(f"NLA track {tr.name!r} (action {tr.strips[0].action.name!r}, frames "
                          f"{tr.strips[0].frame_start:.0f}-{tr.strips[-1].frame_end:.0f})" for tr in kept)
+        also = [f"the active action {st.action[STASH_PROP]!r} stashed in a muted NLA track"
+                for tr in kept for st in tr.strips[:1] if st.action.get(STASH_PROP)]
+        sc = context.scene
+        if (sc.frame_start, sc.frame_end) != tuple(self._range):
+            also.append(f"the scene's frame range {sc.frame_start}-{sc.frame_end} (was {self._range[0]}-"
+                        f"{self._range[1]})")
         msg = (f"bake cancelled while its quality was measured: the bake was already written and is kept: "
-               f"{what or 'the planner track on ' + ob.name}; its quality figures were not measured "
-               "(Clear or Undo removes it)")
+               f"{what or 'the planner track on ' + ob.name}" + "".join(f", with {a}" for a in also)
+               + "; its quality figures were not measured (Clear or Undo removes it)")
         context.scene.footstep.last_report = msg
         self.report({"WARNING"}, msg)
         return {"FINISHED"}  # (what is kept is one undo step)

@@ -23,9 +23,9 @@ def mannequin_scene(fp):
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    scene = _mod(fp, "sample_scenes").build("jumps")
+    scene = _mod(fp, "sample.sample_scenes").build("jumps")
     scene.render.fps = 30
-    ob, _ = _mod(fp, "mannequin").add_to_scene(scene, "Start")
+    ob, _ = _mod(fp, "sample.mannequin").add_to_scene(scene, "Start")
     fs = scene.footstep
     fs.character, fs.goal, fs.start = ob, scene.objects["Goal"], scene.objects["Start"]
     fs.edit_footprints = False
@@ -66,7 +66,7 @@ def test_the_reason_names_a_character_that_is_no_armature(fp, empty_scene):
 def test_the_main_operators_are_in_object_animation(fp, empty_scene):
     import bpy
 
-    panel = _mod(fp, "panel")
+    panel = _mod(fp, "ui.panel")
     stub = Recorder()
     panel.FOOTSTEP_MT_animation.draw(SimpleNamespace(layout=stub), bpy.context)
     listed = [a[0] for name, a, _ in stub.log if name == "operator"]
@@ -87,7 +87,7 @@ def test_unregister_leaves_nothing_registered(fp, empty_scene):
     enabling it again brings them back)."""
     import bpy
 
-    panel, session = _mod(fp, "panel"), _mod(fp, "session")
+    panel, session = _mod(fp, "ui.panel"), _mod(fp, "ui.session")
     fp.unregister()
     try:
         assert not [n for n in dir(bpy.types) if n.startswith(("FOOTSTEP_", "footstep_"))]
@@ -105,7 +105,7 @@ def test_a_new_file_forgets_the_last_plan(fp, empty_scene, tmp_path):
     (or opening another file) drops them, and saving never writes them into the .blend."""
     import bpy
 
-    overlay = _mod(fp, "overlay")
+    overlay = _mod(fp, "ui.overlay")
     fs = empty_scene.footstep
     overlay.mark(empty_scene, waypoints=np.zeros((2, 3)))
     fs.last_report = "40 footprints, 632 frames: a report to forget"
@@ -134,10 +134,11 @@ class _Modal:
     """Drives an operator's own modal code as Blender would (invoke, timer events, then
     Esc), on an object standing in for the running operator."""
 
-    METHODS = ("invoke", "modal", "_begin", "_end", "_start", "_finish", "_cancel", "_stopped", "_analysed")
+    METHODS = ("invoke", "modal", "_begin", "_end", "_start", "_finish", "_cancel", "_stopped", "_analysed", "_apply",
+               "execute")
 
     def __init__(self, fp, cls, context, monkeypatch, **props):
-        ops = _mod(fp, "operators")
+        ops = _mod(fp, "ui.operators")
         self.status, self.reports, self.progress = [], [], []
         monkeypatch.setattr(ops, "_status", lambda _ctx, text: self.status.append(text))
         wm = SimpleNamespace(progress_begin=lambda *a: None, progress_end=lambda: self.progress.append("end"),
@@ -160,14 +161,15 @@ class _Modal:
 
 
 def _Bake(fp, context, monkeypatch):
-    return _Modal(fp, _mod(fp, "operators").FOOTSTEP_OT_bake, context, monkeypatch, markers=False)
+    return _Modal(fp, _mod(fp, "ui.operators").FOOTSTEP_OT_bake, context, monkeypatch, markers=False, force=False,
+                  new_track=False)
 
 
 def test_esc_before_the_bake_is_written_changes_nothing(fp, mannequin_scene, monkeypatch):
     import bpy
 
     scene, ob = mannequin_scene
-    bake = _mod(fp, "bake")
+    bake = _mod(fp, "write.bake")
     tracks = [t.name for t in ob.animation_data.nla_tracks] if ob.animation_data else []
     n_actions = len(bpy.data.actions)
     run = _Bake(fp, bpy.context, monkeypatch)
@@ -180,25 +182,27 @@ def test_esc_before_the_bake_is_written_changes_nothing(fp, mannequin_scene, mon
     assert len(bpy.data.actions) == n_actions and not bake.owned_tracks(ob)
 
 
-def test_esc_after_the_bake_is_written_keeps_it_and_says_so(fp, mannequin_scene, monkeypatch):
+def test_esc_while_the_bake_is_measured_takes_it_back_and_says_so(fp, mannequin_scene, monkeypatch):
+    """Esc once the keys are written but before their quality is measured: the bake is not
+    yet accepted (a bake that plays wrong is taken back), so it is taken back, the scene
+    is as it was (its frame range too), and the report's "nothing was changed" is true."""
     import bpy
 
+    from fingerprint import differences, fingerprint
+
     scene, ob = mannequin_scene
-    bake = _mod(fp, "bake")
+    bake = _mod(fp, "write.bake")
+    before = fingerprint()
     run = _Bake(fp, bpy.context, monkeypatch)
     for _ in range(4):  # planning, inverse kinematics, bake: the quality is measured next
         assert run.tick() == {"RUNNING_MODAL"}
-    (kept,) = bake.owned_tracks(ob)
-    assert run.esc() == {"FINISHED"}  # what is in the scene is one undo step
+    assert len(bake.owned_tracks(ob)) == 1  # (the keys are in the scene, not yet measured)
+    assert run.esc() == {"CANCELLED"}
     ((level, msg),) = run.reports
-    assert level == {"WARNING"}
-    assert "already written and is kept" in msg and repr(kept.name) in msg
-    assert repr(kept.strips[0].action.name) in msg and "quality figures were not measured" in msg
-    strip = kept.strips[0]
-    assert f"frames {strip.frame_start:.0f}-{strip.frame_end:.0f}" in msg
-    assert scene.footstep.last_report == msg
+    assert level == {"INFO"} and msg == "bake cancelled: nothing was changed"
+    assert bake.owned_tracks(ob) == []
+    assert differences(before, fingerprint()) == []
     assert run.status[-1] is None and "end" in run.progress
-    assert bake.owned_tracks(ob) == [kept]  # the bake stays as written
 
 
 def test_a_bake_run_to_the_end_reports_its_quality(fp, mannequin_scene, monkeypatch):
@@ -218,7 +222,7 @@ def test_a_bake_run_to_the_end_reports_its_quality(fp, mannequin_scene, monkeypa
 @pytest.fixture
 def bare_mannequin(fp, empty_scene):
     """The Footstep Mannequin without clips, as the planner's character."""
-    ob, _ = _mod(fp, "mannequin").build(empty_scene.collection)
+    ob, _ = _mod(fp, "sample.mannequin").build(empty_scene.collection)
     empty_scene.footstep.character = ob
     return ob
 
@@ -226,7 +230,7 @@ def bare_mannequin(fp, empty_scene):
 def test_generate_sample_clips_shows_progress_and_esc_keeps_whole_clips(fp, bare_mannequin, monkeypatch):
     import bpy
 
-    gen = _mod(fp, "mannequin").FOOTSTEP_OT_generate_clips
+    gen = _mod(fp, "sample.mannequin").FOOTSTEP_OT_generate_clips
     run = _Modal(fp, gen, bpy.context, monkeypatch)
     names = run.op._names
     assert len(names) >= 10
@@ -245,7 +249,44 @@ def test_generate_sample_clips_cancelled_at_once_changes_nothing(fp, bare_manneq
     import bpy
 
     n_actions = len(bpy.data.actions)
-    run = _Modal(fp, _mod(fp, "mannequin").FOOTSTEP_OT_generate_clips, bpy.context, monkeypatch)
+    run = _Modal(fp, _mod(fp, "sample.mannequin").FOOTSTEP_OT_generate_clips, bpy.context, monkeypatch)
     assert run.esc() == {"CANCELLED"}
     assert run.reports == [({"INFO"}, "clip generation cancelled: nothing was changed")]
     assert len(bpy.data.actions) == n_actions and run.status[-1] is None
+
+
+def _library(ob):
+    return [(c.name, c.usage, c.summary) for c in ob.data.footstep.clips]
+
+
+def test_analyze_clips_shows_progress_and_esc_changes_nothing(fp, mannequin_scene, monkeypatch):
+    import bpy
+
+    scene, ob = mannequin_scene
+    for c in ob.data.footstep.clips:
+        c.summary = "as the user last saw it"
+    before = _library(ob)
+    run = _Modal(fp, _mod(fp, "ui.operators").FOOTSTEP_OT_analyze_clips, bpy.context, monkeypatch, reset=False)
+    n = len(run.op._names)
+    assert n >= 10
+    for k in range(3):
+        assert run.tick() == {"RUNNING_MODAL"}
+    assert run.progress == [1, 2, 3] and f"3 of {n} clips" in run.status[-1]
+    assert run.esc() == {"CANCELLED"}
+    assert run.reports == [({"INFO"}, f"analysis cancelled after 3 of {n} clips: nothing was changed")]
+    assert _library(ob) == before and run.status[-1] is None
+
+
+def test_analyze_clips_stepped_gives_what_a_script_gets(fp, mannequin_scene, monkeypatch):
+    import bpy
+
+    scene, ob = mannequin_scene
+    assert bpy.ops.footstep.analyze_clips() == {"FINISHED"}  # (a script: execute)
+    whole = _library(ob)
+    for c in ob.data.footstep.clips:
+        c.summary = ""
+    run = _Modal(fp, _mod(fp, "ui.operators").FOOTSTEP_OT_analyze_clips, bpy.context, monkeypatch, reset=False)
+    for _ in range(len(run.op._names)):
+        result = run.tick()
+    assert result == {"FINISHED"} and _library(ob) == whole
+    assert run.reports[-1][1].endswith(f"analysed {len(run.op._names)} clip(s)") and run.status[-1] is None
