@@ -20,6 +20,9 @@ the character as it was before its first bake (``CARRIED``: its transform values
 typed, pose channels and modes, the stash, the range); when the last goes, ``clear``
 gives it all back exactly. Scene states that would make a bake play elsewhere than
 planned are refused before anything changes (``check_scene``, ``check_leg_constraints``).
+
+The tags and the record of the character as it was are in ``owned.py``, what a bake
+refuses before it writes in ``checks.py``; this module writes the bake and reads it back.
 """
 
 from __future__ import annotations
@@ -30,137 +33,17 @@ import numpy as np
 import bpy
 from scipy.spatial.transform import Rotation
 
-from ...core.base.errors import FootstepError
 from ...core.solve.ik import IKResult, body_frames
 from ...core.base.quat import continuous
 from ...core.clips.rig import Rig, armature_basis
-from .keys import new_fcurve
-from .keys import CONSTANT, fill_keys
+from .checks import (BESIDE_PROP, EditedBakeError, _check, _first_records, check_leg_constraints, check_not_tweaking,
+                     check_overlap, check_scene, check_unedited, new_track_name, record_keys)
+from .keys import CONSTANT, fill_keys, new_fcurve
+from .owned import (BAKE_NAME_PROP, BEFORE_PROP, BODY_ON, BODY_PROP, CARRIED, MARKER_PREFIX, MARKERS_PROP, OWNED_PROP,
+                    RANGE_PROP, REST_PROP, STASH_PROP, STASH_SLOT_PROP, STASH_TRACK, STASH_TRACK_PROP, TRACK_PREFIX,
+                    BakeError, bake_name, character_state, give_back_state, is_owned, own_frame, own_matrix_world,
+                    owned_tracks, track_frames, unscaled)
 from ..read.scene import object_scale, scene_fps
-
-OWNED_PROP = "footstep_bake"
-#: The character's own object transform before the first bake (row-major 4x4), put back
-#: by ``clear``: the bake animates the object, and Blender leaves the last evaluated
-#: transform in it when the animation goes.
-REST_PROP = "footstep_rest_matrix"
-#: Where the bake put the body: "OBJECT" or "ROOT".
-BODY_PROP = "footstep_body_on"
-TRACK_PREFIX = "Footstep: "
-MARKER_PREFIX = "FP "
-#: The bake's name (on its action): a bake replaces only the planner's bake of its name.
-BAKE_NAME_PROP = "footstep_bake_name"
-#: The timeline markers the bake made, as JSON [[name, frame], ...]: the only markers
-#: the planner ever removes.
-MARKERS_PROP = "footstep_markers"
-#: The character as it was before the planner's first bake of it (JSON: the object's
-#: transform values as typed, every pose bone's channels and rotation mode, whether it
-#: had animation data), given back when the planner's last bake of it goes.
-BEFORE_PROP = "footstep_before"
-#: The user's active action the bake stashed: its name, its slot's identifier, the name
-#: of the stash track the bake made.
-STASH_PROP = "footstep_stashed_action"
-STASH_SLOT_PROP = "footstep_stashed_slot"
-STASH_TRACK_PROP = "footstep_stash_track"
-#: The scene's frame range before the bake grew it, and the range it grew it to.
-RANGE_PROP = "footstep_frame_range"
-STASH_TRACK = "[Action Stash]"
-#: What every bake of a character carries of the character's state before its first
-#: bake (copied from bake to bake, so that whichever goes last gives it back).
-CARRIED = (REST_PROP, BEFORE_PROP, STASH_PROP, STASH_SLOT_PROP, STASH_TRACK_PROP, RANGE_PROP)
-
-
-class BakeError(FootstepError):
-    pass
-
-
-def is_owned(act) -> bool:
-    """Whether ``act`` is one of the planner's bakes (its owner tag)."""
-    return act is not None and act.get(OWNED_PROP) is not None
-
-
-def bake_name(act) -> str:
-    """The name of the bake ``act`` holds (its tag; a bake made before names were
-    tagged: its action's name without the planner's prefix)."""
-    name = act.get(BAKE_NAME_PROP)
-    if name is not None:
-        return str(name)
-    return act.name[len("Footstep "):] if act.name.startswith("Footstep ") else act.name
-
-
-def owned_tracks(ob, name: str | None = None) -> list:
-    """The planner's own NLA tracks on ``ob`` (found by their actions' owner tag, whatever
-    the tracks are called), or only those of the bake ``name``."""
-    ad = ob.animation_data
-    if ad is None:
-        return []
-    out = [tr for tr in ad.nla_tracks if tr.strips and all(is_owned(st.action) for st in tr.strips)]
-    if name is not None:
-        out = [tr for tr in out if any(bake_name(st.action) == name for st in tr.strips)]
-    return out
-
-
-def track_frames(tr) -> tuple[float, float]:
-    return min(st.frame_start for st in tr.strips), max(st.frame_end for st in tr.strips)
-
-
-def unscaled(m: np.ndarray) -> np.ndarray:
-    """(..., 4, 4) ``m`` with its even scale taken out of its rotation (translation kept)."""
-    m = np.array(m, float, copy=True)
-    s = np.cbrt(np.abs(np.linalg.det(m[..., :3, :3])))
-    m[..., :3, :3] /= np.asarray(s)[..., None, None]
-    return m
-
-
-def own_frame(ob) -> np.ndarray:
-    """(4, 4) the object's own world frame (``own_matrix_world``) without its even scale:
-    where the planner's world-unit rig stands."""
-    return unscaled(own_matrix_world(ob))
-
-
-def own_matrix_world(ob) -> np.ndarray:
-    """(4, 4) the object's world matrix with its own transform, not the one the
-    planner's bake animates it to."""
-    m = np.array(ob.matrix_world)
-    for tr in owned_tracks(ob):
-        for st in tr.strips:
-            rest = st.action.get(REST_PROP)
-            if rest is not None and len(rest) == 16:
-                basis = np.array([float(v) for v in rest]).reshape(4, 4)
-                return m @ np.linalg.inv(np.array(ob.matrix_basis)) @ basis
-    return m
-
-
-# -- the character as it was --------------------------------------------------------
-
-_OBJECT_CHANNELS = ("location", "rotation_euler", "rotation_quaternion", "rotation_axis_angle", "scale")
-
-
-def character_state(ob) -> dict:
-    """What a bake changes on the character and Clear gives back: the object's transform
-    values as they are typed (an Euler beyond 360 degrees too) and rotation mode, every
-    pose bone's channels and rotation mode (``scene.pose_channels``), whether it had
-    animation data. Plain values (JSON)."""
-    from ..read.scene import pose_channels
-
-    state = {"object": {k: [float(v) for v in getattr(ob, k)] for k in _OBJECT_CHANNELS},
-             "rotation_mode": ob.rotation_mode, "anim_data": ob.animation_data is not None}
-    if ob.pose is not None:
-        pose = pose_channels(ob)
-        state["pose"] = {k: v.tolist() if hasattr(v, "tolist") else v for k, v in pose.items()}
-    return state
-
-
-def give_back_state(ob, state: dict) -> None:
-    """Put the character's channels back as ``character_state`` read them."""
-    from ..read.scene import set_pose_channels
-
-    if ob.rotation_mode != state.get("rotation_mode", ob.rotation_mode):
-        ob.rotation_mode = state["rotation_mode"]
-    for k, v in state.get("object", {}).items():
-        setattr(ob, k, v)
-    if state.get("pose") is not None and ob.pose is not None:
-        set_pose_channels(ob, state["pose"])
-
 
 def _records(act) -> dict:
     """The records ``CARRIED`` of ``act``, as plain Python values (an ID property array
@@ -323,7 +206,6 @@ def _wxyz(q_xyzw: np.ndarray) -> np.ndarray:
     return continuous(np.roll(q_xyzw, 1, axis=-1))
 
 
-BODY_ON = ("OBJECT", "ROOT")
 
 
 def root_bone(ob, rig: Rig) -> int:
@@ -426,178 +308,6 @@ def discard(ob, scene, track, replaced: list) -> None:
     remove_tracks(ob, scene, [t for t in ad.nla_tracks if t == track] if ad is not None else [])
 
 
-#: On a bake made beside another of the character's (``new_track_name``): that bake's
-#: name (the two may overlap in time: the later track plays over the other).
-BESIDE_PROP = "footstep_beside"
-#: On the bake's action: a digest of the keys the planner wrote (``keys_digest``), to
-#: know a bake the animator has edited since.
-KEYS_PROP = "footstep_keys_digest"
-
-
-def keys_digest(act) -> str:
-    """A digest of every key of ``act`` (curve, frame, value, interpolation)."""
-    import hashlib
-
-    h = hashlib.sha1()
-    curves = [fc for layer in act.layers for strip in layer.strips for cb in strip.channelbags for fc in cb.fcurves]
-    for fc in sorted(curves, key=lambda c: (c.data_path, c.array_index)):
-        kp = fc.keyframe_points
-        co = np.empty(2 * len(kp), np.float32)
-        kp.foreach_get("co", co)
-        interp = np.empty(len(kp), np.int32)
-        kp.foreach_get("interpolation", interp)
-        h.update(f"{fc.data_path}[{fc.array_index}]".encode() + co.tobytes() + interp.tobytes())
-    return h.hexdigest()
-
-
-def record_keys(act) -> None:
-    """Remember the keys the planner wrote on ``act`` (``edited`` compares)."""
-    act[KEYS_PROP] = keys_digest(act)
-
-
-def edited(act) -> bool:
-    """Whether the keys of the planner's ``act`` changed since the planner wrote them."""
-    rec = act.get(KEYS_PROP)
-    return rec is not None and rec != keys_digest(act)
-
-
-class EditedBakeError(BakeError):
-    """A re-bake over a bake whose keys the animator has edited."""
-
-
-def check_unedited(ob, tracks: list, name: str) -> None:
-    """EditedBakeError when a bake about to be replaced (``tracks``) has keys edited since
-    the planner wrote them: nothing is changed."""
-    if any(edited(st.action) for tr in tracks for st in tr.strips):
-        raise EditedBakeError(f"the planner's bake {name!r} on character {ob.name!r} has keys edited since it was "
-                              "baked: baking over it would lose the edits; bake to a new track (--new-track, or "
-                              "another --name) or replace it anyway (--force)")
-
-
-def new_track_name(ob, name: str) -> str:
-    """``name``, or the first ``name (2)``, ``name (3)``... that no bake of ``ob`` has."""
-    used = {bake_name(st.action) for tr in owned_tracks(ob) for st in tr.strips}
-    n, out = 2, name
-    while out in used:
-        out, n = f"{name} ({n})", n + 1
-    return out
-
-
-def _first_records(ob) -> dict:
-    """The records of the character's first bake: its state as it is now."""
-    return {REST_PROP: [float(v) for row in ob.matrix_basis for v in row],
-            BEFORE_PROP: json.dumps(character_state(ob))}
-
-
-def check_not_tweaking(ob) -> None:
-    """BakeError, in one line, when the character's NLA is in tweak mode (its active
-    action is then a strip's, and read-only): nothing is changed."""
-    ad = ob.animation_data
-    if ad is not None and ad.use_tweak_mode:
-        tr = ad.nla_tracks.active
-        strip = next((f"strip {st.name!r} of track {t.name!r}" for t in ([tr] if tr else []) + list(ad.nla_tracks)
-                      for st in t.strips if st.active or st.select), "a strip")
-        raise BakeError(f"character {ob.name!r} has its NLA in tweak mode (editing {strip}): leave tweak mode "
-                        "(NLA editor: Tab) and bake or clear again")
-
-
-def _on(c) -> bool:
-    """Whether a constraint acts (enabled, with some influence)."""
-    return not getattr(c, "mute", False) and getattr(c, "enabled", True) and c.influence > 0.0
-
-
-def _moves(ob) -> str | None:
-    """Why ``ob`` moves by itself (animated, driven, constrained), or None."""
-    ad = ob.animation_data
-    if ad is not None:
-        if ad.action is not None:
-            return f"its action {ad.action.name!r} animates it"
-        if any(not t.mute and len(t.strips) for t in ad.nla_tracks):
-            return "its NLA tracks animate it"
-        if len(ad.drivers):
-            return "drivers move it"
-    c = next((c for c in ob.constraints if _on(c)), None)
-    return f"its constraint {c.name!r} ({c.type}) moves it" if c is not None else None
-
-
-def check_scene(scene, ob, body_on: str = "OBJECT") -> None:
-    """BakeError, in one line naming the object, bone or setting and what to do, for what
-    would make the bake play elsewhere than it was planned: the character's NLA in tweak
-    mode, a soloed NLA track of the user's (only it plays), the scene's time remapping, a
-    constraint on the object, a parent that moves (animated, constrained) or, with the
-    body on the object, a parent that moves the object from where its keys put it."""
-    check_not_tweaking(ob)
-    ad = ob.animation_data
-    solo = [t for t in ad.nla_tracks if t.is_solo] if ad is not None else []
-    if solo and not all(t in owned_tracks(ob) for t in solo):
-        raise BakeError(f"character {ob.name!r} has its NLA track {solo[0].name!r} soloed: only that track plays, "
-                        "not the bake; un-solo it (NLA editor: the star beside the track) and bake again")
-    r = scene.render
-    if r.frame_map_old != r.frame_map_new:
-        raise BakeError(f"scene {scene.name!r} remaps time (Output Properties > Frame Range > Time Stretching: old "
-                        f"{r.frame_map_old}, new {r.frame_map_new}): the bake would play at another speed; set both "
-                        "to the same and bake again")
-    c = next((c for c in ob.constraints if _on(c)), None)
-    if c is not None:
-        raise BakeError(f"character {ob.name!r} has the constraint {c.name!r} ({c.type}) on its object, which moves it "
-                        "away from its baked transform: disable, remove or apply it and bake again")
-    p = ob.parent
-    while p is not None:
-        why = _moves(p)
-        if why is not None:
-            raise BakeError(f"character {ob.name!r} is parented to {p.name!r}, and {why}: the bake is planned in the "
-                            "world, not in a moving parent; clear the parent (Object > Parent > Clear and Keep "
-                            "Transformation) and bake again")
-        p = p.parent
-    if ob.parent is not None and body_on == "OBJECT" and not np.allclose(
-            np.array(ob.matrix_world), np.array(ob.matrix_basis), atol=1e-5):
-        raise BakeError(f"character {ob.name!r} is parented to {ob.parent.name!r}, which places it elsewhere than its "
-                        "own transform: the body's keys are world positions; clear the parent (Object > Parent > "
-                        "Clear and Keep Transformation) or bake the body on the root bone (--body-on root)")
-
-
-def check_leg_constraints(ob, rig: Rig) -> None:
-    """BakeError naming the bone and constraint, for a constraint on the hips or a leg
-    (or their ancestors) of a rig the bake keys directly (a Rigify rig's constraints are
-    its own machinery, keyed through its controls)."""
-    from .. import rigify
-
-    if rigify.is_rigify(ob):
-        return
-    from ..read.scene import leg_bones
-
-    for b in leg_bones(rig):
-        pb = ob.pose.bones.get(rig.names[b])
-        c = next((c for c in pb.constraints if _on(c)), None) if pb is not None else None
-        if c is not None:
-            raise BakeError(f"bone {pb.name!r} of character {ob.name!r} has the constraint {c.name!r} ({c.type}), "
-                            "which overrides the bake's keys on the legs: disable or remove it and bake again")
-
-
-def check_overlap(ob, name: str, first: int, last: int, beside: str | None = None) -> None:
-    """BakeError naming the planner's other bake of the character that frames ``first``
-    to ``last`` would overlap (two bakes of one character play one after another; a bake
-    made ``beside`` another may overlap that one)."""
-    mine = {name, beside} - {None}
-    for tr in owned_tracks(ob):
-        if any(bake_name(st.action) in mine or st.action.get(BESIDE_PROP) in mine for st in tr.strips):
-            continue
-        lo, hi = track_frames(tr)
-        if first <= hi and lo <= last:
-            raise BakeError(f"bake {name!r} (frames {first}-{last}) would overlap the planner's bake "
-                            f"{bake_name(tr.strips[0].action)!r} (frames {int(lo)}-{int(hi)}) on character "
-                            f"{ob.name!r}: give it that bake's name to replace it, start it elsewhere "
-                            "(--frame-start), or clear that bake")
-
-
-def _check(ob, rig: Rig, body_on: str) -> None:
-    from .. import rigify
-
-    names = tuple(pb.name for pb in ob.pose.bones)
-    if names != tuple(rig.names) and not (rigify.is_rigify(ob) and set(rig.names) <= set(names)):
-        raise BakeError(f"armature {ob.name!r} changed since it was read (bones differ)")
-    if body_on not in BODY_ON:
-        raise BakeError(f"the body goes on one of {', '.join(BODY_ON)}, not {body_on!r}")
 
 
 def _root_carries_body(ob, rig: Rig, res: IKResult, spin: float) -> np.ndarray:
@@ -815,4 +525,7 @@ def local_rotations(rig: Rig, pose: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(local[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
 
 
-__all__ = ["bake", "bake_name", "character_state", "give_back_state", "check_not_tweaking", "check_overlap", "clear", "discard", "settle", "evaluate_played", "local_rotations", "own_matrix_world", "owned_tracks", "root_bone", "BakeError"]
+__all__ = ["BODY_ON", "BakeError", "EditedBakeError", "STASH_PROP", "bake", "bake_name", "character_state",
+           "check_leg_constraints", "check_not_tweaking", "check_overlap", "check_scene", "clear", "discard",
+           "evaluate_played", "give_back_state", "local_rotations", "new_track_name", "own_frame", "own_matrix_world",
+           "owned_tracks", "record_keys", "remove_tracks", "root_bone", "settle"]

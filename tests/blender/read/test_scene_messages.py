@@ -142,7 +142,7 @@ def test_a_character_from_a_missing_library_is_named(fp, empty_scene, tmp_path, 
 
 def test_a_file_from_a_newer_blender_is_refused(fp, two_scenes, monkeypatch, capsys):
     cli_mod = import_module(fp.__name__ + ".blender.command.cli")
-    monkeypatch.setattr(cli_mod, "file_version", lambda: (99, 1, 0))
+    monkeypatch.setattr(import_module(fp.__name__ + ".blender.command.blend_io"), "file_version", lambda: (99, 1, 0))
     path, name = two_scenes
     assert cli_mod.cli_main(["bake", path, "--scene", name, "--character", "Footstep Mannequin"]) == 2
     err = capsys.readouterr().err
