@@ -227,9 +227,23 @@ def rebake_handles(scene, ob, settings=None, name: str | None = None, body_on: s
     around what changed searched again) and re-bake: with an earlier bake of the planner's
     whose stances are recorded, only the re-planned span is re-keyed. The handles then show
     the new path (locks kept). Returns (report, route, splice)."""
-    from . import handles
+    steps = rebake_steps(scene, ob, settings, name, body_on, frame_range)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str = "OBJECT",
+                 frame_range: bool = True):
+    """``rebake_handles`` one stage at a time: a generator yielding (fraction done, next
+    stage) as ``planning.run_steps`` does and returning (report, route, splice). Stopped at
+    a yield (closed), it leaves the scene as it was: the bake is taken back before its
+    quality is accepted, and the handles are remade only at the end."""
     from .. import planning
     from ..write.bake import owned_tracks
+    from . import handles
 
     plan, moved = handles.read_plan(ob)
     if not plan.footprints:
@@ -243,8 +257,8 @@ def rebake_handles(scene, ob, settings=None, name: str | None = None, body_on: s
 
         name = bake_name(tracks[0].strips[0].action)
     goal = plan.goal if plan.goal is not None else plan.footprints[-1].position
-    doc = planning.run(scene, ob, goal, None, None, settings, name=name, frame_start=frame_start,
-                       body_on=body_on, frame_range=frame_range, route=route, splice=splice)
+    doc = yield from planning.run_steps(scene, ob, goal, None, None, settings, name=name, frame_start=frame_start,
+                                        body_on=body_on, frame_range=frame_range, route=route, splice=splice)
     fps = route.edited.result.footprints
     locked = _carried_locks(plan, route.edited, len(fps))
     handles.make_handles(scene, ob, fps, plan.forward, plan.goal, plan.goal_heading, locked)

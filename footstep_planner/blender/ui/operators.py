@@ -75,9 +75,11 @@ def _owned(ob) -> dict:
     return {(tr.name, tuple(st.action.as_pointer() for st in tr.strips)): tr for tr in owned_tracks(ob)}
 
 
-class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
+class FOOTSTEP_OT_import_clips(_Stepped, bpy.types.Operator, ImportHelper):
     """Import BVH, FBX, glTF or GLB files (Mixamo too; a file's several takes each a clip) as
-    clips (one Action each) of the character, or of a new armature in metres, Z up"""
+    clips (one Action each) of the character, or of a new armature in metres, Z up (from
+    the UI: one file at a time with progress; Esc stops between two files, keeping the
+    files imported whole and naming them)"""
 
     bl_idname = "footstep.import_clips"
     bl_label = "Import Clips (BVH, FBX, glTF)"
@@ -91,15 +93,78 @@ class FOOTSTEP_OT_import_clips(bpy.types.Operator, ImportHelper):
         ("CHARACTER", "Character", "Add the clips to the planner's character"),
         ("NEW", "New Armature", "Make a new armature from the first file's skeleton")])
 
+    _paths: list = []
+    _done = None
+
+    def _files(self, context):
+        paths = [os.path.join(self.directory, f.name) for f in self.files if f.name] or [self.filepath]
+        return paths, (character(context) if self.target == "CHARACTER" else None)
+
     def execute(self, context):
-        from ..read.character import analyze_and_propose
         from ..read.clips import import_clip_files
 
-        paths = [os.path.join(self.directory, f.name) for f in self.files if f.name] or [self.filepath]
-        target = character(context) if self.target == "CHARACTER" else None
-        fs = context.scene.footstep
+        paths, target = self._files(context)
+        if len(paths) > 1 and getattr(context, "window", None) is not None:  # (from the UI: a file a tick)
+            self._paths, self._done = paths, None
+            return self._begin(context, len(paths))
         try:
             done = import_clip_files(paths, target=target)
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        return self._imported(context, done)
+
+    def modal(self, context, event):
+        from ..read.clips import import_clip_files
+
+        k = 0 if self._done is None else len({o.path for o in self._done.outcomes})
+        if event.type == "ESC":
+            self._end(context)
+            return self._stopped(context, k)
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        target = self._files(context)[1] if self._done is None or self._done.armature is None else self._done.armature
+        try:
+            part = import_clip_files([self._paths[k]], target=target)
+        except FootstepError as ex:
+            self._end(context)
+            self.report({"ERROR"}, str(ex))
+            return self._stopped(context, k) if self._done is not None and self._done.actions else {"CANCELLED"}
+        if self._done is None:
+            self._done = part
+        else:
+            self._done.armature = self._done.armature or part.armature
+            self._done.actions += part.actions
+            self._done.outcomes += part.outcomes
+        context.window_manager.progress_update(k + 1)
+        if k + 1 < len(self._paths):
+            _status(context, f"Footstep: imported {os.path.basename(self._paths[k])} ({k + 1} of "
+                             f"{len(self._paths)} files)... (Esc to stop)")
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        return self._imported(context, self._done)
+
+    def _stopped(self, context, k: int):
+        """Esc between two files: the files imported so far are kept whole (one undo step) and
+        named; the rest are not read."""
+        done = self._done
+        if done is None or not done.actions:
+            self.report({"INFO"}, f"import cancelled before {os.path.basename(self._paths[k])}: nothing was changed")
+            return {"CANCELLED"}
+        kept = sorted({os.path.basename(o.path) for o in done.outcomes if o.clip})
+        self.report({"WARNING"}, f"import stopped after {k} of {len(self._paths)} files: kept the clips of "
+                                 f"{', '.join(kept)} in {done.armature.name} ({len(done.actions)} clip(s)); "
+                                 f"not read: {', '.join(os.path.basename(p) for p in self._paths[k:])}")
+        self._imported(context, done)
+        return {"FINISHED"}
+
+    def _imported(self, context, done):
+        """The import's outcome reported, the armature made the character when none was
+        picked, and its clips analysed."""
+        from ..read.character import analyze_and_propose
+
+        fs = context.scene.footstep
+        try:
             fs.last_report = _import_summary(done)
             if not done.actions:
                 self.report({"ERROR"}, fs.last_report)
@@ -519,26 +584,66 @@ class FOOTSTEP_OT_lock_footprints(_OnCharacter, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class FOOTSTEP_OT_replan(_OnCharacter, bpy.types.Operator):
+class FOOTSTEP_OT_replan(_OnCharacter, _Stepped, bpy.types.Operator):
     """Re-plan around the footprints you moved (they stay where you put them, as do the
-    locked ones) and re-bake: only the re-planned span is re-keyed"""
+    locked ones) and re-bake: only the re-planned span is re-keyed (from the UI: stage by
+    stage with progress; Esc cancels and changes nothing)"""
 
     bl_idname = "footstep.replan"
     bl_label = "Re-plan"
     bl_options = {"REGISTER", "UNDO"}
 
-    def execute(self, context):
+    _steps = None
+
+    def _start(self, context):
         from . import directing
 
         fs = context.scene.footstep
-        try:
-            doc, route, splice = directing.rebake_handles(context.scene, character(context), _settings(context),
-                                                          body_on=fs.body_on, frame_range=fs.grow_frame_range)
-        except FootstepError as ex:
-            fs.edit_problem = str(ex)
-            _show_refused(context, ex)
-            self.report({"ERROR"}, str(ex))
+        return directing.rebake_steps(context.scene, character(context), _settings(context), body_on=fs.body_on,
+                                      frame_range=fs.grow_frame_range)
+
+    def execute(self, context):
+        steps = self._start(context)
+        while True:
+            try:
+                next(steps)
+            except StopIteration as done:
+                return self._finish(context, *done.value)
+            except FootstepError as ex:
+                return self._refused(context, ex)
+
+    def invoke(self, context, event):
+        self._steps = self._start(context)
+        return self._begin(context, 100)
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._end(context)
+            self._steps.close()  # (a bake written but not yet measured is taken back)
+            self.report({"INFO"}, "re-plan cancelled: nothing was changed")
             return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            fraction, stage = next(self._steps)
+        except StopIteration as done:
+            self._end(context)
+            return self._finish(context, *done.value)
+        except FootstepError as ex:
+            self._end(context)
+            return self._refused(context, ex)
+        context.window_manager.progress_update(int(100 * fraction))
+        _status(context, f"Footstep: re-plan: {stage}... (Esc to cancel)")
+        return {"RUNNING_MODAL"}
+
+    def _refused(self, context, ex):
+        context.scene.footstep.edit_problem = str(ex)
+        _show_refused(context, ex)
+        self.report({"ERROR"}, str(ex))
+        return {"CANCELLED"}
+
+    def _finish(self, context, doc, route, splice):
+        fs = context.scene.footstep
         fs.edit_problem = ""
         span = doc.get("rebaked_frames")
         fs.last_report = (f"re-planned {len(route.edited.spans)} span(s); "

@@ -135,7 +135,7 @@ class _Modal:
     Esc), on an object standing in for the running operator."""
 
     METHODS = ("invoke", "modal", "_begin", "_end", "_start", "_finish", "_cancel", "_stopped", "_analysed", "_apply",
-               "execute")
+               "_refused", "execute")
 
     def __init__(self, fp, cls, context, monkeypatch, **props):
         ops = _mod(fp, "ui.operators")
@@ -290,3 +290,135 @@ def test_analyze_clips_stepped_gives_what_a_script_gets(fp, mannequin_scene, mon
         result = run.tick()
     assert result == {"FINISHED"} and _library(ob) == whole
     assert run.reports[-1][1].endswith(f"analysed {len(run.op._names)} clip(s)") and run.status[-1] is None
+
+
+class _Import:
+    """Import Clips driven as from the UI: the file browser's choice, then timer events and
+    Esc, on an object standing in for the running operator."""
+
+    def __init__(self, fp, context, monkeypatch, folder, names):
+        ops = _mod(fp, "ui.operators")
+        cls = ops.FOOTSTEP_OT_import_clips
+        self.status, self.reports, self.progress = [], [], []
+        monkeypatch.setattr(ops, "_status", lambda _ctx, text: self.status.append(text))
+        wm = SimpleNamespace(progress_begin=lambda *a: None, progress_end=lambda: self.progress.append("end"),
+                             progress_update=lambda v: self.progress.append(v),
+                             event_timer_add=lambda *a, **k: "timer", event_timer_remove=lambda t: None,
+                             modal_handler_add=lambda op: None)
+        self.context = SimpleNamespace(window_manager=wm, window="the window", scene=context.scene,
+                                       active_object=context.active_object, workspace=None)
+        self.op = SimpleNamespace(report=lambda level, msg: self.reports.append((level, msg)), _timer=None,
+                                  directory=str(folder), files=[SimpleNamespace(name=n) for n in names],
+                                  filepath="", target="NEW", _paths=[], _done=None)
+        for name in ("execute", "modal", "_begin", "_end", "_files", "_stopped", "_imported"):
+            setattr(self.op, name, getattr(cls, name).__get__(self.op))
+
+    def tick(self):
+        return self.op.modal(self.context, SimpleNamespace(type="TIMER", value="NOTHING"))
+
+    def esc(self):
+        return self.op.modal(self.context, SimpleNamespace(type="ESC", value="PRESS"))
+
+
+def _walkers(folder, n):
+    from bvh_files import walker
+
+    names = [f"walk{k}.bvh" for k in range(n)]
+    for name in names:
+        walker(str(folder / name))
+    return names
+
+
+def test_import_clips_from_the_ui_steps_a_file_at_a_time_and_esc_keeps_whole_files(fp, empty_scene, tmp_path,
+                                                                                 monkeypatch):
+    import bpy
+
+    names = _walkers(tmp_path, 3)
+    run = _Import(fp, bpy.context, monkeypatch, tmp_path, names)
+    n_objects, n_actions = len(bpy.data.objects), len(bpy.data.actions)
+    assert run.op.execute(run.context) == {"RUNNING_MODAL"}
+    assert (len(bpy.data.objects), len(bpy.data.actions)) == (n_objects, n_actions)  # (nothing read yet)
+    assert run.tick() == {"RUNNING_MODAL"}
+    assert run.progress == [1] and "1 of 3 files" in run.status[-1] and "Esc" in run.status[-1]
+    assert run.esc() == {"FINISHED"}  # (what is kept is one undo step)
+    warning = [m for level, m in run.reports if level == {"WARNING"}][0]
+    assert "stopped after 1 of 3 files" in warning and "walk0.bvh" in warning
+    assert "not read: walk1.bvh, walk2.bvh" in warning
+    ob = empty_scene.footstep.character
+    assert ob is not None and ob.type == "ARMATURE"
+    assert len(bpy.data.actions) == n_actions + 1  # walk0's clip, whole; none of the others
+    assert run.status[-1] is None and run.progress[-1] == "end"
+
+
+def test_import_clips_from_the_ui_imports_every_file_into_one_armature(fp, empty_scene, tmp_path, monkeypatch):
+    import bpy
+
+    names = _walkers(tmp_path, 3)
+    run = _Import(fp, bpy.context, monkeypatch, tmp_path, names)
+    n_actions = len(bpy.data.actions)
+    assert run.op.execute(run.context) == {"RUNNING_MODAL"}
+    assert [run.tick() for _ in names] == [{"RUNNING_MODAL"}, {"RUNNING_MODAL"}, {"FINISHED"}]
+    armatures = [o for o in bpy.data.objects if o.type == "ARMATURE"]
+    assert len(armatures) == 1 and len(bpy.data.actions) == n_actions + 3
+    assert empty_scene.footstep.character == armatures[0]
+    assert run.progress == [1, 2, 3, "end"] and run.status[-1] is None
+
+
+def test_import_clips_esc_before_any_file_changes_nothing(fp, empty_scene, tmp_path, monkeypatch):
+    import bpy
+
+    names = _walkers(tmp_path, 2)
+    run = _Import(fp, bpy.context, monkeypatch, tmp_path, names)
+    n_objects, n_actions = len(bpy.data.objects), len(bpy.data.actions)
+    assert run.op.execute(run.context) == {"RUNNING_MODAL"}
+    assert run.esc() == {"CANCELLED"}
+    assert run.reports == [({"INFO"}, "import cancelled before walk0.bvh: nothing was changed")]
+    assert (len(bpy.data.objects), len(bpy.data.actions)) == (n_objects, n_actions)
+
+
+def _baked_with_a_moved_footprint(fp, mannequin_scene):
+    """The mannequin baked on Jumps with its footprints as handles, the middle one moved
+    10 cm (three either side locked): ready to Re-plan."""
+    import bpy
+
+    scene, ob = mannequin_scene
+    scene.footstep.edit_footprints = True
+    assert bpy.ops.footstep.bake() == {"FINISHED"}
+    handles = _mod(fp, "ui.handles")
+    hs = handles.handles(ob)
+    k = len(hs) // 2
+    handles.set_locked([hs[k - 3], hs[k + 3]], True)
+    hs[k].location.y += 0.1
+    return scene, ob
+
+
+def test_replan_from_the_ui_shows_progress_and_esc_changes_nothing(fp, mannequin_scene, monkeypatch):
+    import bpy
+
+    from fingerprint import differences, fingerprint
+
+    scene, ob = _baked_with_a_moved_footprint(fp, mannequin_scene)
+    before = fingerprint()
+    run = _Modal(fp, _mod(fp, "ui.operators").FOOTSTEP_OT_replan, bpy.context, monkeypatch)
+    for _ in range(4):  # planning, inverse kinematics, bake: the quality is measured next
+        assert run.tick() == {"RUNNING_MODAL"}
+    assert "Esc to cancel" in run.status[-1] and len(run.progress) == 4
+    assert run.esc() == {"CANCELLED"}
+    assert run.reports == [({"INFO"}, "re-plan cancelled: nothing was changed")]
+    assert differences(before, fingerprint()) == []
+    assert run.status[-1] is None and run.progress[-1] == "end"
+
+
+def test_replan_from_the_ui_run_to_the_end_rebakes_the_span(fp, mannequin_scene, monkeypatch):
+    import bpy
+
+    scene, ob = _baked_with_a_moved_footprint(fp, mannequin_scene)
+    run = _Modal(fp, _mod(fp, "ui.operators").FOOTSTEP_OT_replan, bpy.context, monkeypatch)
+    for _ in range(10):
+        if run.tick() == {"FINISHED"}:
+            break
+    else:
+        pytest.fail("the re-plan did not finish")
+    report = scene.footstep.last_report
+    assert report.startswith("re-planned ") and "re-keyed frames" in report and " only;" in report
+    assert run.status[-1] is None
