@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d
@@ -59,7 +59,7 @@ from .legs import MAX_REACH, SIDES, _Legs, _legs_in_world, _solve_legs, body_fra
 from .lift import _ground_lift, _kept_over_footprints_need, _swing_planes
 from .reach import _drop_budget, _reach_drop, _swing_within_reach
 from .swing import CLIMB_MIN, _all_frame_targets, _low_swing
-from .targets import FootTargets, foot_targets
+from .targets import FootPoints, Footprints, FootTargets, foot_targets
 from .toes import _tip_lift, sole_points, toe_bend, toe_tip
 
 #: s: the finest level of the body's height offset (3.8.1) where the feet stand at
@@ -91,14 +91,14 @@ def _timed(seconds: dict, stage: str):
 
 
 def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, body_heading: np.ndarray,
-             spin: float, heel_local: np.ndarray, toe_local: np.ndarray, feet: np.ndarray, planted: list,
-             fp_pos: np.ndarray, fp_heading: np.ndarray, fp_normal: np.ndarray, forward: np.ndarray,
+             spin: float, points: FootPoints, footprints: Footprints, forward: np.ndarray,
              settings: Settings | None = None, ground_z=None, still: np.ndarray | None = None) -> IKResult:
     """Thesis 3.8 on a synthesized motion. ``basis`` (F, B, 4, 4) the blended pose
-    (``pose.pose_bases``), the body on (body_pos, body_heading); the footprints and their
-    planted ranges from the synthesis. ``ground_z(points (M, 3)) -> heights (M,)`` (NaN
-    where there is no surface) lets a swinging foot clear the ground: where the heel or
-    the toe would pass under the surface, the ankle is lifted by that much. ``still``
+    (``pose.pose_bases``), the body on (body_pos, body_heading); ``points`` the feet's heel
+    and ball in their bones' frames; ``footprints`` and their planted ranges from the
+    synthesis. ``ground_z(points (M, 3)) -> heights (M,)`` (NaN where there is no
+    surface) lets a swinging foot clear the ground: where the heel or the toe would pass
+    under the surface, the ankle is lifted by that much. ``still``
     (F,) 0..1: how far the body keeps its place over the ground where the synthesis put
     it, the body offset moving it only up and down there (a turn in place: the legs
     reach the pivot steps, the body stays over its spot).
@@ -110,16 +110,16 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     settings = settings or Settings()
     k = settings.body_scale
     if abs(k - 1.0) > 1e-12:
-        return _solved_at_human_size(k, rig, basis, t, body_pos, body_heading, spin, heel_local, toe_local, feet,
-                                     planted, fp_pos, fp_heading, fp_normal, forward, settings, ground_z, still)
+        return _solved_at_human_size(k, rig, basis, t, body_pos, body_heading, spin, points, footprints, forward,
+                                     settings, ground_z, still)
+    heel_local, toe_local = points.heel_local, points.toe_local
     sec = {}
     t0 = time.perf_counter()
     with _timed(sec, "targets"):
         legs = _Legs.of(rig)
         pose = forward_kinematics(rig, basis, bones=list(legs.foot) + list(legs.toe_bones))
         yaw = spin + np.asarray(body_heading, float)
-        tg = foot_targets(rig, heel_local, toe_local, _legs_in_world(pose, legs, body_pos, yaw), t,
-                          np.asarray(feet), planted, fp_pos, np.asarray(fp_heading, float), fp_normal, forward,
+        tg = foot_targets(rig, points, _legs_in_world(pose, legs, body_pos, yaw), t, footprints, forward,
                           settings.balance_band)
         sole = [sole_points(rig, pose, SIDES[k], heel_local[k, :3], toe_local[k, :3]) for k in range(2)]
     with _timed(sec, "body_offset"):  # 3.8.1
@@ -132,43 +132,59 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
         body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
         world[:, legs.chain, 2, 3] -= drop[:, None]
     with _timed(sec, "legs"):  # 3.8.2
-        planes = [_swing_planes(tg.footprint[k], np.asarray(fp_pos, float), np.asarray(fp_normal, float))
-                  for k in range(2)]
-        ankle_t, rot_t = _all_frame_targets(world, legs, tg, ground_z)
-        if still is not None:
-            ankle_t = np.stack([_low_swing(ankle_t[k], tg.weight[k] >= 1.0, still) for k in range(2)])
-        need = [None, None]
-        for k in range(2):
-            ankle_t[k], rot_t[k], need[k] = _kept_over_footprints_need(
-                ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t),
-                world[:, legs.thigh[k], :3, 3], MAX_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
-        lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, _frame_rate(t),
-                             need[k]) for k in range(2)]
-        for k in range(2):
-            ankle_t[k] = _swing_within_reach(ankle_t[k], lift[k], tg.weight[k] < 1.0, world[:, legs.thigh[k], :3, 3],
-                                             legs.thigh_len[k] + legs.shin_len[k], _frame_rate(t))
-        bend = [toe_bend(ankle_t[k] + lift[k][:, None] * [0.0, 0.0, 1.0], rot_t[k], tg.weight[k] >= 1.0,
-                         sole[k][2], toe_local[k, :3], planes[k], _frame_rate(t)) for k in range(2)]
-        for k in range(2):  # (a foot without a toe bone stands on its tip: lifted, not bent)
-            if rig.foot_chain(SIDES[k])[1] is None:
-                lift[k] = _tip_lift(ankle_t[k], lift[k], rot_t[k], tg.weight[k] >= 1.0, sole[k][2], planes[k],
-                                    _frame_rate(t))
+        ankle_t, rot_t, lift, bend = _leg_targets(rig, world, legs, tg, sole, toe_local, footprints, ground_z, still,
+                                                  _frame_rate(t))
         basis = _solve_legs(rig, basis, pose, world, legs, ankle_t, rot_t, lift, yaw,
                             (bend, toe_local[:, :3] - heel_local[:, :3]))
     sec["total"] = time.perf_counter() - t0
     return IKResult(body_pos, yaw - spin, basis, tg, drop, offset, sec)
 
 
-def _solved_at_human_size(k: float, rig: Rig, basis, t, body_pos, body_heading, spin, heel_local, toe_local, feet,
-                          planted, fp_pos, fp_heading, fp_normal, forward, settings: Settings, ground_z,
-                          still) -> IKResult:
+def _leg_targets(rig: Rig, world: np.ndarray, legs: _Legs, tg: FootTargets, sole: list, toe_local: np.ndarray,
+                 footprints: Footprints, ground_z, still: np.ndarray | None, fps: float
+                 ) -> tuple[np.ndarray, np.ndarray, list, list]:
+    """What the legs are solved to (steps 4 and 5), with the body and the hips placed
+    (the legs' bones in ``world``): every frame's ankle targets (2, F, 3) and foot
+    rotations (2, F, 3, 3) (planted on the footprints ``tg``, the swings between them,
+    pivot steps kept low as far as ``still``, kept over a footprint where the ground
+    ``ground_z`` would lift the foot too fast), the lift of each ankle over the ground
+    (2 x (F,) m; a foot without a toe bone lifted onto its tip), swinging ankles drawn
+    into reach, and each toe's bend (2 x (F,) rad) so its tip stays out of the
+    footprint. ``sole`` each foot's ``sole_points``, ``toe_local`` (2, 4) its ball;
+    frames at ``fps``."""
+    planes = [_swing_planes(tg.footprint[k], np.asarray(footprints.pos, float), np.asarray(footprints.normal, float))
+              for k in range(2)]
+    ankle_t, rot_t = _all_frame_targets(world, legs, tg, ground_z)
+    if still is not None:
+        ankle_t = np.stack([_low_swing(ankle_t[k], tg.weight[k] >= 1.0, still) for k in range(2)])
+    need = [None, None]
+    for k in range(2):
+        ankle_t[k], rot_t[k], need[k] = _kept_over_footprints_need(
+            ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, fps,
+            world[:, legs.thigh[k], :3, 3], MAX_REACH * (legs.thigh_len[k] + legs.shin_len[k]))
+    lift = [_ground_lift(ankle_t[k], rot_t[k], tg.weight[k] >= 1.0, sole[k], planes[k], ground_z, fps,
+                         need[k]) for k in range(2)]
+    for k in range(2):
+        ankle_t[k] = _swing_within_reach(ankle_t[k], lift[k], tg.weight[k] < 1.0, world[:, legs.thigh[k], :3, 3],
+                                         legs.thigh_len[k] + legs.shin_len[k], fps)
+    bend = [toe_bend(ankle_t[k] + lift[k][:, None] * [0.0, 0.0, 1.0], rot_t[k], tg.weight[k] >= 1.0,
+                     sole[k][2], toe_local[k, :3], planes[k], fps) for k in range(2)]
+    for k in range(2):  # (a foot without a toe bone stands on its tip: lifted, not bent)
+        if rig.foot_chain(SIDES[k])[1] is None:
+            lift[k] = _tip_lift(ankle_t[k], lift[k], rot_t[k], tg.weight[k] >= 1.0, sole[k][2], planes[k], fps)
+    return ankle_t, rot_t, lift, bend
+
+
+def _solved_at_human_size(k: float, rig: Rig, basis, t, body_pos, body_heading, spin, points: FootPoints,
+                          footprints: Footprints, forward, settings: Settings, ground_z, still) -> IKResult:
     """``solve_ik`` of a character ``k`` times a human's size: solved on everything divided
     by ``k`` (the settings at a human's size), its lengths multiplied back."""
     inv = 1.0 / k
     gz = None if ground_z is None else (lambda p: np.asarray(ground_z(np.asarray(p, float) * k), float) * inv)
     r = solve_ik(scaled_rig(rig, inv), scaled_bases(basis, inv), t, np.asarray(body_pos, float) * inv, body_heading,
-                 spin, scaled_points(heel_local, inv), scaled_points(toe_local, inv), feet, planted,
-                 np.asarray(fp_pos, float) * inv, fp_heading, fp_normal, forward, settings.for_body(1.0), gz, still)
+                 spin, FootPoints(scaled_points(points.heel_local, inv), scaled_points(points.toe_local, inv)),
+                 replace(footprints, pos=np.asarray(footprints.pos, float) * inv), forward, settings.for_body(1.0),
+                 gz, still)
     tg = r.targets
     targets = FootTargets(tg.weight, tg.footprint, tg.pin * k, tg.pin_local * k, tg.foot_rot, tg.ankle * k)
     dp, dpsi = r.body_offset

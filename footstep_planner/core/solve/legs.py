@@ -19,7 +19,6 @@ from ..clips.rig import Rig
 #: The leg is never stretched past this share of its length (a straight knee pops).
 MAX_REACH = 0.995
 
-
 SIDES = ("l", "r")
 
 

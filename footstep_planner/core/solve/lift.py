@@ -34,8 +34,6 @@ HOME_PASSES = 3
 #: m a swinging foot's heel, ball or toe tip may come nearer the surface than the
 #: clearance it keeps before the foot is lifted (rounding, not a dip).
 CLEARANCE_TOL = 0.001
-
-
 #: m: a planted foot's toe tip may sink this far into its footprint (rounding, a soft
 #: floor), never further, whatever its clip does (a clip whose toes go through its own
 #: floor at toe-off, played on a footprint, would sink them there).

@@ -1,7 +1,8 @@
 """Foot targets (step 1 of ``ik``): each footprint planted from its strike to its liftoff,
 the foot keeping its clip's own roll, turned onto the footprint's heading and tilted onto
 its surface, pinned at the heel or the toe, whichever is nearer the ground
-(``foot_targets``, giving ``FootTargets``).
+(``foot_targets``, giving ``FootTargets``), from the feet's own points (``FootPoints``) and
+the footprints (``Footprints``).
 """
 
 from __future__ import annotations
@@ -34,22 +35,43 @@ class FootTargets:
     ankle: np.ndarray  # (2, F, 3) world target of the foot bone's head
 
 
+@dataclass(frozen=True)
+class FootPoints:
+    """Each foot's (left, right) heel and ball on its sole, in its foot bone's frame
+    (homogeneous), as the walk clip has them (``ClipMotion.heel_local``, ``toe_local``)."""
+
+    heel_local: np.ndarray  # (2, 4)
+    toe_local: np.ndarray  # (2, 4) its ball (the "toe" end a planted foot is pinned at)
+
+
+@dataclass(frozen=True)
+class Footprints:
+    """The footprints the feet are pinned to, each (N) with its foot, its planted times
+    (from the synthesis) and its place on the surface."""
+
+    feet: np.ndarray  # (N,) int the foot of each footprint, 0 left, 1 right
+    planted: list  # per footprint (strike, stance, liftoff) s
+    pos: np.ndarray  # (N, 3) m its centre
+    heading: np.ndarray  # (N,) rad from the world direction of heading 0
+    normal: np.ndarray  # (N, 3) unit, the surface's
+
+
 def _tilt(normal: np.ndarray) -> np.ndarray:
     """(N, 3, 3) least rotations taking +Z onto each surface normal."""
     up = np.tile([0.0, 0.0, 1.0], (len(normal), 1))
     return min_rotation(up, np.asarray(normal, float))
 
 
-def foot_targets(rig: Rig, heel_local: np.ndarray, toe_local: np.ndarray, world: np.ndarray,
-                 t: np.ndarray, feet: np.ndarray, planted: list, pos: np.ndarray, heading: np.ndarray,
-                 normal: np.ndarray, forward: np.ndarray, band: float) -> FootTargets:
+def foot_targets(rig: Rig, points: FootPoints, world: np.ndarray, t: np.ndarray, footprints: Footprints,
+                 forward: np.ndarray, band: float) -> FootTargets:
     """The targets of both feet (see the module docstring). ``world`` (F, B, 4, 4) is the
-    unadjusted pose in the world; ``heel_local``, ``toe_local`` (2, 4) each foot's heel and
-    toe in its foot bone's frame (homogeneous); ``t`` (F,) the frame times, s; ``feet``
-    (N,) the foot of each footprint; ``planted`` per footprint (strike, stance, liftoff) s;
-    ``pos``, ``heading``, ``normal`` the footprints (N, 3) m, (N,) rad, (N, 3) unit;
-    ``forward`` (2,) the world direction of heading 0; ``band`` m, the heel/toe balance
-    band (``Settings.balance_band``)."""
+    unadjusted pose in the world; ``points`` each foot's heel and toe in its foot bone's
+    frame; ``t`` (F,) the frame times, s; ``footprints`` the footprints, their feet and
+    planted times; ``forward`` (2,) the world direction of heading 0; ``band`` m, the
+    heel/toe balance band (``Settings.balance_band``)."""
+    heel_local, toe_local = points.heel_local, points.toe_local
+    feet, planted, pos, heading, normal = (footprints.feet, footprints.planted, footprints.pos, footprints.heading,
+                                           footprints.normal)
     F = len(t)
     fps = _frame_rate(t)
     weight = np.zeros((2, F))
