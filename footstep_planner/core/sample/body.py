@@ -2,7 +2,7 @@
 hips' height (bobbing, a jump's ballistic flight, an idle's dips), sway over the standing
 foot, rotation with the legs and lean (forward with speed and acceleration, into turns),
 lowered smoothly where a leg could not reach its foot (``_hips_bases``); the legs solved
-with ``ik.two_bone`` (knee forward) so the feet take their tracks (``_legs``), the toes
+with ``legs.two_bone`` (knee forward) so the feet take their tracks (``_legs``), the toes
 bent (``_toes``), the spine, arms and elbows swinging against the legs (``_upper_body``).
 
 Armature space of the mannequin: Z up, metres, heading 0 faces -Y; foot 0 is the left.
@@ -15,7 +15,8 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
-from ..solve.ik import chain_bases, leg_lengths, lower_smoothly, reach_need, smoothstep, two_bone
+from ..solve.easing import lower_smoothly, smoothstep
+from ..solve.legs import chain_bases, leg_lengths, reach_need, two_bone
 from ..clips.rig import Rig, forward_kinematics
 from .course import G, _Course, _lean, _left, _yaw
 from .specs import SIDES, ClipSpec, Gait

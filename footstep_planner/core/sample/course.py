@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..clips.clip import root_frames
-from ..solve.ik import smoothstep
+from ..solve.easing import smoothstep
 from .specs import ClipSpec, GaitStance
 
 G = 9.81

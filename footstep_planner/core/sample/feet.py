@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..solve.ik import smoothstep
+from ..solve.easing import smoothstep
 from ..clips.rig import Rig
 from .course import _Course, _yaw
 from .specs import SIDES, Gait, GaitStance

@@ -17,7 +17,7 @@ Each clip is built the way a person moves, from the feet up:
    over the standing foot, rotate with the legs (the chest against them), lean forward
    with speed and into turns (the angle whose tangent is v^2 tau / g), and fly ballistic
    arcs in a jump. Where a leg could not reach its foot the hips are lowered, smoothly.
-5. **Legs** are solved with ``ik.two_bone`` (closed form, knee forward), the feet take
+5. **Legs** are solved with ``legs.two_bone`` (closed form, knee forward), the feet take
    their planned rotations, and the arms swing against the legs.
 
 The result is pose bases (F, B, 4, 4) for ``clip.clip_motion``: the same analysis and
@@ -37,7 +37,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..base.errors import FootstepError
-from ..solve.ik import leg_lengths
+from ..solve.legs import leg_lengths
 from ..clips.rig import Rig
 from .body import (_body_frame, _hips_bases, _hips_height, _idle_sway, _jump_flight, _leg_forward, _legs,
                    _sway_signal, _toes, _upper_body)

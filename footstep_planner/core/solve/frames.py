@@ -19,8 +19,10 @@ from ..clips.rig import Rig, forward_kinematics
 from ..plan.setup import PlanSetup
 from ..plan.surface import footprint_support, ground_heights
 from ..synth.pipeline import Synthesis
-from .ik import IKResult, solve_ik, toe_tip
+from .ik import IKResult, solve_ik
 from .pose import blend_pose, pose_bases
+from .targets import FootPoints, Footprints
+from .toes import toe_tip
 
 
 @dataclass
@@ -92,13 +94,14 @@ def solve(syn: Synthesis, setup: PlanSetup, settings: Settings) -> Solved:
 
     with timer("ik"):
         ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
-                      walk.heel_local, walk.toe_local, syn.final.schedule.feet, syn.planted(), pos, head, normal,
-                      setup.forward, settings.for_body(pl.settings.body_scale), ground_z=ground_z, still=syn.flat)
+                      FootPoints(walk.heel_local, walk.toe_local),
+                      Footprints(syn.final.schedule.feet, syn.planted(), pos, head, normal), setup.forward,
+                      settings.for_body(pl.settings.body_scale), ground_z=ground_z, still=syn.flat)
     return Solved(ik, spin, timer.seconds["pose_blend"], timer.seconds["ik"])
 
 
 def toe_tips(rig: Rig, world: np.ndarray, heel_local: np.ndarray, toe_local: np.ndarray) -> np.ndarray:
-    """(2, F, 3) each foot's toe tip in the world (``core.solve.ik.toe_tip``: the toe bone's end,
+    """(2, F, 3) each foot's toe tip in the world (``core.solve.toes.toe_tip``: the toe bone's end,
     bent as it is, or the mesh's tip) of bone matrices ``world`` (F, B, 4, 4)."""
     out = []
     for k, side in enumerate(("l", "r")):

@@ -204,7 +204,7 @@ def test_a_rig_without_the_metarig_legs_or_with_feet_off_the_ground_is_refused_b
 
 
 def test_the_reference_proportions_are_the_mannequins():
-    from footstep_planner.core.solve.ik import leg_lengths
+    from footstep_planner.core.solve.legs import leg_lengths
 
     assert sum(leg_lengths(RIG, "l")) == pytest.approx(gait.REF_LEG, abs=1e-9)
     assert RIG.rest[RIG.role_index("hips"), 2, 3] == pytest.approx(gait.REF_HIPS, abs=1e-9)

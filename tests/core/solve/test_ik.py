@@ -11,8 +11,13 @@ from scipy.spatial.transform import Rotation
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.solve.ik import (HIPS_DROP_MAX, MAX_REACH, MAX_ROLL, body_frames, ease_peaks, min_rotation,
-                                      roll_to_reach, solve_ik, swing_targets, toe_tip)
+from footstep_planner.core.solve.easing import ease_peaks
+from footstep_planner.core.solve.ik import solve_ik
+from footstep_planner.core.solve.legs import MAX_REACH, body_frames, min_rotation
+from footstep_planner.core.solve.reach import HIPS_DROP_MAX, MAX_ROLL, roll_to_reach
+from footstep_planner.core.solve.swing import swing_targets
+from footstep_planner.core.solve.targets import FootPoints, Footprints
+from footstep_planner.core.solve.toes import toe_tip
 from footstep_planner.core.clips.rig import Rig, forward_kinematics
 
 HYP = dict(deadline=None, database=None, max_examples=40)
@@ -151,8 +156,8 @@ def _run(targets_l, targets_r, planted_frames, body, basis, **kw):
     normal = np.tile([0.0, 0.0, 1.0], (2, 1))
     a, b = planted_frames
     planted = [(t[a], t[(a + b) // 2], t[b]), (t[a], t[(a + b) // 2], t[b])]
-    return solve_ik(RIG, basis, t, body, np.zeros(F), 0.0, HEEL, TOE, np.array([0, 1]), planted, pos, head,
-                    normal, np.array([0.0, -1.0]), **kw)
+    return solve_ik(RIG, basis, t, body, np.zeros(F), 0.0, FootPoints(HEEL, TOE),
+                    Footprints(np.array([0, 1]), planted, pos, head, normal), np.array([0.0, -1.0]), **kw)
 
 
 @settings(deadline=None, database=None, max_examples=25)
@@ -276,7 +281,8 @@ def test_ease_peaks_covers_the_values_and_changes_no_faster_than_its_rate(v, rat
 def test_the_body_height_is_eased_only_where_the_feet_stand_at_different_heights():
     """``_on_steps``: 0 where both feet's last footprints are level (a take-off keeps the
     fine fit of the body's height), 1 around stances a step apart (a stair), eased."""
-    from footstep_planner.core.solve.ik import FootTargets, _on_steps
+    from footstep_planner.core.solve.ik import _on_steps
+    from footstep_planner.core.solve.targets import FootTargets
 
     F = 120
     weight = np.zeros((2, F))
@@ -296,7 +302,7 @@ def _leaving_a_tread(F=40, liftoff=10, strike=30):
     """A foot planted with its toe tip 3 cm short of a 17 cm riser (at x = 0.2), swinging
     on at once to a footprint up the step: ankle targets, rotations, planted frames,
     sole points (heel, ball, toe tip), swing planes and the ground."""
-    from footstep_planner.core.solve.ik import _swing_planes
+    from footstep_planner.core.solve.lift import _swing_planes
 
     planted = np.zeros(F, bool)
     planted[:liftoff] = planted[strike:] = True
@@ -314,7 +320,7 @@ def test_a_foot_leaving_a_tread_by_the_next_riser_rises_before_it_goes_on():
     liftoff and the lift would jump 15 cm in a frame. Kept over its footprint, the foot
     rises at about the lift's rate first, then goes on; its targets stay between where
     they were and the footprint; on flat ground nothing changes."""
-    from footstep_planner.core.solve.ik import LIFT_RATE, _ground_lift, _kept_over_footprints
+    from footstep_planner.core.solve.lift import LIFT_RATE, _ground_lift, _kept_over_footprints
 
     ankle, rot, planted, sole, planes, ground = _leaving_a_tread()
     before = _ground_lift(ankle, rot, planted, sole, planes, ground)
@@ -361,7 +367,7 @@ def test_a_pivot_step_barely_lifts_the_foot(rise, dz, still):
     """``_low_swing``: turning in place (``still`` 1), a swing's rise over the way between
     its footprints' heights is at most PIVOT_LIFT; walking (0) it is the clip's; in
     between, in between; the planted frames and the way across the ground never move."""
-    from footstep_planner.core.solve.ik import PIVOT_LIFT, _low_swing
+    from footstep_planner.core.solve.swing import PIVOT_LIFT, _low_swing
 
     F = 30
     planted = np.ones(F, bool)

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from footstep_planner.core.solve import ik
-from footstep_planner.core.solve.ik import CLIMB_MIN, planted_either_side, smoothstep, swing_targets
+from footstep_planner.core.solve.easing import planted_either_side, smoothstep
+from footstep_planner.core.solve.swing import CLIMB_MIN, _stair_swing, swing_targets
 from footstep_planner.core.plan.surface import steps_along
 
 
@@ -34,7 +34,7 @@ def _every_frame(planted, A0, R0, ankle, rot, ground_z):
     pa, pb = A[pairs[:, 0]], A[pairs[:, 1]]
     jump = steps_along(ground_z, pa, pb, 0.5 * (pa[:, 2] + pb[:, 2]))
     edge = (np.nan_to_num(jump, nan=0.0) > CLIMB_MIN).any(axis=1)[np.ravel(inv)]
-    return ik._stair_swing(A, swing & edge, prev_c, nxt_c, x), R
+    return _stair_swing(A, swing & edge, prev_c, nxt_c, x), R
 
 
 def _stairs(p):
