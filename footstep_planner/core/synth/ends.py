@@ -1,9 +1,11 @@
-"""The standing ends of a path and the start and stop clips: the standing
-(``_standing``) and the path with both standing feet at either end (``standing_path``),
-the library's start and stop clips on its first and last steps (``end_windows``,
-``end_clip_steps``, the footprints laid out as the clips step: ``_end_layout``) and their
-steps stretched onto the footprints (``end_stretch``); the footprints the smoothing keeps
-there (``_end_fixed``) and the standing feet's planted ranges (``_standing_planted``).
+"""The standing ends of a path and the start and stop clips: the path a turn in place
+walks (``turn_in_place_path``); a path walked from standing to standing, set up in
+``standing_ends``: the standing (``_standing``) and both standing feet at either end
+(``standing_path``), the library's start and stop clips on its first and last steps
+(``end_windows``, ``end_clip_steps``, the footprints laid out as the clips step:
+``_end_layout``) and their steps stretched onto the footprints (``end_stretch``); the
+footprints the smoothing keeps there (``_end_fixed``) and the standing feet's planted
+ranges (``_standing_planted``).
 """
 
 from __future__ import annotations
@@ -14,8 +16,8 @@ import numpy as np
 
 from ..base.settings import Settings
 from ..clips.library import Library
-from ..footprint import STAND_LABEL, STAND_WIDTH, beside_position
-from .labels import _clip_gait, _straight
+from ..footprint import PIVOT, STAND_LABEL, STAND_WIDTH, beside_position
+from .labels import _clip_gait, _straight, plan_steps
 from .passes import GOAL_STEPS, Pass, SnapFn
 from .schedule import PlanStep, Schedule
 from .standing import Standing, rest_times, standing_track
@@ -87,6 +89,43 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
                   position=beside_position(last, 1 - last.foot, forward, 2 * STAND_WIDTH * scale, stand),
                   label=straight, gait=_clip_gait(library, straight), jump=False)
     return path + [end]
+
+
+def turn_in_place_path(path, library: Library, cyc: list[str], start_other=None) -> tuple[list | None, list]:
+    """(the footprints shown, the path walked) of a turn in place (every footprint after
+    the first a pivot's, PIVOT): the other standing foot (``start_other``, default where
+    the first stands) before the path, and the straight walk's steps on the pivot
+    footprints, all kept; (None, the path) for any other path."""
+    if not (len(path) > 1 and all(f.label == PIVOT for f in path[1:])):
+        return None, path
+    straight = _straight(library, cyc)
+    other = start_other if start_other is not None and start_other.foot != path[0].foot else \
+        replace(path[0], foot=1 - path[0].foot)
+    shown = [replace(other, label=STAND_LABEL, time=0.0)] + list(path)
+    return shown, [shown[0]] + [replace(f, label=straight, gait="walk", jump=False) for f in path]
+
+
+def standing_ends(path, library: Library, tracks: dict, cyc: list[str], settings: Settings, forward, snap,
+                  start_other, goal_heading, pace, lead: float | None, hold: float | None, end_clips: bool = True
+                  ) -> tuple[list, list[PlanStep], Standing, object]:
+    """(path, steps, standing, pace) of a path walked from standing to standing: the
+    standing (``_standing``: ``lead`` and ``hold`` s), both standing feet at either end
+    (``standing_path``: ``start_other``, ``goal_heading``), the pace of the standing steps
+    their neighbours'; the plan's steps (``plan_steps``) and, with ``end_clips``, the
+    library's start and stop clips on them where they fit (``end_clip_steps``)."""
+    fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
+    stand = _standing(library, tracks, cyc, settings, lead, hold)
+    n_plan = len(path)
+    given = len(path) > 2 and path[0].label == STAND_LABEL  # (a synthesis's own path: laid out already)
+    path = standing_path(path, library, cyc, fwd, start_other, goal_heading, tracks[stand.clip],
+                         settings.body_scale)
+    if pace is not None and np.ndim(pace):  # the standing steps at either end: their neighbours'
+        pace = np.r_[pace[0], np.asarray(pace, float)[:n_plan - 1], pace[-1]]
+    steps = plan_steps(path, library, cyc)
+    if end_clips:  # the library's start and stop clips, where they fit
+        path, steps, stand = end_clip_steps(path, steps, library, tracks, stand, fwd, layout=not given, snap=snap,
+                                            level=settings.length(END_LEVEL))
+    return path, steps, stand, pace
 
 
 #: rad: the most the path may turn over a start or stop clip's steps (the clips walk
@@ -182,13 +221,6 @@ def end_clip_steps(path, steps: list[PlanStep], library: Library, tracks: dict, 
         z = [float(path[i].position[2]) for i in range(max(lo, 0), min(hi, n) + 1)]
         return ok and float(np.ptp(heads[lo + 1:hi + 1])) <= END_TURN and float(np.ptp(z)) <= level
 
-    def laid(new_path, lo: int, hi: int) -> bool:  # the footprints moved there may stand where they are
-        if snap is None:
-            return True
-        pos = np.array([f.position for f in new_path[lo:hi]], float)
-        _, ok = snap(pos, np.array([f.heading for f in new_path[lo:hi]], float))
-        return bool(np.all(ok))
-
     out, used = list(steps), 0
     start = stop = None
     for kind in ("start", "stop"):
@@ -203,7 +235,7 @@ def end_clip_steps(path, steps: list[PlanStep], library: Library, tracks: dict, 
                 if foot != path[0].foot or not fits(0, k, tr.exit_gait):
                     continue
                 moved = _end_layout(path, tr, win, forward) if layout else path
-                if not laid(moved, 0, min(k + END_EASE[0] + 1, len(path))):
+                if not _laid(snap, moved, 0, min(k + END_EASE[0] + 1, len(path))):
                     continue
                 out[:k - 1] = [replace(s, special=sp.clip, weights=None, window=w) for s, w in zip(steps, win[:-1])]
                 used, start, path = k, sp.clip, moved
@@ -211,13 +243,23 @@ def end_clip_steps(path, steps: list[PlanStep], library: Library, tracks: dict, 
                 if foot != path[-1].foot or not fits(n - k, n, tr.entry_gait) or used + k > n:
                     continue
                 moved = _end_layout(path, tr, win, forward) if layout else path
-                if not laid(moved, max(len(path) - k - 2 - END_EASE[1], 0), len(path)):
+                if not _laid(snap, moved, max(len(path) - k - 2 - END_EASE[1], 0), len(path)):
                     continue
                 out[n - k + 1:] = [replace(s, special=sp.clip, weights=None, window=w)
                                    for s, w in zip(steps[n - k + 1:], win[1:])]
                 stop, path = sp.clip, moved
             break
     return path, out, replace(stand, start=start, stop=stop)
+
+
+def _laid(snap: SnapFn | None, new_path, lo: int, hi: int) -> bool:
+    """Whether the footprints ``new_path[lo:hi]`` moved there may stand where they are
+    (``snap`` says so; True without one)."""
+    if snap is None:
+        return True
+    pos = np.array([f.position for f in new_path[lo:hi]], float)
+    _, ok = snap(pos, np.array([f.heading for f in new_path[lo:hi]], float))
+    return bool(np.all(ok))
 
 
 def clip_feet(track: ClipTrack, times) -> tuple[np.ndarray, np.ndarray]:

@@ -25,14 +25,13 @@ from ..base.settings import Settings
 from ..base.timing import StageTimer
 from ..clips.analysis import ClipAnalysis
 from ..clips.library import Library
-from ..footprint import PIVOT, STAND_LABEL
 from ..plan.surface import EDGE_STEP, FootShape, Ground, footprint_support, ground_heights, largest_step_along
 from .blending import Playback
-from .ends import END_LEVEL, _end_fixed, _standing, _standing_planted, end_clip_steps, end_stretch, standing_path
-from .labels import _LazyTracks, _climb_pace, _step_pace, _straight, _tracks_of, cyclic_clips, plan_steps
+from .ends import _end_fixed, _standing, _standing_planted, end_stretch, standing_ends, turn_in_place_path
+from .labels import _LazyTracks, _climb_pace, _step_pace, _tracks_of, cyclic_clips, plan_steps
 from .passes import (Pass, SnapFn, _blend_group_schedule, _final_pass, _LocoWeights, _one_pass, _smooth,
-                     _tau_curves, speed_pins)
-from .schedule import Schedule, build_schedule
+                     _tau_curves, _TauCurves, speed_pins)
+from .schedule import PlanStep, Schedule, build_schedule
 from .smoothing import Smoothed
 from .standing import Standing
 from .tracks import BlendError, ClipTrack
@@ -291,45 +290,25 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
         with timer("tracks"):
             tracks = _tracks_of(library, analyses)
         cyc = cyclic_clips(library)
-        stand = None
-        pivot = standing and len(path) > 1 and all(f.label == PIVOT for f in path[1:])
-        shown = None
-        if pivot and cyc:  # a turn in place: the straight walk's steps on the pivot footprints, all kept
-            straight = _straight(library, cyc)
-            other = start_other if start_other is not None and start_other.foot != path[0].foot else \
-                replace(path[0], foot=1 - path[0].foot)
-            shown = [replace(other, label=STAND_LABEL, time=0.0)] + list(path)
-            path = [shown[0]] + [replace(f, label=straight, gait="walk", jump=False) for f in path]
+        shown, path = turn_in_place_path(path, library, cyc, start_other) if standing and cyc else (None, path)
+        if shown is not None:  # (every footprint kept: no goal to ease the path's end onto)
             goal = goal_heading = None
-        if standing and cyc:
-            fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
-            stand = _standing(library, tracks, cyc, settings, lead, hold)
-            n_plan = len(path)
-            given = len(path) > 2 and path[0].label == STAND_LABEL  # (a synthesis's own path: laid out already)
-            path = standing_path(path, library, cyc, fwd, start_other, goal_heading, tracks[stand.clip],
-                                 settings.body_scale)
-            if pace is not None and np.ndim(pace):  # the standing steps at either end: their neighbours'
-                pace = np.r_[pace[0], np.asarray(pace, float)[:n_plan - 1], pace[-1]]
-        steps = plan_steps(path, library, cyc)
-        if stand is not None and shown is None:  # the library's start and stop clips, where they fit
-            path, steps, stand = end_clip_steps(path, steps, library, tracks, stand, fwd, layout=not given, snap=snap,
-                                                level=settings.length(END_LEVEL))
+        if standing and cyc:  # the standing feet at either end, the start and stop clips where they fit
+            path, steps, stand, pace = standing_ends(path, library, tracks, cyc, settings, forward, snap, start_other,
+                                                     goal_heading, pace, lead, hold, end_clips=shown is None)
+        else:
+            steps, stand = plan_steps(path, library, cyc), None
         rate = _climb_pace(_step_pace(pace, len(steps)), path, settings.climb_time)
         bends = np.array([library.bend_of(f.label) for f in path[1:]])  # steps bent beyond the clips
         with timer("smoothing"):  # 3.3
             smoothed = _smooth(path, settings, snap, goal, fixed=len(path) if shown else _end_fixed(steps, stand))
         # 3.5 / 3.6 with the plan's clips
-        sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand,
-                              pace=rate)
+        sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand, pace=rate)
         first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1",
                           bends, stand, pinned=shown is not None)
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
-            curves = _tau_curves(library, cyc, sch1, first, settings)
-            pins = speed_pins(steps, tracks, [f.gait for f in path[1:]])
-            loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
-            if stand is not None and (stand.start or stand.stop):
-                steps = end_stretch(steps, first, stand)
-            sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco, stand, rate)
+            curves, pins, loco, sch2 = _blend_groups(path, steps, library, tracks, cyc, sch1, first, fps, settings,
+                                                     stand, rate)
         final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends, stand,
                             pinned=shown is not None)
         tau_final = np.interp(sch2.u, sch1.u, curves.tau)
@@ -341,3 +320,19 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
                      first=first, tau_plan=curves.plan, tau_raw=curves.raw, tau=curves.tau, final=final,
                      tau_final=tau_final, s_final=s_final, speed_pins=list(pins), seconds=seconds, tracks=tracks,
                      standing=stand, flat=None if shown is None else np.full(sch2.n, TURN_FLAT))
+
+
+def _blend_groups(path, steps: list[PlanStep], library: Library, tracks: dict, cyc: list[str], sch1: Schedule,
+                  first: Pass, fps: float, settings: Settings, stand: Standing | None, rate
+                  ) -> tuple[_TauCurves, list[tuple[float, float]], _LocoWeights, Schedule]:
+    """3.7: (the tau curves, the speed pins, the blend groups' weights, their schedule) of
+    the ``first`` pass: tau from its body trajectory, s pinned by the special clips and the
+    plan's gaits; the start and stop clips' steps stretched onto the footprints
+    (``end_stretch``)."""
+    curves = _tau_curves(library, cyc, sch1, first, settings)
+    pins = speed_pins(steps, tracks, [f.gait for f in path[1:]])
+    loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
+    if stand is not None and (stand.start or stand.stop):
+        steps = end_stretch(steps, first, stand)
+    sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco, stand, rate)
+    return curves, pins, loco, sch2
