@@ -57,7 +57,7 @@ def main():
     from footstep_planner.blender.read.clips import import_clips
     from footstep_planner.blender.sample.sample_scenes import build
     from footstep_planner.blender.read.surfaces import BvhGround
-    from footstep_planner.core.synth.blending import make_track
+    from footstep_planner.core.synth.tracks import make_track
     from footstep_planner.core.synth.pipeline import surface_snap, synthesize
     from footstep_planner.core.base.settings import Settings
     from footstep_planner.core.plan.surface import TriMesh

@@ -20,7 +20,7 @@ period's rigid motion, so the root motion accumulates; the last sample closes th
 period. A seam that does not quite match (motion capture cut where it repeats best) would
 make the feet jump at every seam of the tiled clip: the feet's horizontal mismatch there
 (in the root's frame) is spread linearly over the period instead, half each way, as the
-playback spreads the pose's (``blending.ClipTrack.sample_pose``); their heights are
+playback spreads the pose's (``tracks.ClipTrack.sample_pose``); their heights are
 kept (a ramp would tilt a planted foot's flat stretch, where the analysis finds its
 stance). The bones' rotations and the hips in the root frame are tiled as they are (the
 analysis only compares them).

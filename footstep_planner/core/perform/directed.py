@@ -24,9 +24,13 @@ from typing import Callable
 
 import numpy as np
 
-from ..synth.blending import STAND_SETTLE, Playback, Schedule
+from ..synth.blending import Playback
 from ..base.errors import FootstepError
-from ..synth.pipeline import STAND_LEAD, Pass, Synthesis
+from ..synth.ends import STAND_LEAD
+from ..synth.passes import Pass
+from ..synth.pipeline import Synthesis
+from ..synth.schedule import Schedule
+from ..synth.standing import STAND_SETTLE
 from ..synth.refinement import Refined
 from ..synth.smoothing import Smoothed
 

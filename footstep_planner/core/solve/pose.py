@@ -15,7 +15,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..base import quat as quaternions
-from ..synth.blending import ClipTrack, Schedule
+from ..synth.schedule import Schedule
+from ..synth.tracks import ClipTrack
 from ..clips.rig import Rig
 
 

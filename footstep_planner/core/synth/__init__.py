@@ -3,7 +3,7 @@
 
 Reads: a path (``footprint.PathFootprint`` list), the clip analyses and library, the
 ground, ``Settings``. Returns: a ``pipeline.Synthesis``: smoothed and refined footprints,
-the body trajectory, the blend-group weights, the schedule of clip playback (``blending``)
+the body trajectory, the blend-group weights, the schedule of clip playback (``schedule``)
 and each pass's time.
 Never: searches for a path, solves a leg, writes keys, or imports bpy.
 """

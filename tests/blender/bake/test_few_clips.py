@@ -14,7 +14,8 @@ from footstep_planner.core.clips.analysis import analyze_clip
 from footstep_planner.core.clips.library import propose_library
 from footstep_planner.core.footprint import PathFootprint
 from footstep_planner.core.plan.navgraph import PlanError, Planner
-from footstep_planner.core.synth.pipeline import label_weights, surface_snap, synthesize
+from footstep_planner.core.synth.labels import label_weights
+from footstep_planner.core.synth.pipeline import surface_snap, synthesize
 from footstep_planner.core.base.settings import Settings
 from footstep_planner.core.clips.steps import bend_chain, bent_step, library_steps
 from footstep_planner.core.plan.surface import FootShape, MeshGround, TriMesh, footprint_support

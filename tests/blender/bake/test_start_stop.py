@@ -15,10 +15,10 @@ from test_standing import FPS, _played
 
 from footstep_planner.core.sample import gait, mannequin
 from footstep_planner.core.clips.analysis import analyze_clip
-from footstep_planner.core.synth.blending import make_track
+from footstep_planner.core.synth.tracks import make_track
 from footstep_planner.core.clips.clip import clip_motion
 from footstep_planner.core.clips.mirror import Mirror, lead_foot
-from footstep_planner.core.synth.pipeline import end_windows
+from footstep_planner.core.synth.ends import end_windows
 
 
 @pytest.fixture(scope="module")

@@ -27,7 +27,8 @@ import pytest
 from footstep_planner.core.sample import gait, mannequin
 from footstep_planner.core.clips import loops
 from footstep_planner.core.clips.analysis import AnalysisError, analyze_clip
-from footstep_planner.core.synth.blending import make_track, special_window
+from footstep_planner.core.synth.schedule import special_window
+from footstep_planner.core.synth.tracks import make_track
 from footstep_planner.core.clips.clip import clip_motion
 from footstep_planner.core.base.errors import FootstepError
 from footstep_planner.core.clips.library import propose_library

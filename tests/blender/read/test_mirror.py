@@ -18,7 +18,8 @@ from scipy.spatial.transform import Rotation
 
 from footstep_planner.core.sample import mannequin
 from footstep_planner.core.clips.analysis import analyze_clip
-from footstep_planner.core.synth.blending import make_track, special_window
+from footstep_planner.core.synth.schedule import special_window
+from footstep_planner.core.synth.tracks import make_track
 from footstep_planner.core.clips.clip import clip_motion, root_frames
 from footstep_planner.core.clips.library import Library, SpecialClip
 from footstep_planner.core.clips.mirror import (Mirror, bone_mirror, mirror_analysis, mirror_motion, mirrored_jumps,

@@ -91,12 +91,12 @@ def test_the_distance_maps_stair_treads_are_a_flight_not_a_kerb():
 @given(st.lists(st.sampled_from([0.0, 0.17, -0.17, 0.05]), min_size=2, max_size=12),
        st.floats(0.0, 5.0), st.one_of(st.none(), st.floats(0.5, 2.0)))
 def test_a_step_up_or_down_is_played_slower_by_its_height(dz, climb_time, pace):
-    """``pipeline._climb_pace``: each step's pace over 1 + climb_time times the height
+    """``labels._climb_pace``: each step's pace over 1 + climb_time times the height
     its swinging foot climbs or descends (from the footprint before the step's own);
     on level ground the pace is left as it was (None stays None)."""
     from types import SimpleNamespace
 
-    from footstep_planner.core.synth.pipeline import _climb_pace
+    from footstep_planner.core.synth.labels import _climb_pace
 
     z = np.cumsum([0.0] + dz)
     path = [SimpleNamespace(position=np.array([0.3 * i, 0.0, h])) for i, h in enumerate(z)]

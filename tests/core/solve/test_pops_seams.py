@@ -21,8 +21,8 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from footstep_planner.core.clips.analysis import analyze_clip
-from footstep_planner.core.synth.blending import (ClipTrack, PlanStep, _seam_closing, build_schedule, loop_seam,
-                                            make_track)
+from footstep_planner.core.synth.schedule import PlanStep, build_schedule
+from footstep_planner.core.synth.tracks import ClipTrack, _seam_closing, loop_seam, make_track
 from synth import synthetic_gait
 
 HYP = dict(deadline=None, database=None, max_examples=40)

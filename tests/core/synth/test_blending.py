@@ -11,8 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from footstep_planner.core.clips.analysis import analyze_clip
-from footstep_planner.core.synth.blending import (BlendError, ClipTrack, PlanStep, Schedule, blend_point_alpha,
-                                            build_schedule, make_track, playback)
+from footstep_planner.core.synth.blending import blend_point_alpha, playback
+from footstep_planner.core.synth.schedule import PlanStep, Schedule, build_schedule
+from footstep_planner.core.synth.tracks import BlendError, ClipTrack, make_track
 from footstep_planner.core.clips.steps import clip_steps
 from synth import synthetic_gait
 

@@ -10,10 +10,12 @@ import pytest
 
 from footstep_planner.core.clips.analysis import analyze_clip
 from footstep_planner.core.synth.blend_groups import speed_parameter
-from footstep_planner.core.synth.blending import BlendError, PlanStep, make_track
+from footstep_planner.core.synth.schedule import PlanStep
+from footstep_planner.core.synth.tracks import BlendError, make_track
 from footstep_planner.core.clips.library import propose_library
 from footstep_planner.core.footprint import PathFootprint
-from footstep_planner.core.synth.pipeline import STAGES, speed_pins, surface_snap, synthesize
+from footstep_planner.core.synth.passes import speed_pins
+from footstep_planner.core.synth.pipeline import STAGES, surface_snap, synthesize
 from footstep_planner.core.base.settings import Settings
 from footstep_planner.core.plan.surface import FootShape, MeshGround, TriMesh
 from synth import synthetic_gait
@@ -205,7 +207,7 @@ def test_a_path_of_one_footprint_or_an_unknown_clip_is_refused():
 def test_easing_the_end_onto_the_goal_moves_a_refused_footprint_part_of_the_way():
     """A footprint the surface refuses at its full new place goes half (or a quarter) of
     the way where it may stand, instead of staying behind and kinking the path."""
-    from footstep_planner.core.synth.pipeline import ease_end
+    from footstep_planner.core.synth.passes import ease_end
 
     pos = np.array([[float(i), 0.0, 0.0] for i in range(8)])
     heading = np.zeros(8)
