@@ -37,8 +37,14 @@ them, dropping the open footprints that those jumps reached. w = 1 is plain A*. 
 refused plan says where the search got to and what blocks the library's steps there
 (``Rejections``: the wall and the clearance, the step's height, the treads' depth
 against the foot, the gap's width against the jump's reach).
-"""
 
+This module holds ``Planner`` (the search loop: its start, heuristic, expansion, checks
+as footprints leave the open list, reroutes and result) and ``PlanResult``. Its parts:
+``search_state`` (``PlanError``, ``SearchNode``, the open list), ``distance_field`` (the
+heuristic's ``DistanceField``), ``support_cache`` (``FootprintCache`` and the grid
+keys), ``step_rules`` (``StepRules``: what a step may pass over, how far it may climb,
+what it costs) and ``refusals`` (``Refusals``, ``Rejections``: why a plan was refused).
+"""
 
 from __future__ import annotations
 
@@ -65,7 +71,7 @@ from .surface import FootShape, Ground, footprint_support
 LEVEL_TOL = 0.05
 
 #: m: the merge grid of footprints and the distance field's grid (a human's: scaled to
-#: the character, as every length of this module is, by ``Settings.length``).
+#: the character, as every length of the planner's is, by ``Settings.length``).
 MERGE_CELL = 0.15
 FIELD_CELL = 0.25
 
