@@ -74,7 +74,7 @@ def test_refinement_never_moves_a_footprint_across_a_step_edge(shift, n):
 def test_the_distance_maps_stair_treads_are_a_flight_not_a_kerb():
     """``_Grid.flight_cells``: cells with a riser on two sides (a flight's treads) are a
     flight; a single kerb's top and foot, and level floor, are not."""
-    from footstep_planner.core.plan.navgraph import _Grid
+    from footstep_planner.core.plan.distance_field import _Grid
 
     nx, ny = 14, 3
     z = np.zeros((1, nx, ny))

@@ -216,18 +216,18 @@ def test_a_step_up_or_down_goes_no_further_than_the_walks_straight_step(rise, mo
     too."""
     from dataclasses import replace
 
-    from footstep_planner.core.plan import navgraph
+    from footstep_planner.core.plan import step_rules
     lo, hi = (0.0, rise) if rise > 0 else (-rise, 0.0)
     g = MeshGround(TriMesh.concat([plane(-2, 4.0, -3, 3, z=lo, name="near"),
                                    plane(4.0, 10, -3, 3, z=hi, name="far")]))
     steps = _long_and_short()
-    reach = navgraph.climb_reach(steps)
+    reach = step_rules.climb_reach(steps)
     assert np.allclose(reach, np.hypot(0.6, 0.2))  # (the walk's: 0.6 m on, 0.2 m across)
     feet = [replace(f, position=f.position + [0.0, 0.0, lo]) for f in start(0, 0)]
 
     def climb(limit: bool) -> float:
         if not limit:
-            monkeypatch.setattr(navgraph, "CLIMB_DZ", np.inf)
+            monkeypatch.setattr(step_rules, "CLIMB_DZ", np.inf)
         pl = Planner(g, None, steps, FWD, settings=FASTEST.replace(stride_min=1.0, stride_max=1.0))
         p = np.array([f.position for f in pl.plan(feet, np.array([8.0, 0.0, hi])).footprints])
         d = np.diff(p, axis=0)
@@ -242,7 +242,7 @@ def test_a_step_up_or_down_goes_no_further_than_the_walks_straight_step(rise, mo
 def test_a_step_edge_is_explained_with_its_height():
     """The "uneven" refusal (a step edge under the foot) says where and how high the
     edge is (it named a helper that did not exist: the message raised NameError)."""
-    from footstep_planner.core.plan.navgraph import _explain
+    from footstep_planner.core.plan.refusals import _explain
 
     g = MeshGround(TriMesh.concat([plane(-2, 4.0, -3, 3, name="near"), plane(4.0, 10, -3, 3, z=0.15, name="far")]))
     pl = Planner(g, None, steps(), FWD)

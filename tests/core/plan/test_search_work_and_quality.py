@@ -12,7 +12,7 @@ import pytest
 from benchmarks.bench_planner import fingerprint, read_character, save_character
 from benchmarks.scene_generator import Character, benchmark_scenes, make_planner, plan_scene
 from conftest import ROOT, needs_cmu
-from footstep_planner.core.plan import navgraph
+from footstep_planner.core.plan import distance_field, navgraph
 from footstep_planner.core.base.settings import Settings
 from footstep_planner.core.clips.steps import StepSet
 from footstep_planner.core.plan.surface import FootShape
@@ -40,10 +40,10 @@ def test_a_stalled_search_builds_its_cells_once_and_leaves_the_jump_that_strande
     crosses a gap no step of the library spans (issue 28: the 1 m between the floor and
     the ramp, further up)."""
     builds, solves = [], []
-    build, solve = navgraph.FieldCells.build, navgraph.DistanceField.solve
-    monkeypatch.setattr(navgraph.FieldCells, "build",
+    build, solve = distance_field.FieldCells.build, distance_field.DistanceField.solve
+    monkeypatch.setattr(distance_field.FieldCells, "build",
                         staticmethod(lambda *a, **k: builds.append(1) or build(*a, **k)))
-    monkeypatch.setattr(navgraph.DistanceField, "solve",
+    monkeypatch.setattr(distance_field.DistanceField, "solve",
                         staticmethod(lambda *a, **k: solves.append(1) or solve(*a, **k)))
     pl, result = plan_scene(SCENES["bridge_up"], bench_character)
     assert len(builds) == 1 and len(solves) >= 2  # rerouted, over the same cells

@@ -1,0 +1,386 @@
+"""The search's heuristic: ``DistanceField``, the walking distance to the goal on a
+coarse grid of up to ``LAYERS`` levels per cell, solved over ``FieldCells`` (the grid,
+``_Grid``, and its walking edges and bridges across gaps, built once per search), with the
+weighted search's preferences it carries (``EDGE_COST``, ``CLIMB_COST``, the way ahead:
+``AHEAD_CELLS``, ``FREE_TURN``, ``AHEAD_TURN_COST``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass
+class DistanceField:
+    """Walking distance to the goal on a coarse grid: the search's heuristic.
+
+    The grid has up to ``LAYERS`` levels per cell (a bridge over a floor: the floor is a
+    second level, found below the first with ``HEADROOM`` between them). A cell's level
+    is walkable when the ground is there and the body there keeps its clearance from
+    obstacles. Walkable neighbours (8-connected) whose heights differ by no more than a
+    step are joined by their distance, and border cells across a gap of missing ground by
+    a straight bridge no longer than ``jump_reach`` (never across an obstacle).
+    Distances are 5 % short of the grid's, so the heuristic stays below the true
+    remaining walk."""
+
+    origin: np.ndarray
+    cell: float
+    shape: tuple[int, int]
+    dist: np.ndarray  # (L, nx, ny), inf where the goal cannot be reached on the grid
+    z: np.ndarray = field(default=None, repr=False)  # (L, nx, ny) each level's height, nan where none
+    graph: object = field(default=None, repr=False)  # the cells' sparse graph
+    ahead: np.ndarray = field(default=None, repr=False)  # (L * nx * ny,) rad: the way to the goal, nan at it
+
+    def _nodes(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(node ids (N,), -1 off the grid, and the levels' distances (N, L)) of points
+        (N, >=2); a point with a height (N, 3) takes the level nearest its height, one
+        without the level nearest the goal."""
+        nx, ny = self.shape
+        i = np.floor((p[:, 0] - self.origin[0]) / self.cell).astype(np.int64)
+        j = np.floor((p[:, 1] - self.origin[1]) / self.cell).astype(np.int64)
+        inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+        ii, jj = np.where(inside, i, 0), np.where(inside, j, 0)
+        d = self.dist[:, ii, jj].T  # (N, L)
+        if p.shape[1] >= 3 and self.z is not None:
+            dz = np.abs(self.z[:, ii, jj].T - p[:, 2:3])
+            level = np.argmin(np.where(np.isfinite(dz), dz, np.inf), axis=1)
+        else:
+            level = np.argmin(d, axis=1)
+        ids = np.where(inside, level * nx * ny + ii * ny + jj, -1)
+        return ids, np.where(inside[:, None], d, np.inf)
+
+    def at_many(self, p: np.ndarray) -> np.ndarray:
+        p = np.atleast_2d(np.asarray(p, float))
+        ids, _ = self._nodes(p)
+        out = np.full(len(p), np.inf)
+        ok = ids >= 0
+        out[ok] = self.dist.ravel()[ids[ok]]
+        return out
+
+    def at_and_ahead(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(distance (N,), the direction (N,) rad, world yaw, of the way to the goal a few
+        cells on from each point, nan where unknown) of points (N, >=2)."""
+        p = np.atleast_2d(np.asarray(p, float))
+        ids, _ = self._nodes(p)
+        d, a = np.full(len(p), np.inf), np.full(len(p), np.nan)
+        ok = ids >= 0
+        d[ok] = self.dist.ravel()[ids[ok]]
+        if self.ahead is not None:
+            a[ok] = self.ahead[ids[ok]]
+        return d, a
+
+    def nearest_reachable(self, start, goal) -> np.ndarray:
+        """The centre (x, y, level height) of the cell reachable from ``start`` nearest
+        the goal."""
+        from scipy.sparse.csgraph import dijkstra
+
+        ids, _ = self._nodes(np.atleast_2d(np.asarray(start, float)))
+        nx, ny = self.shape
+        if ids[0] < 0:
+            return np.asarray(start, float)[:3].copy()
+        d = dijkstra(self.graph, directed=False, indices=int(ids[0]))
+        ok = np.flatnonzero(np.isfinite(d))
+        cx = self.origin[0] + ((ok % (nx * ny)) // ny + 0.5) * self.cell
+        cy = self.origin[1] + (ok % ny + 0.5) * self.cell
+        k = int(np.argmin(np.hypot(cx - goal[0], cy - goal[1])))
+        return np.array([cx[k], cy[k], float(np.nan_to_num(self.z.ravel()[ok[k]]))])
+
+    @staticmethod
+    def build(ground, obstacles, goal, cell, clearance, jump_reach, step_height,
+              jump_extra: float = 0.0, avoid: tuple | None = None, edge_cost: float = 1.0,
+              support: Callable | None = None, scale: float = 1.0) -> "DistanceField":
+        """The walking distance (m) to ``goal`` from every cell level of a grid of ``cell``
+        metres over the ground's bounds: walkable levels (ground, body clear of obstacles
+        by ``clearance``), joined 8-connected within ``step_height`` and, across gaps, by
+        bridges up to ``jump_reach`` long that cost ``jump_extra`` m more than their
+        length (none with an end within ``avoid`` = (point, radius)); a way along cells
+        beside unwalkable ones counts ``edge_cost`` times its length; Dijkstra from the
+        goal's cell. With ``support`` (footprints (N, 3), headings (N,) -> whether a foot
+        may stand there (N,)), a cell where the ground's slope changes (a step's edge) is
+        walkable only where a foot fits in it (``_Grid.foot_room``). ``scale``: the body's
+        (``Settings.body_scale``), for the grid's own lengths (``HEADROOM``, ...)."""
+        cells = FieldCells.build(ground, obstacles, cell, clearance, jump_reach, step_height, jump_extra,
+                                 edge_cost, support, scale)
+        return DistanceField.solve(cells, goal, avoid)
+
+    @staticmethod
+    def solve(cells: "FieldCells", goal, avoid: tuple | None = None) -> "DistanceField":
+        """The field to ``goal`` over cells built before (``FieldCells``), without the
+        bridges with an end within ``avoid`` = (point, radius): only the graph and
+        Dijkstra, so a search that drops jumps where it is stuck builds its cells once."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import dijkstra
+
+        goal = np.asarray(goal, float)
+        grid = cells.grid
+        edges = [cells.walk_edges] + ([grid.away(*cells.bridge_edges, avoid)] if len(cells.bridge_edges[0]) else [])
+        rows, cols, vals = (np.concatenate(e) for e in zip(*edges))
+        cell = grid.cell
+        n = grid.ids.size
+        graph = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
+        probe = DistanceField(grid.lo, cell, (grid.nx, grid.ny), np.zeros(grid.ids.shape), grid.z)
+        gi = np.clip(np.floor((goal[:2] - grid.lo) / cell).astype(int), 0, [grid.nx - 1, grid.ny - 1])
+        gid, _ = probe._nodes(np.array([[grid.lo[0] + (gi[0] + 0.5) * cell, grid.lo[1] + (gi[1] + 0.5) * cell,
+                                         goal[2]]]))
+        d, pred = dijkstra(graph, directed=False, indices=int(gid[0]), return_predecessors=True)
+        # the way ahead: the cell AHEAD_CELLS on towards the goal along the shortest way
+        on = np.where(pred >= 0, pred, np.arange(n))
+        for _ in range(AHEAD_CELLS - 1):
+            on = np.where(pred[on] >= 0, pred[on], on)
+        nn = grid.nx * grid.ny
+        to = grid.xy[on % nn] - grid.xy[np.arange(n) % nn]
+        ahead = np.where((on != np.arange(n)) & np.isfinite(d), np.arctan2(to[:, 1], to[:, 0]), np.nan)
+        # 5 % short, and a cell's own size short, so the heuristic stays a lower bound
+        d = np.maximum(0.95 * d - 1.5 * cell, 0.0)
+        return DistanceField(grid.lo, cell, (grid.nx, grid.ny), d.reshape(grid.ids.shape), grid.z, graph, ahead)
+
+
+@dataclass
+class FieldCells:
+    """The distance field's cells and their edges, whatever the goal: the grid, the walking
+    edges (rows, cols, lengths) and the bridges across gaps (with their ``jump_extra``)."""
+
+    grid: "_Grid"
+    walk_edges: tuple
+    bridge_edges: tuple
+
+    @staticmethod
+    def build(ground, obstacles, cell, clearance, jump_reach, step_height, jump_extra: float = 0.0,
+              edge_cost: float = 1.0, support: Callable | None = None, scale: float = 1.0,
+              steps: tuple = ()) -> "FieldCells":
+        """The cells of ``DistanceField.build`` (same arguments, less the goal and ``avoid``).
+        ``steps``: (reach m, extra m) of the library's gaits whose steps cross gaps (a walk
+        or run step over any gap its swing clears, ``Planner._gap_steps``), shortest
+        first: a gap is bridged up to each one's reach at its extra, beyond the last by
+        the jump's (up to ``jump_reach``, at ``jump_extra``)."""
+        grid = _Grid.over(ground, cell, step_height, scale)
+        has_ground, blocked = grid.ground_and_blocked(obstacles, clearance)
+        walk = has_ground & ~blocked
+        if support is not None:
+            walk = grid.foot_room(support, walk)
+        edges = grid.neighbour_edges(walk, step_height, grid.edge_cells(walk), edge_cost)
+        walk_edges = tuple(np.concatenate(e) for e in zip(*edges))
+        gap = grid.gaps(has_ground, step_height)
+        bridges, shortest = [], 1.5 * cell  # (beyond the 8 neighbours)
+        for reach, extra in list(steps) + [(jump_reach, jump_extra)]:
+            if reach > shortest:
+                got = grid.bridges(walk, gap, blocked, reach, step_height,
+                                   shortest if steps else 1.0)  # (a jump alone: over a metre, as ever)
+                bridges += [(a, b, c + extra) for a, b, c in got]
+                shortest = reach
+        if bridges:
+            bridge_edges = tuple(np.concatenate(e) for e in zip(*bridges))
+        else:
+            bridge_edges = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+        return FieldCells(grid, walk_edges, bridge_edges)
+
+
+#: How much longer the heuristic counts a way along a cell beside an unwalkable one ...
+EDGE_COST = 1.5
+#: ... and one up or down a riser of a flight of stairs (``_Grid.flight_cells``: a step
+#: of more than CLIMB_STEP m between treads): stairs are climbed in shortened strides,
+#: several times a walk's time per metre (weighted search only, as EDGE_COST).
+CLIMB_COST = 3.0
+CLIMB_STEP = 0.1
+
+#: The weighted search's heuristic adds AHEAD_TURN_COST seconds per radian that a
+#: footprint is turned away from the way to the goal (the direction to the cell
+#: AHEAD_CELLS on along the map's shortest way) beyond FREE_TURN rad: the search turns
+#: towards a bend before it reaches it instead of running into its outer edge. (The
+#: library's own turns cost little more than straight steps, ``_turn_cost``; this is a
+#: preference of the weighted search, never used by plain A*.)
+AHEAD_CELLS = 8
+FREE_TURN = 0.25
+AHEAD_TURN_COST = 0.1
+
+#: Levels of the distance field per cell, and the headroom (m) between two levels: a
+#: surface closer under another than this is that one's underside.
+LAYERS = 3
+HEADROOM = 1.0
+
+
+@dataclass
+class _Grid:
+    """The distance field's cells: origin ``lo`` (2,), ``cell`` m, ``nx`` x ``ny`` cells
+    of up to L levels, their ids (L, nx, ny) and heights ``z`` (L, nx, ny) (nan where a
+    cell has fewer levels)."""
+
+    lo: np.ndarray
+    cell: float
+    nx: int
+    ny: int
+    ids: np.ndarray
+    z: np.ndarray
+    xy: np.ndarray  # (nx * ny, 2) the cells' centres
+    scale: float = 1.0  # the body's (``Settings.body_scale``): this grid's own lengths are a human's times it
+
+    @staticmethod
+    def over(ground, cell: float, step_height: float, scale: float = 1.0) -> "_Grid":
+        lo, hi = ground.mesh.bounds()
+        zlo = lo[2]
+        lo = lo[:2] - cell
+        nx, ny = (np.ceil((hi[:2] + cell - lo) / cell)).astype(int)
+        cx = lo[0] + (np.arange(nx) + 0.5) * cell
+        cy = lo[1] + (np.arange(ny) + 0.5) * cell
+        xx, yy = np.meshgrid(cx, cy, indexing="ij")
+        xy = np.c_[xx.ravel(), yy.ravel()]
+        z = np.full((LAYERS, xy.shape[0]), np.nan)
+        hit = ground.ray_down(np.c_[xy, np.full(len(xy), hi[2] + step_height)], hi[2] - zlo + 2 * step_height)
+        z[0] = hit.z
+        for k in range(1, LAYERS):  # the levels below, where there is room for one
+            top = z[k - 1] - HEADROOM * scale
+            ask = np.flatnonzero(np.isfinite(top) & (top > zlo - 1e-6))
+            if not len(ask):
+                break
+            below = ground.ray_down(np.c_[xy[ask], top[ask]], float(top[ask].max() - zlo) + 1e-3)
+            z[k, ask] = below.z
+        used = max(1, int(np.isfinite(z).any(axis=1).sum()))
+        z = z[:used].reshape(used, nx, ny)
+        return _Grid(lo, cell, int(nx), int(ny), np.arange(z.size).reshape(z.shape), z, xy, scale)
+
+    def foot_room(self, support: Callable, walk: np.ndarray) -> np.ndarray:
+        """``walk`` without the cell levels where the ground's slope changes (a step's edge,
+        a ramp's end: a second difference of the neighbours' heights over 2 cm) and no
+        footprint sampled in the cell may be stood on (its centre, then 8 points 8 cm
+        round it, each turned 0, 45, 90 and 135 degrees): steps whose treads no foot
+        fits on."""
+        z = np.where(np.isfinite(self.z), self.z, np.nan)
+        zp = np.pad(z, ((0, 0), (1, 1), (1, 1)), mode="edge")
+        d2 = np.stack([zp[:, 2:, 1:-1] - 2 * z + zp[:, :-2, 1:-1], zp[:, 1:-1, 2:] - 2 * z + zp[:, 1:-1, :-2]])
+        kink = walk & (np.nan_to_num(np.abs(d2), nan=0.0).max(axis=0) > 0.02 * self.scale)
+        cand = np.flatnonzero(kink.ravel())
+        if not len(cand):
+            return walk
+        n = self.nx * self.ny
+        heads = np.radians([0.0, 45.0, 90.0, 135.0])
+        fits = np.zeros(len(cand), bool)
+        r = 0.08 * self.scale
+        for off in ([(0.0, 0.0)], [(a, b) for a in (-r, 0.0, r) for b in (-r, 0.0, r) if a or b]):
+            todo = np.flatnonzero(~fits)
+            if not len(todo):
+                break
+            c = cand[todo]
+            pos = (self.xy[c % n][:, None, None] + np.array(off)[None, :, None]).reshape(-1, 2)
+            pos = np.repeat(pos, len(heads), axis=0)
+            zz = np.repeat(self.z.ravel()[c], len(off) * len(heads))
+            ok = support(np.c_[pos, zz], np.tile(heads, len(c) * len(off)))
+            fits[todo] = ok.reshape(len(c), -1).any(axis=1)
+        out = walk.copy()
+        out.ravel()[cand[~fits]] = False
+        return out
+
+    def away(self, a: np.ndarray, b: np.ndarray, c: np.ndarray, avoid: tuple | None) -> tuple:
+        """The edges (a, b, c) with neither end's cell within ``avoid`` = (point, radius)."""
+        if avoid is None:
+            return a, b, c
+        p, r = np.asarray(avoid[0], float)[:2], avoid[1]
+        n = self.nx * self.ny
+        keep = (np.linalg.norm(self.xy[a % n] - p, axis=1) > r) & (np.linalg.norm(self.xy[b % n] - p, axis=1) > r)
+        return a[keep], b[keep], c[keep]
+
+    def ground_and_blocked(self, obstacles, clearance: float):
+        """(has ground (L, nx, ny), blocked (L, nx, ny)): ground at each level of a cell, and
+        an obstacle within the clearance of the body there (at 0.5 and 1.3 m above it)."""
+        has_ground = np.isfinite(self.z)
+        blocked = np.zeros(self.z.shape, bool)
+        if obstacles is not None and obstacles.mesh.n:
+            idx = np.flatnonzero(has_ground.ravel())
+            cxy = self.xy[idx % (self.nx * self.ny)]
+            zz = self.z.ravel()[idx]
+            for level in (0.5, 1.3):
+                _, d = obstacles.nearest(np.c_[cxy, zz + level * self.scale], max_dist=clearance)
+                blocked.ravel()[idx[d < clearance * 0.9]] = True
+        return has_ground, blocked
+
+    def edge_cells(self, walk: np.ndarray) -> np.ndarray:
+        """(L, nx, ny) walkable cell levels beside an unwalkable cell (no ground, or an
+        obstacle too near): a footprint there has little room."""
+        pw = np.pad(walk.any(axis=0), 1)
+        inner = pw[2:, 1:-1] & pw[:-2, 1:-1] & pw[1:-1, 2:] & pw[1:-1, :-2]
+        return walk & ~inner[None]
+
+    def flight_cells(self, walk: np.ndarray, step_height: float) -> np.ndarray:
+        """(L, nx, ny) walkable cell levels with a step up or down (more than CLIMB_STEP,
+        within ``step_height``) on two or more of their four sides: a stair's treads, not
+        the top or the foot of a single kerb."""
+        nx, ny = self.nx, self.ny
+        z = np.where(walk, self.z, np.nan)
+        count = np.zeros(walk.shape, int)
+        for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            here = (slice(max(0, -di), nx - max(0, di)), slice(max(0, -dj), ny - max(0, dj)))
+            there = (slice(max(0, di), nx + min(0, di)), slice(max(0, dj), ny + min(0, dj)))
+            near = np.zeros(walk.shape, bool)
+            for lb in range(walk.shape[0]):
+                dz = np.abs(z[(slice(None),) + here] - z[lb][there][None])
+                near[(slice(None),) + here] |= (dz > CLIMB_STEP * self.scale) & (dz <= step_height)
+            count += near
+        return walk & (count >= 2)
+
+    def neighbour_edges(self, walk: np.ndarray, step_height: float, edge: np.ndarray | None = None,
+                        edge_cost: float = 1.0) -> list[tuple]:
+        """(rows, cols, lengths) of the edges between 8-connected walkable cell levels
+        whose heights differ by at most ``step_height``; an edge touching a cell beside
+        an unwalkable one (``edge``) is ``edge_cost`` times as long, so the heuristic's
+        way keeps off edges and walls as footprints must, and (with ``edge_cost`` too) one
+        up or down a riser between two stair treads (``flight_cells``) CLIMB_COST times:
+        stairs are climbed in short steps."""
+        nx, ny, out = self.nx, self.ny, []
+        nl = walk.shape[0]
+        flight = self.flight_cells(walk, step_height) if edge is not None and edge_cost != 1.0 else None
+        for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):
+            sa = (slice(0, nx - di), slice(max(0, -dj), ny - max(0, dj)))
+            sb = (slice(di, nx), slice(max(0, dj), ny + min(0, dj)))
+            for la in range(nl):
+                for lb in range(nl):
+                    m = walk[la][sa] & walk[lb][sb]
+                    m &= np.abs(np.nan_to_num(self.z[la][sa] - self.z[lb][sb], nan=np.inf)) <= step_height
+                    length = np.full(m.sum(), np.hypot(di, dj) * self.cell)
+                    if edge is not None and edge_cost != 1.0:
+                        length *= np.where(edge[la][sa][m] | edge[lb][sb][m], edge_cost, 1.0)
+                        riser = (np.abs(self.z[la][sa][m] - self.z[lb][sb][m]) > CLIMB_STEP * self.scale) \
+                            & flight[la][sa][m] & flight[lb][sb][m]
+                        length *= np.where(riser, CLIMB_COST, 1.0)
+                    out.append((self.ids[la][sa][m], self.ids[lb][sb][m], length))
+        return out
+
+    def gaps(self, has_ground: np.ndarray, step_height: float) -> np.ndarray:
+        """(nx, ny) the cells of gaps: no ground at all (water between stepping stones), or
+        ground more than ``step_height`` below a neighbour's on either side (a gutter's,
+        a trench's bottom)."""
+        top = np.where(has_ground.any(axis=0), np.nanmax(np.where(has_ground, self.z, -np.inf), axis=0), -np.inf)
+        pt = np.pad(top, 1, constant_values=-np.inf)
+        sunk = np.zeros(top.shape, bool)
+        for a, b in ((pt[2:, 1:-1], pt[:-2, 1:-1]), (pt[1:-1, 2:], pt[1:-1, :-2])):
+            sunk |= (top < a - step_height) & (top < b - step_height) & np.isfinite(a) & np.isfinite(b)
+        return ~has_ground.any(axis=0) | sunk
+
+    def bridges(self, walk: np.ndarray, void: np.ndarray, blocked: np.ndarray, jump_reach: float,
+                step_height: float, shortest: float = 1.0) -> list[tuple]:
+        """(rows, cols, lengths) of straight bridges longer than ``shortest`` m and up to
+        ``jump_reach`` between walkable cell levels on the border of a gap (``void`` (nx,
+        ny), ``gaps``), within a step's height of each other, never across an obstacle."""
+        nx, ny = self.nx, self.ny
+        pv = np.pad(void, 1)
+        near_void = pv[2:, 1:-1] | pv[:-2, 1:-1] | pv[1:-1, 2:] | pv[1:-1, :-2]
+        border = walk & near_void[None]
+        bl, bi, bj = np.nonzero(border)
+        r = int(np.ceil(jump_reach / self.cell))
+        offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1)
+                if shortest < np.hypot(a, b) * self.cell <= jump_reach and max(abs(a), abs(b)) > 1]
+        out = []
+        for a, b in offs:
+            ti, tj = bi + a, bj + b
+            ok = (ti >= 0) & (ti < nx) & (tj >= 0) & (tj < ny)
+            ti, tj, si, sj, sl = ti[ok], tj[ok], bi[ok], bj[ok], bl[ok]
+            clear = np.ones(len(si), bool)
+            for t in np.linspace(0.2, 0.8, 4):  # the line between crosses void or walkable cells only
+                clear &= ~blocked[sl, np.rint(si + t * a).astype(int), np.rint(sj + t * b).astype(int)]
+            for tl in range(walk.shape[0]):
+                ok = clear & border[tl, ti, tj]
+                ok &= np.abs(np.nan_to_num(self.z[tl, ti, tj] - self.z[sl, si, sj], nan=np.inf)) <= step_height
+                out.append((self.ids[sl[ok], si[ok], sj[ok]], self.ids[tl, ti[ok], tj[ok]],
+                            np.full(ok.sum(), np.hypot(a, b) * self.cell)))
+        return out
