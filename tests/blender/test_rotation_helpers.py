@@ -22,7 +22,7 @@ def rigify(fp):
 
 @pytest.fixture(scope="module")
 def clips(fp):
-    return import_module(fp.__name__ + ".blender.read.clips")
+    return import_module(fp.__name__ + ".blender.read.bvh_import")
 
 
 def _unit(q):
