@@ -17,7 +17,7 @@ ANGLES = st.lists(st.tuples(*[st.floats(-720, 720, allow_nan=False)] * 3), min_s
 
 @pytest.fixture(scope="module")
 def rigify(fp):
-    return import_module(fp.__name__ + ".blender.rigify")
+    return import_module(fp.__name__ + ".blender.rigify.solver")
 
 
 @pytest.fixture(scope="module")
