@@ -20,7 +20,7 @@ Measured (2 cores, loaded machine; bpy at rest 302 MB), peak MB and the verb's s
     analyze BVH      3,834 MB  146 s                     669 MB   18 s
     analyze .blend   3,215 MB   57 s                     825 MB    8 s
 
-The clip is kept as F-curve samples (``clips.SAMPLED_FRAMES``: 200 MB, not the 900 MB of
+The clip is kept as F-curve samples (``clip_keys.SAMPLED_FRAMES``: 200 MB, not the 900 MB of
 keyframes); a .blend opened with it assigned also holds Blender's evaluated copy of it.
 """
 

@@ -17,12 +17,12 @@ ANGLES = st.lists(st.tuples(*[st.floats(-720, 720, allow_nan=False)] * 3), min_s
 
 @pytest.fixture(scope="module")
 def rigify(fp):
-    return import_module(fp.__name__ + ".blender.rigify")
+    return import_module(fp.__name__ + ".blender.rigify.solver")
 
 
 @pytest.fixture(scope="module")
 def clips(fp):
-    return import_module(fp.__name__ + ".blender.read.clips")
+    return import_module(fp.__name__ + ".blender.read.bvh_import")
 
 
 def _unit(q):

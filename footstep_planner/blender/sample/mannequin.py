@@ -272,7 +272,7 @@ def _write_clip(act, slot, ob, bone_names, hips: str, basis: np.ndarray, frames:
     skipped, and bone ``hips`` also gets its location (metres, its rest axes)."""
     from scipy.spatial.transform import Rotation
 
-    from ..read.clips import _curve, _write_rotation
+    from ..read.clip_keys import _curve, _write_rotation
 
     cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
     for b, bname in enumerate(bone_names):

@@ -128,7 +128,7 @@ def test_a_long_clip_is_kept_as_samples_that_play_as_its_keys(fp, empty_scene, t
     empty_scene.render.fps = fps
     path = walker(str(tmp_path / "walker.bvh"), frames=240)
     ob, (keyed,) = clips.import_clips([path])
-    monkeypatch.setattr(clips, "SAMPLED_FRAMES", 100)
+    monkeypatch.setattr(import_module(fp.__name__ + ".blender.read.clip_keys"), "SAMPLED_FRAMES", 100)
     _, (sampled,) = clips.import_clips([path], name="Sampled")
     curves = _curves(sampled)
     still = [fc for fc in curves if len(fc.keyframe_points)]

@@ -91,7 +91,7 @@ def _key_object(ob, act, name, world, move_hips):
     import bpy
     from scipy.spatial.transform import Rotation
 
-    write_rotation = import_module(MOD + ".blender.read.clips")._write_rotation
+    write_rotation = import_module(MOD + ".blender.read.clip_keys")._write_rotation
     fill_keys = import_module(MOD + ".blender.write.keys").fill_keys
     new = act.copy()
     new.name = name
@@ -342,7 +342,7 @@ def test_the_quaternius_character_gives_its_eleven_takes(fp, empty_scene, monkey
         (o,) = done.refused
         assert "no usable legs" in o.error and "foot_l, foot_r" in o.error and not done.actions
         assert not bpy.data.actions and not bpy.data.objects
-        monkeypatch.setattr(clips, "_check_legs", lambda ob, path: type("Roles", (), {"bone": lambda s, r: "Hips"})())
+        monkeypatch.setattr(_mod(fp, "read.fbx_gltf_import"), "_check_legs", lambda ob, path: type("Roles", (), {"bone": lambda s, r: "Hips"})())
         done = clips.import_clip_files([QUATERNIUS])
     print("\n".join(done.report()))
     assert not done.refused and len(done.actions) == 11
