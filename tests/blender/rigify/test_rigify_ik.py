@@ -148,7 +148,7 @@ def test_the_setting_reaches_the_bake(fp, walk):
     scene, rig, planned, solved, settings = walk
     planning = _mod(fp, "blender.planning")
     goal, heading = planning.goal_of(scene, "Goal")
-    _mod(fp, "blender.bake").clear(rig, scene)  # (the other tests' bakes, at the same frames)
+    _mod(fp, "blender.write.bake").clear(rig, scene)  # (the other tests' bakes, at the same frames)
     doc = planning.run(scene, rig, goal, heading, scene.objects["Start"], settings, name="run ik", frame_start=1)
     paths = {p for p, _ in _fcurves(bpy.data.actions[doc["action"]])}
     assert 'pose.bones["foot_ik.L"].location' in paths and 'pose.bones["thigh_fk.L"].rotation_quaternion' not in paths
