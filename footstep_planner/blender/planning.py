@@ -34,7 +34,7 @@ from .read.surfaces import scene_surfaces
 from .ui import overlay
 
 #: Support answers per scene, reused while its tagged geometry is unchanged.
-_CACHES: dict[tuple[str, FootShape], FootprintCache] = {}
+_CACHES: dict[tuple[str, FootShape, bool], FootprintCache] = {}
 
 
 def world_forward(ob, analyses) -> np.ndarray:
@@ -84,7 +84,8 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
                           straighten=settings.straightens, scale=settings.body_scale)
     forward = world_forward(ob, clips.analyses)
     foot = foot_shape(clips.analyses, clips.rig, settings.body_scale)
-    cache = _CACHES.setdefault((scene.name, foot), FootprintCache(margin=settings.length(0.6)))  # (a foot's own)
+    cache = _CACHES.setdefault((scene.name, foot, settings.cross_gaps),  # (its answers mean what the rules say)
+                               FootprintCache(margin=settings.length(0.6)))  # (a foot's own)
     cache.update(object_geometry(ground, obst))
     planner = Planner(ground, obst, steps, forward, foot=foot,
                       settings=settings, cache=cache)

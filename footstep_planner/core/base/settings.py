@@ -109,6 +109,11 @@ class Settings:
         nothing more, and an S-bend only once. Above 0 the library's straightest walk is
         also offered straightened, and the standing feet turn out as the walk turns them.""")
     jump_penalty: float = setting(0.5, "s", 0.0, 100.0, """Seconds added to the cost of each jump.""")
+    cross_gaps: bool = setting(False, "", doc="""Let a walking or running step cross a gap its swing
+        clears when both its footprints stand (stepping stones, the gap between two slabs, a
+        gutter), a jump then only a gap no step spans. Off: a step walks on ground that
+        continues under it, and any gap is jumped. Off by default for now: on, a step may also
+        cut over a floor's corner or notch, which changes the paths on ordinary floors.""")
     run_penalty: float = setting(1.0, "s", 0.0, 100.0, """Seconds added to the cost of each running
         step: the path walks, and runs only where a clip needs it (a jump is entered running); 0
         plans the fastest path.""")

@@ -247,7 +247,8 @@ class Planner(StepRules, Refusals):
         edge_cost = EDGE_COST if self.settings.heuristic_weight > 1.0 else 1.0
         return FieldCells.build(self.ground, self.obstacles, self.field_cell, self.clearance, self._jump_reach(),
                                 self.max_step_height, self._jump_extra(), edge_cost, self._stands,
-                                scale=self.settings.body_scale, steps=self._gap_steps())
+                                scale=self.settings.body_scale,
+                                steps=self._gap_steps() if self.settings.cross_gaps else ())
 
     def _stands(self, pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
         """(N,) whether a foot may stand on the ground at footprints ``pos`` (N, 3) turned
@@ -506,7 +507,8 @@ class Planner(StepRules, Refusals):
             for n, g_, c_ in zip(ask, ground.tolist(), clear.tolist()):
                 between[pairs[n]] = (g_, c_)
         gc = np.array([between[k] for k in pairs], dtype=bool).reshape(-1, 2)
-        return np.where(self.steps.jump[steps], ~gc[:, 0], True) & gc[:, 1]
+        walk_ok = True if self.settings.cross_gaps else gc[:, 0]  # (over a gap it clears, or on ground only)
+        return np.where(self.steps.jump[steps], ~gc[:, 0], walk_ok) & gc[:, 1]
 
     def _result(self, search: _Search, idx: int, seconds: float, field_seconds: float) -> PlanResult:
         chain = []

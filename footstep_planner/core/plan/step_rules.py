@@ -86,13 +86,17 @@ class StepRules:
     ``Planner``, whose ground, obstacles, steps, foot and settings its methods read)."""
 
     def _between(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """For footprint pairs (rows of a, b (N, 3)): (no gap lies between them wider than
-        the library's steps span, ``_widest_gap``: only a jump may cross one, and a jump
-        only that; the way between them is clear of obstacles). Three points between are
-        tested: the ground no higher than MAX_BUMP over the higher footprint; no obstacle
+        """For footprint pairs (rows of a, b (N, 3)): (with ``Settings.cross_gaps``, no gap
+        lies between them wider than the library's steps span, ``_widest_gap``: only a jump
+        may cross one, and a jump only that; without it, the ground continues under the
+        three points between, within a step's height; the way between them is clear of
+        obstacles). The ground is no higher than MAX_BUMP over the higher footprint; no obstacle
         may stand there below head height, nor closer than half the clearance at the hips."""
         pts, z = self._ground_between(a, b)
-        ground = self._widest_gap(a, b) <= self._gap_spanned()
+        if self.settings.cross_gaps:
+            ground = self._widest_gap(a, b) <= self._gap_spanned()
+        else:  # (the ground must continue under the three points, within a step's height)
+            ground = np.isfinite(z).all(axis=1)
         # a step does not pass over ground higher than both its ends (a landing's corner
         # cut from one flight to the other): the swinging foot would have to climb it
         clear = self._under_bump(a, b, z)

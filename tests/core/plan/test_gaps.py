@@ -1,5 +1,5 @@
-"""Steps across small gaps (issue 28): a walk or run step crosses any gap its swing clears
-when both its footprints stand (stepping stones, the gaps between slabs, a gutter); only a
+"""Steps across small gaps (issue 28), with ``Settings.cross_gaps``: a walk or run step
+crosses any gap its swing clears when both its footprints stand (stepping stones, the gaps between slabs, a gutter); only a
 gap no step spans needs a jump, and a refusal names the gap against the longest step as
 well as against the jump."""
 
@@ -30,7 +30,7 @@ def sample(fp):
 
 def _walks_the_stones(character, name="stones_straight"):
     scene = SCENES[name]
-    pl, result = plan_scene(scene, character)
+    pl, result = plan_scene(scene, character, cross_gaps=True)
     fs = result.footprints
     assert np.linalg.norm(fs[-1].position[:2] - np.asarray(scene.goal)[:2]) <= pl.settings.goal_radius
     assert all(_on_a_plate(scene, f.position) for f in fs), [f.position for f in fs]
@@ -72,7 +72,7 @@ def test_a_gap_a_walking_step_spans_is_walked_across(gap):
     """The test library's walk steps 0.62 m (0.6 on, 0.15 across) with a foot 0.26 m long:
     it spans 0.36 m; its run (1.1 m) more. A gap it spans is crossed by a step, never a
     jump."""
-    pl = Planner(_two_floors(gap), None, _steps(), FWD, settings=Settings(run_penalty=1.0))
+    pl = Planner(_two_floors(gap), None, _steps(), FWD, settings=Settings(run_penalty=1.0, cross_gaps=True))
     goal = np.array([10.0, 0.0, 0.0])
     r = pl.plan(start(0, 0), goal)
     across = [b for a, b in zip(r.footprints[:-1], r.footprints[1:]) if a.position[0] < 5 < 5 + gap < b.position[0]]
@@ -82,14 +82,14 @@ def test_a_gap_a_walking_step_spans_is_walked_across(gap):
 
 def test_only_a_gap_no_step_spans_is_jumped():
     """1.0 m: beyond the run's 1.1 m step less the foot: a jump (from a run)."""
-    pl = Planner(_two_floors(1.0), None, _steps(), FWD, settings=Settings(run_penalty=0.0))
+    pl = Planner(_two_floors(1.0), None, _steps(), FWD, settings=Settings(run_penalty=0.0, cross_gaps=True))
     r = pl.plan(start(0, 0), np.array([10.0, 0.0, 0.0]))
     across = [(a, b) for a, b in zip(r.footprints[:-1], r.footprints[1:]) if a.position[0] < 5 < 6 < b.position[0]]
     assert len(across) == 1 and across[0][1].jump and across[0][0].gait == "run"
 
 
 def test_a_refusal_names_the_gap_against_the_longest_step_and_the_jump():
-    pl = Planner(_two_floors(2.5), None, _steps(), FWD)
+    pl = Planner(_two_floors(2.5), None, _steps(), FWD, settings=Settings(cross_gaps=True))
     with pytest.raises(PlanError, match=r"the gap beyond is 2\.[45]\d m wide; the library's longest running step "
                                         r"spans a gap of 0\.8\d m \(1\.11 m from footprint to footprint, less the "
                                         r"foot's 0\.26 m\), and its jump reaches 1\.70 m"):
@@ -101,8 +101,16 @@ def test_a_walking_step_never_crosses_a_wall_over_a_gap():
     g = _two_floors(0.3)
     wall = MeshGround(box((5.0, -1.5, -1.0), (5.3, 1.5, 2.5), name="wall"))
     with pytest.raises(PlanError):
-        Planner(g, wall, _steps(), FWD).plan(start(0, 0), np.array([10.0, 0, 0]))
+        Planner(g, wall, _steps(), FWD, settings=Settings(cross_gaps=True)).plan(start(0, 0), np.array([10.0, 0, 0]))
 
 
 def start(x, y, heading=EAST):
     return standing(x, y, heading, FWD)
+
+
+def test_without_cross_gaps_a_narrow_gap_is_jumped_not_stepped():
+    """The default: a step walks on ground that continues under it; a 0.3 m gap is jumped."""
+    pl = Planner(_two_floors(0.3), None, _steps(), FWD, settings=Settings(run_penalty=0.0))
+    r = pl.plan(start(0, 0), np.array([10.0, 0.0, 0.0]))
+    across = [(a, b) for a, b in zip(r.footprints[:-1], r.footprints[1:]) if a.position[0] < 5 < 5.3 < b.position[0]]
+    assert len(across) == 1 and across[0][1].jump
