@@ -11,6 +11,7 @@ as it stands in the world (its armature's rest forward turned by the object's ro
 from __future__ import annotations
 
 import hashlib
+from dataclasses import dataclass
 
 import bpy
 import numpy as np
@@ -195,16 +196,41 @@ def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal,
                                tips=toe_tips(setup.rig, world, walk.heel_local, walk.toe_local))
 
 
-def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
-        obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
-        progress=None, body_on: str = "OBJECT", frame_range: bool = True, route=None, splice=None,
-        force: bool = False, new_track: bool = False) -> dict:
-    """Plan, synthesize, IK and bake ``ob`` walking to ``goal``; returns the report
-    (plan, stage times in the layout of thesis Table 4.1, quality of the baked result).
-    ``progress(fraction, stage)`` is called between stages; ``route``, ``splice``,
-    ``force`` and ``new_track`` as for ``run_steps``."""
-    steps = run_steps(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
-                      name, frame_start, markers, body_on, frame_range, route, splice, force, new_track)
+@dataclass
+class BakeRequest:
+    """What a bake is asked for (``run``, ``run_steps``; the fields in the order the old
+    positional calls gave them): walk to ``goal`` (arriving facing ``goal_heading``, a Z
+    rotation, when given) from ``start_marker`` (else where the character stands), over the
+    ``traversable`` and around the ``obstacles`` named (default: the tagged ones), with
+    ``settings``; bake it as ``name`` from ``frame_start`` (default: the current frame),
+    with timeline ``markers``, the body keyed on the object or the root bone (``body_on``),
+    the frame range grown (``frame_range``). ``route`` replaces the search (an edited plan,
+    waypoints: see ``plan``); a re-bake's ``splice`` (``directing.Splice``) re-keys only
+    what changed; ``force`` bakes over an earlier bake of this name whose keys were edited,
+    ``new_track`` beside it under a new name (``bake.new_track_name``)."""
+
+    goal: np.ndarray
+    goal_heading: float | None = None
+    start_marker: object = None
+    settings: Settings | None = None
+    traversable: tuple = ()
+    obstacles: tuple = ()
+    name: str | None = None
+    frame_start: int | None = None
+    markers: bool = False
+    body_on: str = "OBJECT"
+    frame_range: bool = True
+    route: object = None
+    splice: object = None
+    force: bool = False
+    new_track: bool = False
+
+
+def run(scene, ob, *args, progress=None, **options) -> dict:
+    """Plan, synthesize, IK and bake ``ob`` as asked (``BakeRequest(*args, **options)``);
+    returns the report (plan, stage times in the layout of thesis Table 4.1, quality of the
+    baked result). ``progress(fraction, stage)`` is called between stages."""
+    steps = run_steps(scene, ob, *args, **options)
     while True:
         try:
             fraction, stage = next(steps)
@@ -214,106 +240,169 @@ def run(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, tr
             progress(fraction, stage)
 
 
-def run_steps(scene, ob, goal, goal_heading=None, start_marker=None, settings=None, traversable=(),
-              obstacles=(), name: str | None = None, frame_start: int | None = None, markers: bool = False,
-              body_on: str = "OBJECT", frame_range: bool = True, route=None, splice=None, force: bool = False,
-              new_track: bool = False):
+def run_steps(scene, ob, *args, **options):
     """``run`` one stage at a time: a generator yielding (fraction done, next stage) and
-    returning the report. Nothing in the scene changes before the last stage (the bake),
-    so a caller may stop it at any yield and leave the scene as it was. ``route``
-    replaces the search (see ``plan``). A re-bake's ``splice`` (``directing.Splice``)
-    gets ``splice.before_ik(planned)`` (it may pin footprints) and
-    ``splice.after_bake(action, track, planted, frames, frame_start, fps)``: it may change
-    the baked keys before they are measured and returns the timing they then have
-    ((strike, stance, liftoff) s per footprint from ``frame_start``, and the number of
-    frames). Every bake records its footprints and their frames (``rebake.record``).
-    What would make the bake play elsewhere than planned (``bake.check_scene``, a
-    constraint on the legs) is refused before planning; a bake whose measured goal or
-    skate is beyond ``report.tolerances`` is taken back and refused (BakeError naming
-    the figure), the earlier bake of its name kept. ``force``: bake over an earlier bake
-    of this name whose keys were edited; ``new_track``: bake beside it under a new name
-    (``bake.new_track_name``)."""
-    from .write import bake as baking
-    from .write import rebake
+    returning the report (``bake_steps`` of ``BakeRequest(*args, **options)``)."""
+    return bake_steps(scene, ob, BakeRequest(*args, **options))
 
-    settings = settings or Settings()
-    fps = scene_fps(scene)
-    name = name or f"{ob.name} to goal"
-    beside = None
-    if new_track:
-        name, beside = baking.new_track_name(ob, name), name
-    frame_start = int(scene.frame_current if frame_start is None else frame_start)
-    baking.check_scene(scene, ob, body_on)
+
+def bake_steps(scene, ob, req: BakeRequest):
+    """The bake one stage at a time. Nothing in the scene changes before the bake stage, and
+    the bake is taken back unless its quality, measured as Blender plays it, passes; so a
+    caller may stop it at any yield (close it) and leave the scene as it was. What would
+    make the bake play elsewhere than planned (``bake.check_scene``, a constraint on the
+    legs) is refused before planning; a bake whose measured goal or skate is beyond
+    ``report.tolerances`` is taken back and refused (BakeError naming the figure), the
+    earlier bake of its name kept. A re-bake's ``splice`` gets ``splice.before_ik(planned)``
+    (it may pin footprints) and ``splice.after_bake(action, track, planted, frames,
+    frame_start, fps)``: it may change the baked keys before they are measured and returns
+    the timing they then have. Every bake records its footprints and their frames
+    (``rebake.record``)."""
+    from .write import bake as baking
+
+    job = _Job(scene, ob, req)
+    baking.check_scene(scene, ob, req.body_on)
     yield 0.0, "planning"
-    planned = plan_and_synthesize(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles,
-                                  route, frame_start)
-    result, syn = planned.result, planned.synthesis
+    job.planned = planned = plan_and_synthesize(scene, ob, req.goal, req.goal_heading, req.start_marker, job.settings,
+                                                req.traversable, req.obstacles, req.route, job.frame_start)
     baking.check_leg_constraints(ob, planned.setup.rig)
     yield 0.5, "inverse kinematics"
-    if splice is not None:
-        splice.before_ik(planned)
-    solved = planned.solved if planned.solved is not None and splice is None else solve(syn, planned.setup, settings)
+    if req.splice is not None:
+        req.splice.before_ik(planned)
+    job.solved = (planned.solved if planned.solved is not None and req.splice is None
+                  else solve(planned.synthesis, planned.setup, job.settings))
     yield 0.7, "bake"
-    timer = StageTimer()
-    replaced = []  # (the earlier bake of this name: muted until the new one is measured)
-
-    def bake_it(spliced):
-        """Bake (splicing into the old bake's keys, with ``spliced``) and record its timing:
-        (action, track, planted s per footprint, frames)."""
-        with timer("bake"):
-            act, track = baking.bake(ob, scene, planned.setup.rig, solved.ik, solved.spin, name, frame_start,
-                                     result.footprints, syn.planted(), markers, body_on, frame_range,
-                                     rigify_ik_feet=settings.rigify_ik_feet, replaced=replaced, force=force,
-                                     beside=beside)
-        try:
-            planted, frames = syn.planted(), solved.ik.frames
-            if spliced:
-                planted, frames = splice.after_bake(act, track, planted, frames, frame_start, fps)
-            rebake.record(act, planted, syn.footprints, frame_start, fps)
-            baking.record_keys(act)
-        except BaseException:
-            baking.discard(ob, scene, track, replaced)
-            raise
-        return act, track, planted, frames
-
-    act, track, planted, frames = bake_it(splice is not None)
+    job.bake(req.splice is not None)
     try:
         yield 0.85, "quality"
-        played = {}
-        qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted,
-                       frames, played)
+        qual = job.measured()
+    except BaseException:  # (a wrong bake, a failure, or the caller stopping here: the bake taken back)
+        job.take_back()
+        raise
+    baking.settle(ob, scene, job.replaced)
+    return job.report(qual)
+
+
+class _Job:
+    """One bake's state between ``bake_steps``' stages: what it bakes as (its name, the one
+    it is made beside, its first frame and rate), the plan and IK once made, and the bake
+    once written (its action, track, timing, and the earlier bake it mutes)."""
+
+    def __init__(self, scene, ob, req: BakeRequest):
+        from .write import bake as baking
+
+        self.scene, self.ob, self.req = scene, ob, req
+        self.settings = req.settings or Settings()
+        self.fps = scene_fps(scene)
+        self.name, self.beside = req.name or f"{ob.name} to goal", None
+        if req.new_track:
+            self.name, self.beside = baking.new_track_name(ob, self.name), self.name
+        self.frame_start = int(scene.frame_current if req.frame_start is None else req.frame_start)
+        self.timer, self.replaced, self.track, self.played = StageTimer(), [], None, {}
+        self.planned = self.solved = None
+
+    def bake(self, spliced: bool) -> None:
+        """Bake (splicing into the old bake's keys, with ``spliced``) and record its timing."""
+        from .write import bake as baking
+        from .write import rebake
+
+        req, planned, solved, syn = self.req, self.planned, self.solved, self.planned.synthesis
+        self._remember_range()
+        with self.timer("bake"):
+            self.act, self.track = baking.bake(self.ob, self.scene, planned.setup.rig, solved.ik, solved.spin,
+                                               self.name, self.frame_start, planned.result.footprints, syn.planted(),
+                                               req.markers, req.body_on, req.frame_range,
+                                               rigify_ik_feet=self.settings.rigify_ik_feet, replaced=self.replaced,
+                                               force=req.force, beside=self.beside)
+        try:
+            self.planted, self.frames = syn.planted(), solved.ik.frames
+            if spliced:
+                self.planted, self.frames = req.splice.after_bake(self.act, self.track, self.planted, self.frames,
+                                                                  self.frame_start, self.fps)
+            rebake.record(self.act, self.planted, syn.footprints, self.frame_start, self.fps)
+            baking.record_keys(self.act)
+        except BaseException:
+            self.take_back()
+            raise
+
+    def _remember_range(self) -> None:
+        """The scene's frame range and the range records on the character's bakes, as they
+        are before this bake grows them (``take_back`` gives them back)."""
+        from .write import bake as baking
+        from .write.owned import RANGE_PROP
+
+        self._range = (self.scene.frame_start, self.scene.frame_end)
+        acts = {st.action for tr in baking.owned_tracks(self.ob) for st in tr.strips if st.action is not None}
+        self._records = {a: (list(a[RANGE_PROP]) if RANGE_PROP in a else None) for a in acts}
+
+    def take_back(self) -> None:
+        """The bake taken back: its track and action removed, the earlier bake of its name as
+        it was, and the frame range and the other bakes' records as before it."""
+        from .write import bake as baking
+        from .write.owned import RANGE_PROP
+
+        if self.track is None:
+            return
+        baking.discard(self.ob, self.scene, self.track, self.replaced)
+        self.track = None
+        if (self.scene.frame_start, self.scene.frame_end) != self._range:
+            self.scene.frame_start, self.scene.frame_end = self._range
+        for act, rng in self._records.items():
+            try:
+                act.name  # (an action removed meanwhile has nothing to give back)
+            except ReferenceError:
+                continue
+            if rng is None:
+                act.pop(RANGE_PROP, None)
+            else:
+                act[RANGE_PROP] = rng
+
+    def _measure(self) -> dict:
+        self.played = {}
+        return measure(self.scene, self.ob, self.planned, self.solved, self.frame_start, self.req.goal,
+                       self.planned.goal_heading, self.fps, self.req.body_on, self.planted, self.frames, self.played)
+
+    def measured(self) -> dict:
+        """The bake's quality as Blender plays it; a splice that slides a foot is re-baked
+        whole; BakeError when a figure is beyond the report's tolerances."""
+        from .write import bake as baking
+
+        qual, splice = self._measure(), self.req.splice
         if splice is not None and splice.span is not None and qual["foot_skate"]["max_mm"] > SPLICE_SKATE_MM:
             # the edit turned the walk too far round the kept footprints for their keys to mix
             # without a foot sliding: the whole path is baked instead
             splice.slid_mm, splice.span = float(qual["foot_skate"]["max_mm"]), None
-            baking.discard(ob, scene, track, replaced)
-            act, track, planted, frames = bake_it(False)
-            played = {}
-            qual = measure(scene, ob, planned, solved, frame_start, goal, planned.goal_heading, fps, body_on, planted,
-                           frames, played)
-        pl = planned.setup.planner
+            self.take_back()
+            self.bake(False)
+            qual = self._measure()
+        pl = self.planned.setup.planner
         limits = report.tolerances(pl.settings.goal_radius, pl.settings.body_scale)
         qual["tolerances"] = limits
         faults = report.played_faults(qual, limits)
         if faults:
-            raise baking.BakeError(f"the bake of {ob.name!r} is wrong: {'; '.join(faults)}: something in the scene "
-                                   "moves the character besides its bake (a parent, a constraint, a driver, an NLA "
-                                   "track, a time remap); nothing was baked")
-    except BaseException:  # (a wrong bake, a failure, or the caller stopping here: the bake taken back)
-        baking.discard(ob, scene, track, replaced)
-        raise
-    baking.settle(ob, scene, replaced)
-    stages = stage_row(len(result.footprints), result.seconds, syn, pose_blend=solved.pose_seconds,
-                       ik=solved.ik_seconds, bake=timer.seconds["bake"])
-    doc = report.bake_report(result, syn, character=ob.name, goal=goal, name=name, forward=planned.setup.forward,
-                             frame_start=frame_start, frames=frames, fps=fps, action=act.name,
-                             track=track.name, stages=stages, quality=qual, planted=planted)
-    doc["stashed_action"] = act.get(baking.STASH_PROP)
-    if planned.performance is not None:
-        doc["waypoints"] = waypoint_rows(planned, frame_start, fps, played.get("body"))
-    walk, rig = walk_motion(planned.setup.analyses), planned.setup.rig
-    own = 1.0 / object_scale(ob)  # (in the armature's own units: as an independent read of the file has them)
-    doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")],
-                                     scaled_points(walk.heel_local, own), scaled_points(walk.toe_local, own))
-    return doc
+            raise baking.BakeError(f"the bake of {self.ob.name!r} is wrong: {'; '.join(faults)}: something in the "
+                                   "scene moves the character besides its bake (a parent, a constraint, a driver, an "
+                                   "NLA track, a time remap); nothing was baked")
+        return qual
+
+    def report(self, qual: dict) -> dict:
+        """The bake's report: the plan, the stage times, the quality, the feet's points."""
+        from .write import bake as baking
+
+        planned, solved, act = self.planned, self.solved, self.act
+        result, syn = planned.result, planned.synthesis
+        stages = stage_row(len(result.footprints), result.seconds, syn, pose_blend=solved.pose_seconds,
+                           ik=solved.ik_seconds, bake=self.timer.seconds["bake"])
+        doc = report.bake_report(result, syn, character=self.ob.name, goal=self.req.goal, name=self.name,
+                                 forward=planned.setup.forward, frame_start=self.frame_start, frames=self.frames,
+                                 fps=self.fps, action=act.name, track=self.track.name, stages=stages, quality=qual,
+                                 planted=self.planted)
+        doc["stashed_action"] = act.get(baking.STASH_PROP)
+        if planned.performance is not None:
+            doc["waypoints"] = waypoint_rows(planned, self.frame_start, self.fps, self.played.get("body"))
+        walk, rig = walk_motion(planned.setup.analyses), planned.setup.rig
+        own = 1.0 / object_scale(self.ob)  # (in the armature's own units: as an independent read of the file has them)
+        doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")],
+                                         scaled_points(walk.heel_local, own), scaled_points(walk.toe_local, own))
+        return doc
 

@@ -405,7 +405,8 @@ def test_replan_from_the_ui_shows_progress_and_esc_changes_nothing(fp, mannequin
     assert "Esc to cancel" in run.status[-1] and len(run.progress) == 4
     assert run.esc() == {"CANCELLED"}
     assert run.reports == [({"INFO"}, "re-plan cancelled: nothing was changed")]
-    assert differences(before, fingerprint()) == []
+    diff = differences(before, fingerprint())
+    assert diff == [], "\n".join(d[:150] + " ... " + d[-250:] for d in diff)
     assert run.status[-1] is None and run.progress[-1] == "end"
 
 
@@ -419,6 +420,7 @@ def test_replan_from_the_ui_run_to_the_end_rebakes_the_span(fp, mannequin_scene,
             break
     else:
         pytest.fail("the re-plan did not finish")
-    report = scene.footstep.last_report
-    assert report.startswith("re-planned ") and "re-keyed frames" in report and " only;" in report
+    report = scene.footstep.last_report  # (the span re-keyed, or the whole path where a splice would slide)
+    assert report.startswith("re-planned ") and ("re-keyed frames" in report or "whole path" in report)
+    assert "skate" in report and len(_mod(fp, "write.bake").owned_tracks(ob)) == 1
     assert run.status[-1] is None
