@@ -46,6 +46,12 @@ def _status(context, text) -> None:
         ws.status_text_set(text)
 
 
+def _in_ui(context) -> bool:
+    """Whether Blender's UI runs this (timer events come): not a background run or a script
+    without a window."""
+    return not bpy.app.background and getattr(context, "window", None) is not None
+
+
 class _Stepped:
     """An operator that runs from the UI one step a timer tick (a modal), with the window
     manager's progress and the status bar, both given back however it ends."""
@@ -104,7 +110,8 @@ class FOOTSTEP_OT_import_clips(_Stepped, bpy.types.Operator, ImportHelper):
         from ..read.clips import import_clip_files
 
         paths, target = self._files(context)
-        if len(paths) > 1 and getattr(context, "window", None) is not None:  # (from the UI: a file a tick)
+        if len(paths) > 1 and _in_ui(context):
+            # (in Blender's UI: a file a timer tick; a script's or a background call imports them at once)
             self._paths, self._done = paths, None
             return self._begin(context, len(paths))
         try:

@@ -312,6 +312,7 @@ class _Import:
                                   filepath="", target="NEW", _paths=[], _done=None)
         for name in ("execute", "modal", "_begin", "_end", "_files", "_stopped", "_imported"):
             setattr(self.op, name, getattr(cls, name).__get__(self.op))
+        monkeypatch.setattr(ops, "_in_ui", lambda _ctx: True)  # (as in Blender's UI)
 
     def tick(self):
         return self.op.modal(self.context, SimpleNamespace(type="TIMER", value="NOTHING"))
