@@ -39,6 +39,9 @@ REFERENCE_BUDGET = 1_500_000
 FALLBACK_WEIGHT = 1.05
 
 
+#: the Settings fields every plan of the benchmark uses (``--cross-gaps``)
+SETTINGS: dict = {}
+
 def path_length(fs) -> float:
     """Metres along the midpoints of consecutive footprints (the body's way)."""
     p = np.array([f.position for f in fs], float)
@@ -110,7 +113,7 @@ def run_scene(scene, character, reference: bool):
     from footstep_planner.core.plan.navgraph import PlanError
     from footstep_planner.core.base.settings import Settings
 
-    pl, start, goal = make_planner(scene, character)
+    pl, start, goal = make_planner(scene, character, Settings(**SETTINGS))
     t = time.process_time()
     try:
         r = pl.plan(start, goal)
@@ -140,7 +143,8 @@ def reference_cost(scene, character) -> tuple[float, bool]:
     if scene.name not in _REFERENCE:
         _REFERENCE[scene.name] = (np.nan, False)
         for w, marked in ((1.0, False), (FALLBACK_WEIGHT, True)):
-            ref, s, g = make_planner(scene, character, Settings(heuristic_weight=w, max_expansions=REFERENCE_BUDGET))
+            ref, s, g = make_planner(scene, character, Settings(**{**SETTINGS, "heuristic_weight": w,
+                                                                    "max_expansions": REFERENCE_BUDGET}))
             try:
                 _REFERENCE[scene.name] = (ref.plan(s, g).cost, marked)
                 break
@@ -187,10 +191,13 @@ def main():
                     "else analysed and written there")
     ap.add_argument("--library", choices=("cmu", "sample"), default="cmu",
                     help="the CMU subject-16 library (default) or the sample character's generated clips")
+    ap.add_argument("--cross-gaps", action="store_true",
+                    help="plan with Settings.cross_gaps (steps across small gaps: stepping stones)")
     ap.add_argument("--held-out", action="store_true",
                     help="also the scenes of kinds the planner was never tuned on (scene_generator.held_out_scenes)")
     args = ap.parse_args()
     globals()["REFERENCE_BUDGET"] = args.reference_budget
+    SETTINGS["cross_gaps"] = args.cross_gaps
     scenes = benchmark_scenes(args.seed) + (held_out_scenes() if args.held_out else [])
     if args.only:
         keep = args.only.split(",")
