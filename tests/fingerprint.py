@@ -17,8 +17,13 @@ def _v(x, nd=6):
 
 
 def _props(idb) -> dict:
+    """The data-block's custom properties (a registered property group such as the add-on's
+    own ``footstep``, which Blender 4.5 lists among them once it is read, is not one)."""
     out = {}
+    registered = idb.bl_rna.properties.keys()
     for k in idb.keys():
+        if k in registered:
+            continue
         v = idb[k]
         out[k] = v.to_dict() if hasattr(v, "to_dict") else v.to_list() if hasattr(v, "to_list") else v
     return repr(sorted(out.items()))
