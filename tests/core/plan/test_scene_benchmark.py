@@ -47,8 +47,8 @@ def test_an_island_is_refused_quickly_saying_why(bench_character):
     assert err.value.expanded == 0  # refused before any search (its speed: benchmarks/bench_planner.py)
     # the gap against the longest step (the run's) and against the jump
     assert re.search(r"the gap beyond is 3\.0\d m wide; the library's longest running step spans a gap of "
-                     r"0\.9\d m \(1\.1\d m from footprint to footprint, less the foot's 0\.2\d m\), and its jump "
-                     r"reaches 1\.8\d m", str(err.value)), err.value
+                     r"0\.9\d m \(1\.1\d m from footprint to footprint, less the foot's 0\.2\d m\) "
+                     r"with Settings\.cross_gaps on, and its jump reaches 1\.8\d m", str(err.value)), err.value
 
 
 @pytest.mark.parametrize("width", [1.2, 2.0, 3.0])
