@@ -62,7 +62,7 @@ else:
     ob, _ = mannequin.add_to_scene(scene, "Start")
 goal, heading, start = batch.goal_and_start(scene, "Goal", None, "Start")
 for i in range(repeat):
-    doc = planning.run(scene, ob, goal, heading, start, name=f"paired {i}", frame_start=1)
+    doc = planning.run(scene, ob, goal, heading, start, name="paired", frame_start=1)
     for k, v in doc["stages"].items():
         best[k] = v if k not in best or not k.endswith("_ms") else min(best[k], v)
     q = doc["quality"]
