@@ -40,12 +40,24 @@ _CHILD = r"""
 import glob, json, os, sys, time
 if sys.argv[5] == "cpu":  # (every stage timer reads time.perf_counter)
     time.perf_counter = time.process_time
+import importlib
 import bpy
 from footstep_planner import register
-from footstep_planner.blender.command import batch
-from footstep_planner.blender.sample import mannequin
-from footstep_planner.blender import planning
-from footstep_planner.blender.sample.sample_scenes import build
+
+
+def _mod(*names):  # (the first of the module's homes the tree has: the stage layout, or the flat one before it)
+    for name in names:
+        try:
+            return importlib.import_module("footstep_planner.blender." + name)
+        except ModuleNotFoundError:
+            continue
+    raise ModuleNotFoundError(names[-1])
+
+
+batch = _mod("command.batch", "batch")
+mannequin = _mod("sample.mannequin", "mannequin")
+planning = _mod("planning")
+build = _mod("sample.sample_scenes", "sample_scenes").build
 register()
 scene_name, library, repeat, mocap = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
 names = ["16_16", "16_11", "16_13", "16_17", "16_19", "16_35", "16_37", "16_39", "16_41", "16_43", "49_05"]
@@ -54,7 +66,7 @@ bpy.ops.wm.read_homefile(use_empty=True)
 scene = build(scene_name)
 scene.render.fps = 30
 if library == "cmu":
-    from footstep_planner.blender.read.clips import import_clips
+    import_clips = _mod("read.clips", "clips").import_clips
     ob, _ = import_clips([sorted(glob.glob(os.path.join(mocap, f"cmu_{n}_*.bvh")))[0] for n in names], name="CMU")
     if ob.animation_data:
         ob.animation_data.action = None
