@@ -78,6 +78,11 @@ def _typed(convert, what: str, ok, why: str):
 _finite = _typed(float, "a number", math.isfinite, "not a finite number")
 _text = _typed(str, "text", is_text, "not valid text (undecodable bytes?)")
 _positive = _typed(float, "a number", lambda v: math.isfinite(v) and v > 0, "must be a finite number above 0")
+#: metres per file unit a clip may be read at: beyond, a skeleton's bones are shorter than a
+#: micrometre or longer than a kilometre, and single-precision keys lose them
+SCALE_RANGE = (1e-6, 1e6)
+_scale = _typed(float, "a number", lambda v: math.isfinite(v) and SCALE_RANGE[0] <= v <= SCALE_RANGE[1],
+                f"must be between {SCALE_RANGE[0]:g} and {SCALE_RANGE[1]:g} metres per unit")
 _frame = _typed(int, "a whole frame number", lambda v: abs(v) <= MAX_FRAME,
                 f"beyond Blender's timeline (±{MAX_FRAME})")
 
@@ -140,7 +145,7 @@ def _add_import_clips(sub) -> None:
     p.add_argument("--name", type=_text, help="name of a new armature (default: the first file's name)")
     p.add_argument("--fps", type=_positive, help="scene frame rate to key at (default: the "
                    "scene's; an empty scene takes the first file's rate)")
-    p.add_argument("--scale", type=_positive, help="metres per BVH unit (default: guessed; FBX "
+    p.add_argument("--scale", type=_scale, help="metres per BVH unit (default: guessed; FBX "
                    "and glTF files carry their unit)")
 
 

@@ -203,3 +203,16 @@ def test_demo_names_the_sample_scenes_when_given_another(cli, capsys, tmp_path):
     assert cli(["demo", "--scene", "moon", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "moon" in err and "jumps, turns, obstacles" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("scale", ["1e30", "1e-9", "0", "nan"])
+def test_an_absurd_import_scale_is_refused_in_one_line(cli, capsys, tmp_path, scale):
+    """``--scale`` outside a micrometre to a kilometre per unit (fuzz case import_clips-2-9:
+    1e30 was a traceback) is a usage error naming the option, and nothing is written."""
+    from bvh_files import walker
+
+    bvh = walker(str(tmp_path / "walk.bvh"))
+    out = tmp_path / "lib.blend"
+    assert cli(["import-clips", "--out", str(out), "--scale", scale, str(bvh)]) == 2
+    err = capsys.readouterr().err
+    assert "--scale" in err and "Traceback" not in err and not out.exists()
