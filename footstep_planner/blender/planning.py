@@ -230,7 +230,12 @@ def run(scene, ob, *args, progress=None, **options) -> dict:
     """Plan, synthesize, IK and bake ``ob`` as asked (``BakeRequest(*args, **options)``);
     returns the report (plan, stage times in the layout of thesis Table 4.1, quality of the
     baked result). ``progress(fraction, stage)`` is called between stages."""
-    steps = run_steps(scene, ob, *args, **options)
+    return run_to_end(run_steps(scene, ob, *args, **options), progress)
+
+
+def run_to_end(steps, progress=None):
+    """What a stage generator (``run_steps``, ``directing.rebake_steps``) returns, run to its
+    end; ``progress(fraction, next stage)`` is called between its stages."""
     while True:
         try:
             fraction, stage = next(steps)

@@ -15,6 +15,7 @@ import numpy as np
 from ...core.perform import turn_in_place
 from ...core.perform.directed import MAX_STAND
 from ...core.base.errors import FootstepError
+from ...core.footprint import PIVOT
 from ...core.jobs import MAX_FRAME
 from ...core.plan.plan_edit import Edited, edited_path
 from ...core.plan.plan_file import PlanFile
@@ -65,7 +66,7 @@ class ViaRoute:
         self.route = plan_via(setup.planner, [head[-1]] if head else start, self.wps, body)
         if head:  # (the way leaves from the turned feet: the turn's pivot steps come first)
             res = self.route.result
-            fps = head[:-1] + [replace(res.footprints[0], label=turn_in_place.PIVOT)] + list(res.footprints[1:])
+            fps = head[:-1] + [replace(res.footprints[0], label=PIVOT)] + list(res.footprints[1:])
             self.route = replace(self.route, result=replace(res, footprints=fps),
                                  arrivals=[i + len(head) - 1 for i in self.route.arrivals])
         return self.route.result
@@ -227,12 +228,9 @@ def rebake_handles(scene, ob, settings=None, name: str | None = None, body_on: s
     around what changed searched again) and re-bake: with an earlier bake of the planner's
     whose stances are recorded, only the re-planned span is re-keyed. The handles then show
     the new path (locks kept). Returns (report, route, splice)."""
-    steps = rebake_steps(scene, ob, settings, name, body_on, frame_range)
-    while True:
-        try:
-            next(steps)
-        except StopIteration as done:
-            return done.value
+    from .. import planning
+
+    return planning.run_to_end(rebake_steps(scene, ob, settings, name, body_on, frame_range))
 
 
 def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str = "OBJECT",

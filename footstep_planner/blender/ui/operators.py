@@ -459,12 +459,10 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
                         "so the bake plays; Clear gives it back")
 
     def execute(self, context):
+        from .. import planning
+
         try:
-            steps = self._start(context)
-            while True:
-                next(steps)
-        except StopIteration as done:
-            self._finish(context, done.value)
+            self._finish(context, planning.run_to_end(self._start(context)))
             return {"FINISHED"}
         except FootstepError as ex:
             _refused(self, ex)
@@ -610,14 +608,12 @@ class FOOTSTEP_OT_replan(_OnCharacter, _Stepped, bpy.types.Operator):
                                       frame_range=fs.grow_frame_range)
 
     def execute(self, context):
-        steps = self._start(context)
-        while True:
-            try:
-                next(steps)
-            except StopIteration as done:
-                return self._finish(context, *done.value)
-            except FootstepError as ex:
-                return self._refused(context, ex)
+        from .. import planning
+
+        try:
+            return self._finish(context, *planning.run_to_end(self._start(context)))
+        except FootstepError as ex:
+            return self._refused(context, ex)
 
     def invoke(self, context, event):
         self._steps = self._start(context)

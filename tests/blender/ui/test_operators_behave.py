@@ -135,9 +135,9 @@ class _Modal:
     Esc), on an object standing in for the running operator."""
 
     METHODS = ("invoke", "modal", "_begin", "_end", "_start", "_finish", "_cancel", "_stopped", "_analysed", "_apply",
-               "_refused", "execute")
+               "_refused", "_files", "_imported", "execute")
 
-    def __init__(self, fp, cls, context, monkeypatch, **props):
+    def __init__(self, fp, cls, context, monkeypatch, window=None, invoke=True, **props):
         ops = _mod(fp, "ui.operators")
         self.status, self.reports, self.progress = [], [], []
         monkeypatch.setattr(ops, "_status", lambda _ctx, text: self.status.append(text))
@@ -145,13 +145,14 @@ class _Modal:
                              progress_update=lambda v: self.progress.append(v),
                              event_timer_add=lambda *a, **k: "timer", event_timer_remove=lambda t: None,
                              modal_handler_add=lambda op: None)
-        self.context = SimpleNamespace(window_manager=wm, window=None, scene=context.scene,
+        self.context = SimpleNamespace(window_manager=wm, window=window, scene=context.scene,
                                        active_object=context.active_object, workspace=None)
         self.op = SimpleNamespace(report=lambda level, msg: self.reports.append((level, msg)), _timer=None, **props)
         for name in self.METHODS:
             if hasattr(cls, name):
                 setattr(self.op, name, getattr(cls, name).__get__(self.op))
-        assert self.op.invoke(self.context, None) == {"RUNNING_MODAL"}
+        if invoke:
+            assert self.op.invoke(self.context, None) == {"RUNNING_MODAL"}
 
     def tick(self):
         return self.op.modal(self.context, SimpleNamespace(type="TIMER", value="NOTHING"))
@@ -292,33 +293,16 @@ def test_analyze_clips_stepped_gives_what_a_script_gets(fp, mannequin_scene, mon
     assert run.reports[-1][1].endswith(f"analysed {len(run.op._names)} clip(s)") and run.status[-1] is None
 
 
-class _Import:
-    """Import Clips driven as from the UI: the file browser's choice, then timer events and
-    Esc, on an object standing in for the running operator."""
+class _Import(_Modal):
+    """Import Clips driven as from the UI: the file browser's choice (then ``op.execute``),
+    timer events and Esc, on an object standing in for the running operator."""
 
     def __init__(self, fp, context, monkeypatch, folder, names):
         ops = _mod(fp, "ui.operators")
-        cls = ops.FOOTSTEP_OT_import_clips
-        self.status, self.reports, self.progress = [], [], []
-        monkeypatch.setattr(ops, "_status", lambda _ctx, text: self.status.append(text))
-        wm = SimpleNamespace(progress_begin=lambda *a: None, progress_end=lambda: self.progress.append("end"),
-                             progress_update=lambda v: self.progress.append(v),
-                             event_timer_add=lambda *a, **k: "timer", event_timer_remove=lambda t: None,
-                             modal_handler_add=lambda op: None)
-        self.context = SimpleNamespace(window_manager=wm, window="the window", scene=context.scene,
-                                       active_object=context.active_object, workspace=None)
-        self.op = SimpleNamespace(report=lambda level, msg: self.reports.append((level, msg)), _timer=None,
-                                  directory=str(folder), files=[SimpleNamespace(name=n) for n in names],
-                                  filepath="", target="NEW", _paths=[], _done=None)
-        for name in ("execute", "modal", "_begin", "_end", "_files", "_stopped", "_imported"):
-            setattr(self.op, name, getattr(cls, name).__get__(self.op))
+        super().__init__(fp, ops.FOOTSTEP_OT_import_clips, context, monkeypatch, window="the window", invoke=False,
+                         directory=str(folder), files=[SimpleNamespace(name=n) for n in names], filepath="",
+                         target="NEW", _paths=[], _done=None)
         monkeypatch.setattr(ops, "_in_ui", lambda _ctx: True)  # (as in Blender's UI)
-
-    def tick(self):
-        return self.op.modal(self.context, SimpleNamespace(type="TIMER", value="NOTHING"))
-
-    def esc(self):
-        return self.op.modal(self.context, SimpleNamespace(type="ESC", value="PRESS"))
 
 
 def _walkers(folder, n):
