@@ -29,6 +29,7 @@ maps agree in the end segments' velocity at the ends, where the path goes on lin
 from __future__ import annotations
 
 import numpy as np
+from scipy.interpolate import BPoly, CubicHermiteSpline, PchipInterpolator
 
 __all__ = [
     "centripetal_catmull_rom",
@@ -105,17 +106,16 @@ def _footprints(position, heading, times, who: str = "footprint"):
 
 def _monotone_slopes(h: np.ndarray, secant: np.ndarray) -> np.ndarray:
     """Knot slopes (n,) of a monotone C1 cubic through non-decreasing data with interval
-    widths ``h`` (n-1,) and secant slopes ``secant`` (n-1,) >= 0: at interior knots the
-    Fritsch-Carlson (Brodlie) weighted harmonic mean of the two secants, 0 if either is
-    0; at the two ends the end secant, so that the path's velocity at its ends is the
-    end segment's mean velocity. Every slope is at most 3x the secants beside it, which
-    keeps the cubic monotone."""
-    out = np.empty(len(secant) + 1)
+    widths ``h`` (n-1,) and secant slopes ``secant`` (n-1,) >= 0: at interior knots
+    scipy's PCHIP slopes (the Fritsch-Carlson / Brodlie weighted harmonic mean of the two
+    secants, 0 if either is 0); at the two ends the end secant, not PCHIP's three-point
+    end rule, so that the path's velocity at its ends is the end segment's mean velocity
+    (which ``_extend_linearly`` carries on). Every slope is at most 3x the secants beside
+    it, which keeps the cubic monotone."""
+    x = np.concatenate([[0.0], np.cumsum(h)])
+    y = np.concatenate([[0.0], np.cumsum(h * secant)])
+    out = PchipInterpolator(x, y).derivative()(x) if len(h) > 1 else np.empty(2)
     out[0], out[-1] = secant[0], secant[-1]
-    a, b = secant[:-1], secant[1:]
-    w1, w2 = 2.0 * h[1:] + h[:-1], h[1:] + 2.0 * h[:-1]
-    pos = (a > 0.0) & (b > 0.0)
-    out[1:-1] = np.where(pos, (w1 + w2) * a * b / np.where(pos, w1 * b + w2 * a, 1.0), 0.0)
     return out
 
 
@@ -208,28 +208,28 @@ def _smooth_fraction(dt: np.ndarray, dseg: np.ndarray, k: np.ndarray, tau: np.nd
                      ) -> tuple[np.ndarray, np.ndarray]:
     """(u (F,), ds_end (2,)): the fraction u = (s(t) - s_k) / d_k of segment ``k``'s
     knot interval reached at time fraction ``tau`` (F,), for s(t) the cubic Hermite
-    with monotone slopes (``_monotone_slopes``) through the knots (0 on a zero
-    interval); and ds/dt (1/s) at the first and last knot."""
+    (scipy's ``CubicHermiteSpline``) with monotone slopes (``_monotone_slopes``) through
+    the knots (0 on a zero interval); and ds/dt (1/s) at the first and last knot."""
     rate = _monotone_slopes(dt, dseg / dt)  # (n,) ds/dt at the knots
-    m = _safe_div(np.stack([rate[:-1], rate[1:]], axis=1) * dt[:, None], dseg)  # (n-1, 2)
-    t2, t3 = tau * tau, tau * tau * tau
-    u = (3.0 * t2 - 2.0 * t3) + (t3 - 2.0 * t2 + tau) * m[k, 0] + (t3 - t2) * m[k, 1]
-    u = np.where(dseg[k] > 0.0, u, 0.0)
+    kt = np.concatenate([[0.0], np.cumsum(dt)])
+    s = np.concatenate([[0.0], np.cumsum(dseg)])
+    s_t = CubicHermiteSpline(kt, s, rate)(kt[k] + tau * dt[k])
+    ok = dseg[k] > 0.0
+    u = np.where(ok, (s_t - s[k]) / np.where(ok, dseg[k], 1.0), 0.0)
     return u, rate[[0, -1]]
 
 
 def _hermite(P: np.ndarray, T: np.ndarray, dseg: np.ndarray, k: np.ndarray, u: np.ndarray
              ) -> np.ndarray:
     """(F, D) the cubic Hermite of segment ``k`` (F,) from P[k] to P[k+1], tangents
-    T * d_k (``dseg`` (n-1,)), at fractions ``u`` (F,) clipped to [0, 1]."""
-    u = np.clip(u, 0.0, 1.0)[:, None]
-    u2, u3 = u * u, u * u * u
-    h00 = 2.0 * u3 - 3.0 * u2 + 1.0
-    h10 = u3 - 2.0 * u2 + u
-    h01 = 3.0 * u2 - 2.0 * u3
-    h11 = u3 - u2
-    dk = dseg[k][:, None]
-    return h00 * P[k] + h10 * (dk * T[k]) + h01 * P[k + 1] + h11 * (dk * T[k + 1])
+    T * d_k (``dseg`` (n-1,)), at fractions ``u`` (F,) clipped to [0, 1]: scipy's
+    ``BPoly`` over the segment index, each segment the cubic Bezier with control points
+    P[k], P[k] + T[k] d_k / 3, P[k+1] - T[k+1] d_k / 3, P[k+1] (a Hermite with one
+    tangent per knot can't be a ``CubicHermiteSpline``: the tangent in u jumps at a knot
+    where d_k changes, and a zero-length chord has d_k = 0)."""
+    dk = dseg[:, None] / 3.0
+    c = np.stack([P[:-1], P[:-1] + dk * T[:-1], P[1:] - dk * T[1:], P[1:]])  # (4, n-1, D)
+    return BPoly(c, np.arange(len(P), dtype=float))(k + np.clip(u, 0.0, 1.0))
 
 
 def _extend_linearly(out: np.ndarray, tq: np.ndarray, kt: np.ndarray, T: np.ndarray,
