@@ -141,6 +141,14 @@ def bad_data_variants(folder):
     lines[knee + 2] = "OFFSET 0.0000 0.0000 0.0000"
     out["zero_length"] = _put(folder, "zero_length", "\n".join(lines),
                               [f"line {thigh}", "'LeftUpLeg'", "zero length", "'LeftLeg'", f"line {knee + 1}"])
+    # two joints of one name: the bones would be told apart by Blender's ".001" only
+    lines = text.split("\n")
+    stripped = [ln.strip() for ln in lines]
+    left, right = stripped.index("JOINT LeftLeg"), stripped.index("JOINT RightLeg")
+    lines[right] = lines[right].replace("RightLeg", "LeftLeg")
+    out["joint_named_twice"] = _put(folder, "joint_named_twice", "\n".join(lines),
+                                    [f"line {right + 1}", "'LeftLeg'", "named twice",
+                                     f"first on line {left + 1}"])
     ft_line = text.split("\n").index(next(ln for ln in text.split("\n") if ln.startswith("Frame Time"))) + 1
     for name, value in (("frame_time_zero", "0"), ("frame_time_negative", "-0.0083333"),
                         ("frame_time_nan", "nan"), ("frame_time_tiny", "1e-300"), ("frame_time_huge", "5")):

@@ -240,7 +240,12 @@ def _new_joint(key: str, tok: list[str], joints: _Joints, stack: list[int]) -> i
         raise _LineError(f"{key} in the wrong place")
     if len(tok) < 2:
         raise _LineError(f"{key} without a name")
-    joints.names.append("_".join(tok[1:]))
+    name = "_".join(tok[1:])
+    if name in joints.names:
+        first = joints.lines[joints.names.index(name)]
+        raise _LineError(f"joint {name!r} is named twice (first on line {first}): "
+                         "a skeleton's joints need names of their own; rename one")
+    joints.names.append(name)
     joints.parents.append(stack[-1] if stack else -1)
     joints.offsets.append(np.zeros(3))
     joints.channels.append(())

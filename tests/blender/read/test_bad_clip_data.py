@@ -19,7 +19,7 @@ import pytest
 from bvh_files import bad_data_variants, walker
 from conftest import cmu, needs_cmu
 
-BAD_BVH = ("nan_motion", "inf_motion", "overflow_motion", "zero_length", "frame_time_zero",
+BAD_BVH = ("nan_motion", "inf_motion", "overflow_motion", "zero_length", "joint_named_twice", "frame_time_zero",
            "frame_time_negative", "frame_time_nan", "frame_time_tiny", "frame_time_huge")
 
 
