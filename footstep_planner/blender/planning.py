@@ -18,13 +18,13 @@ import numpy as np
 
 from ..core.base.settings import Settings
 from ..core.base.timing import StageTimer
-from ..core.clips.body import body_scale, scaled_points
+from ..core.clips.body import body_scale, leg_length, scaled_points
 from ..core.clips.steps import library_steps, shortest_stride
 from ..core.footprint import PathFootprint
 from ..core.perform import turn_in_place
 from ..core.perform.run import Planned, perform_plan, synthesize_plan, waypoint_rows
 from ..core.plan.navgraph import FootprintCache, PlanError, PlanResult, Planner
-from ..core.plan.setup import PlanSetup, foot_shape, standing_footprints
+from ..core.plan.setup import PlanSetup, check_size, foot_shape, standing_footprints
 from ..core.plan.surface import FootShape
 from ..core.report import document as report
 from ..core.solve.frames import Solved, solve, toe_tips, walk_motion
@@ -78,6 +78,7 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
     if not clips.analyses:
         why = "; ".join(clips.errors.values()) or "it has no actions"
         raise PlanError(f"character {ob.name!r} has no usable clips ({why})")
+    check_size(ground, leg_length(clips.rig), f"character {ob.name!r}")
     settings = settings.for_body(body_scale(clips.rig))  # (a human's lengths, for this character's size)
     library = library_for(ob, clips)
     steps = library_steps(library, clips.analyses, bend_curvature=settings.bend_curvature,

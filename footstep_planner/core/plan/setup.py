@@ -64,6 +64,25 @@ STAND_HALF_WIDTH = 0.1
 STAND_HALF_WIDTH_RANGE = (0.05, 0.15)
 
 
+def check_size(ground, leg: float, what: str) -> None:
+    """PlanError naming ``what`` (the character) when its legs, ``leg`` m long as its rig
+    and object scale make them, are longer than the traversable surfaces of ``ground``
+    span (their bounding box's larger side): a rig in centimetres (or another unit) under
+    an object scale of 1 stands a hundred times a human's height over a human's scene,
+    and every step would then miss the floor; the message says so, not that the start
+    is off the floor."""
+    verts = ground.mesh.verts[np.unique(ground.mesh.tris)] if len(ground.mesh.tris) else None
+    if verts is None:
+        return
+    span = float(np.ptp(verts[:, :2], axis=0).max())
+    if leg > span > 0.0:
+        raise PlanError(
+            f"{what} has legs {leg:.3g} m long, longer than the traversable surfaces span "
+            f"({span:.3g} m): its size is wrong for this scene. If its rig is in centimetres "
+            "(or another unit), scale its object to metres (0.01 for centimetres) or rescale "
+            "the rig; else scale the scene to the character")
+
+
 def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
                         width: float | None = None) -> list[PathFootprint]:
     """Both feet side by side, ``width`` either side of ``position`` (3,), turned
@@ -95,5 +114,5 @@ def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
     return out
 
 
-__all__ = ["STAND_HALF_WIDTH", "STAND_HALF_WIDTH_RANGE", "TOE_ROOM", "PlanSetup", "foot_shape",
+__all__ = ["STAND_HALF_WIDTH", "STAND_HALF_WIDTH_RANGE", "TOE_ROOM", "PlanSetup", "check_size", "foot_shape",
            "standing_footprints"]
