@@ -137,9 +137,10 @@ def _analyze(args) -> int:
         files, blends = _clip_files_or_blend(args)
         characters = (_each_clip_file(files, args.fps) if files
                       else ((ob, {}) for ob in _characters_of_blend(args, blends)))
-        out = [_analyze_one(args, settings, outs, ob, refused) for ob, refused in characters]
+        names: set[str] = set()  # (every clip's, whatever --clip selects)
+        out = [_analyze_one(args, settings, outs, ob, refused, names) for ob, refused in characters]
         outs.commit()
-    failed = [msg for *_, errors in out for msg in errors.values()]
+    failed = [msg for *_, errors in out for msg in errors.values()] + _clips_not_found(args, names)
     _print_analyses(args, out, failed, bool(files))
     for msg in failed:
         print(f"footstep: error: {msg}", file=sys.stderr)
@@ -148,21 +149,31 @@ def _analyze(args) -> int:
     return min(100, len(failed))
 
 
-def _analyze_one(args, settings, outs: Outputs, ob, refused: dict) -> tuple:
+def _analyze_one(args, settings, outs: Outputs, ob, refused: dict, names: set) -> tuple:
     """(armature's name, analyses, library, {clip: reason refused}) of one character
-    (None: a clip file refused as a whole), only the ``--clip`` clips."""
+    (None: a clip file refused as a whole), only the ``--clip`` clips; every clip's name
+    is added to ``names``."""
     from ..read.character import analyze_character, library_for
 
     wanted = lambda name: not args.clip or name in args.clip  # noqa: E731
+    if ob is None:  # (a file refused as a whole: its clips' names are unknown, its message stands)
+        return None, [], None, dict(refused)
     errors = {n: m for n, m in refused.items() if wanted(n)}
-    if ob is None:
-        return None, [], None, errors
     result = analyze_character(ob, settings)
+    names.update(refused, (a.name for a in result.analyses), result.errors)
     analyses = [a for a in result.analyses if wanted(a.name)]
     errors.update((n, m) for n, m in result.errors.items() if wanted(n))
     if args.plot:
         _plot_clips(outs, analyses, args.plot)
     return ob.name, analyses, library_for(ob, result) if analyses else None, errors
+
+
+def _clips_not_found(args, names: set) -> list[str]:
+    """A message for each ``--clip`` name that is none of the clips' ``names`` (else
+    ``analyze --clip walk`` on files whose clip is named otherwise said nothing, exit 2)."""
+    known = ", ".join(sorted(names))
+    return [f"--clip {name!r}: no clip of that name" + (f" (the clips: {known})" if known else "")
+            for name in dict.fromkeys(args.clip or ()) if name not in names]
 
 
 def _plot_clips(outs: Outputs, analyses, folder: str) -> None:

@@ -53,6 +53,19 @@ def test_bad_bvh_data_is_refused_at_the_door(cli, capsys, tmp_path, bad_bvh, kin
     assert not out.exists() and os.listdir(tmp_path) == []
 
 
+def test_a_clip_name_no_file_has_is_said_and_a_refused_file_still_named(cli, capsys, tmp_path, bad_bvh):
+    """``analyze --clip NAME`` where no clip is so named says so (it said nothing, exit 2);
+    a file refused as a whole is named whatever ``--clip`` asks (its clips are unknown)."""
+    good = walker(str(tmp_path / "good.bvh"), frames=30)
+    assert cli(["analyze", good, "--json", "--clip", "walk"]) == 1  # (one problem)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["footstep: error: --clip 'walk': no clip of that name (the clips: good)"], err
+    path, words = bad_bvh["frame_time_nan"]
+    assert cli(["analyze", path, "--clip", "walk"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and all(w in err[0] for w in words) and "'walk'" in err[1], err
+
+
 def test_a_folder_given_as_a_clip_is_named_a_folder(fp, cli, capsys, tmp_path):
     clips = import_module(fp.__name__ + ".blender.read.clips")
     for name in ("walk.bvh", "walk.fbx"):
