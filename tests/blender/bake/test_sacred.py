@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from benchmarks import fuzz_cases
+from conftest import QUATERNIUS, needs_quaternius
 from fingerprint import differences, fingerprint
 
 CHAR = "Footstep Mannequin"
@@ -451,3 +452,50 @@ def test_an_earlier_bake_made_later_still_lets_the_later_one_play(fp, shot):
     assert np.linalg.norm((at(early["frame_end"] + 100) - near)[:2]) < 0.5  # (holding where it arrived)
     assert np.linalg.norm((at(2000) - start)[:2]) < 0.3  # (the later bake starts again from the start)
     assert np.linalg.norm((at(late["frame_end"]) - near)[:2]) < 0.5
+
+
+@needs_quaternius
+def test_bake_and_clear_give_back_a_downloaded_fbx_character_exactly(fp):
+    """The CC0 Quaternius character as downloaded (its FBX through Blender's importer,
+    scaled to a human's size by its object, as its README says a user does), left as an
+    animator leaves it (a take active, a muted layer of their own, markers, a bone posed),
+    baked on the Turns scene and played, then cleared: the whole scene as it was."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("turns")
+    scene.render.fps = 30
+    clips = import_module(fp.__name__ + ".blender.read.clips")
+    body = import_module(fp.__name__ + ".core.clips.body")
+    read_scene = import_module(fp.__name__ + ".blender.read.scene")
+    ob, _ = clips.import_clips([QUATERNIUS], name="Quaternius")
+    ob.scale = (1.0 / body.body_scale(read_scene.rig_from_armature(ob)),) * 3
+    start = scene.objects["Start"]
+    ob.location, ob.rotation_euler.z = start.location, start.rotation_euler.z + 2 * math.pi
+    ad = ob.animation_data_create()
+    takes = sorted(a.name for a in bpy.data.actions)
+    ad.action = bpy.data.actions[next(n for n in takes if "Idle" in n)]
+    ad.action_slot = ad.action.slots[0]
+    layer = ad.nla_tracks.new()
+    layer.name = "User layer"
+    walk = bpy.data.actions[next(n for n in takes if "Walk" in n)]
+    layer.strips.new("stroll", 1, walk).action_slot = walk.slots[0]
+    layer.mute = True
+    scene.timeline_markers.new("FP review", frame=12)
+    scene.frame_set(1)  # (its pose is its take's at the frame shown, as Blender keeps it)
+    keyed = {fc.data_path for lay in ad.action.layers for st in lay.strips for cb in st.channelbags
+             for fc in cb.fcurves}
+    free = [b for b in ob.pose.bones if f'pose.bones["{b.name}"].rotation_quaternion' not in keyed]
+    assert free
+    for b in free[:1]:  # (a bone its take leaves alone, posed by hand)
+        b.rotation_mode = "XYZ"
+        b.rotation_euler = (0.3, 0.0, 7.0)
+    before = fingerprint()
+    planning, bake, _ = _mods(fp)
+    goal, heading = planning.goal_of(scene, "Goal")
+    doc = planning.run(scene, ob, goal, heading, start, name="fbx", frame_start=1, markers=True)
+    assert doc["quality"]["goal"]["distance_m"] < 0.05 and doc["quality"]["foot_skate"]["max_mm"] < 1.0
+    scene.frame_set(doc["frame_end"] // 2)
+    scene.frame_current = 1
+    assert bake.clear(ob, scene) == 1
+    _same(before)
