@@ -18,6 +18,7 @@ import numpy as np
 
 from ...core.footprint import PathFootprint
 from ...core.plan.plan_file import PlanFile
+from ...core.base.angles import yaw
 
 OWNED = "footstep_handles"  # on the collection and each handle: the character's name
 INDEX, FOOT, LOCKED = "footstep_index", "footstep_foot", "footstep_locked"
@@ -55,10 +56,6 @@ def clear_handles(ob) -> int:
     return n
 
 
-def _yaw(forward) -> float:
-    return float(np.arctan2(forward[1], forward[0]))
-
-
 def make_handles(scene, ob, footprints: list[PathFootprint], forward, goal=None, goal_heading=None,
                  locked=None) -> list:
     """A handle per footprint (replacing the character's earlier ones), locked as
@@ -81,7 +78,7 @@ def _handle(coll, ob, i: int, f: PathFootprint, forward, locked: bool):
     h.empty_display_size = SIZE
     h.location = [float(v) for v in f.position]
     # a handle faces its footprint's way with its -Y axis: Z rotation = yaw + pi/2
-    h.rotation_euler = (0.0, 0.0, float(f.heading + _yaw(forward) + np.pi / 2))
+    h.rotation_euler = (0.0, 0.0, float(f.heading + yaw(forward) + np.pi / 2))
     h[OWNED], h[INDEX], h[FOOT], h[LOCKED] = ob.name, i, "LR"[f.foot], locked
     h[PLANNED] = [*map(float, f.position), float(f.heading), float(f.time)]
     h[STEP] = [f.label, f.gait, "1" if f.jump else ""]
@@ -103,7 +100,7 @@ def _pose(h, forward) -> tuple[np.ndarray, float, bool]:
     moved or turned."""
     planned = list(h[PLANNED])
     m = h.matrix_world if h.parent is not None else h.matrix_basis  # (no depsgraph update needed)
-    pos, heading = np.array(m.translation, float), float(m.to_euler().z) - np.pi / 2 - _yaw(forward)
+    pos, heading = np.array(m.translation, float), float(m.to_euler().z) - np.pi / 2 - yaw(forward)
     turn = abs((heading - planned[3] + np.pi) % (2 * np.pi) - np.pi)
     if np.abs(pos - planned[:3]).max() <= TOUCH and turn <= TOUCH:
         return np.array(planned[:3], float), float(planned[3]), False

@@ -51,6 +51,7 @@ from .stances import Footprint
 from .clip import ClipMotion
 from ..base.errors import FootstepError
 from .rig import Rig
+from ..base.angles import wrap
 
 #: The suffix of a mirrored clip's name ("run_jump" -> "run_jump~mirror").
 SUFFIX = "~mirror"
@@ -251,7 +252,7 @@ class Mirror:
 
     def footprint(self, f: Footprint) -> Footprint:
         """A footprint's mirror image: the other foot, reflected, its heading negated."""
-        return Footprint(1 - f.foot, f.time, self.point(f.position), _wrap(-f.heading),
+        return Footprint(1 - f.foot, f.time, self.point(f.position), float(wrap(-f.heading)),
                          self.point(f.heel), self.point(f.toe), f.strike_part)
 
     def analysis(self, a: ClipAnalysis, name: str | None = None) -> ClipAnalysis:
@@ -269,11 +270,6 @@ class Mirror:
             jump_flights=list(a.jump_flights), balance=a.balance[::-1].copy(),
             contact=a.contact[::-1].copy(),
             motion=None if a.motion is None else self.motion(a.motion, name))
-
-
-def _wrap(a: float) -> float:
-    """An angle wrapped to [-pi, pi)."""
-    return float((a + np.pi) % (2 * np.pi) - np.pi)
 
 
 def mirror_motion(m: ClipMotion, rig: Rig, name: str | None = None) -> ClipMotion:

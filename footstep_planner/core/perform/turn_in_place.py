@@ -31,6 +31,7 @@ from ..footprint import PIVOT, STAND_LABEL, STAND_WIDTH, PathFootprint, beside_p
 from ..plan.navgraph import PlanError, PlanResult, Planner
 from ..plan.surface import FootShape
 from .directed import join
+from ..base.angles import wrap, yaw
 
 #: A pivot step is played this much quicker than the walk's step (its clip's time over
 #: it): a turn on the spot takes short, quick steps.
@@ -56,14 +57,6 @@ def beside(planner: Planner, fp: PathFootprint) -> PathFootprint:
     return PathFootprint(1 - fp.foot, p, fp.heading, fp.time, fp.label, fp.gait)
 
 
-def _wrap(a):
-    return (np.asarray(a, float) + np.pi) % (2 * np.pi) - np.pi
-
-
-def _yaw(forward) -> float:
-    return float(np.arctan2(forward[1], forward[0]))
-
-
 def _offset(body, heading: float, forward) -> np.ndarray:
     """(3,) the world offset of ``body`` (ahead, left) m in the frame of ``heading``."""
     ahead, left = _axes(heading, forward)
@@ -72,7 +65,7 @@ def _offset(body, heading: float, forward) -> np.ndarray:
 
 def _axes(heading: float, forward) -> tuple[np.ndarray, np.ndarray]:
     """(ahead, left) world unit vectors (3,) of a heading."""
-    a = heading + _yaw(forward)
+    a = heading + yaw(forward)
     return np.array([np.cos(a), np.sin(a), 0.0]), np.array([-np.sin(a), np.cos(a), 0.0])
 
 
@@ -119,13 +112,13 @@ def pivot_footprints(standing: PathFootprint, first: PathFootprint, target: floa
     if standing.foot == first.foot:
         raise ValueError("a turn in place needs a left and a right foot")
     pos = {standing.foot: np.asarray(standing.position, float), first.foot: np.asarray(first.position, float)}
-    mean = standing.heading + 0.5 * float(_wrap(first.heading - standing.heading))
-    turn = float(_wrap(target - mean))
+    mean = standing.heading + 0.5 * float(wrap(first.heading - standing.heading))
+    turn = float(wrap(target - mean))
     if abs(abs(turn) - np.pi) < 1e-9:
         turn = np.pi  # (right behind: turn left)
     goal = mean + turn
-    head = {standing.foot: mean + float(_wrap(standing.heading - mean)),
-            first.foot: mean + float(_wrap(first.heading - mean))}
+    head = {standing.foot: mean + float(wrap(standing.heading - mean)),
+            first.foot: mean + float(wrap(first.heading - mean))}
     if abs(turn) < NO_TURN and all(abs(h - goal) < NO_TURN for h in head.values()):
         return []
     if width is None:
@@ -254,7 +247,7 @@ def hairpins(path: list[PathFootprint]) -> list[tuple[int, int]]:
 
 
 def _mean_heading(a: PathFootprint, b: PathFootprint) -> float:
-    return a.heading + 0.5 * float(_wrap(b.heading - a.heading))
+    return a.heading + 0.5 * float(wrap(b.heading - a.heading))
 
 
 def split(path: list[PathFootprint]) -> tuple[list, list, list]:
@@ -288,8 +281,8 @@ def facing_way(planner: Planner, footprints: list[PathFootprint], goal, field=No
         d = np.asarray(goal, float)[:2] - mid[:2]
         if np.hypot(*d) < planner.settings.goal_radius:
             return None
-        return float(np.arctan2(d[1], d[0])) - _yaw(planner.forward)
-    return float(ahead[0]) - _yaw(planner.forward)
+        return float(np.arctan2(d[1], d[0])) - yaw(planner.forward)
+    return float(ahead[0]) - yaw(planner.forward)
 
 
 def start_turn(planner: Planner, start: list[PathFootprint], goal, body=(0.0, 0.0),
@@ -306,7 +299,7 @@ def start_turn(planner: Planner, start: list[PathFootprint], goal, body=(0.0, 0.
     if way is None:
         return []
     facing = _mean_heading(start[0], start[1])
-    off = float(_wrap(way - facing))
+    off = float(wrap(way - facing))
     if abs(off) <= cfg.turn_in_place_angle:
         return []
     moves = (0 if off > 0 else 1) if first is None else first  # (the foot on the turning side)
@@ -385,13 +378,13 @@ def plan(planner: Planner, start: list[PathFootprint], goal, goal_heading: float
         origin = [head[-1]] if head else start
         res, refused = None, None
         way = arrival_way(planner, field, origin, goal)
-        looping = way is not None and abs(float(_wrap(goal_heading - way))) > angle
+        looping = way is not None and abs(float(wrap(goal_heading - way))) > angle
         if not looping:
             res, refused = _try(planner, origin, goal, goal_heading)
         if looping or res is None or _loops(res.footprints[::-1], goal_heading, max(angle, LOOPED),
                                             cfg.length(LOOP_REACH)):
             free, err = _try(planner, origin, goal, None)
-            if free is not None and abs(float(_wrap(goal_heading - free.footprints[-1].heading))) > angle:
+            if free is not None and abs(float(wrap(goal_heading - free.footprints[-1].heading))) > angle:
                 tail = end_turn(planner, free.footprints[-1], goal_heading, body)
                 if tail:
                     res = replace(free, footprints=list(free.footprints) + tail)
@@ -469,7 +462,7 @@ def hairpin_turn(planner: Planner, origin: list[PathFootprint], res: PlanResult,
     i, j = found
     before = walk[max(0, i - 3):i + 2]  # (the way in, before it turns)
     way_in = float(np.mean([_mean_heading(a, b) for a, b in zip(before[:-1], before[1:])]))
-    ang = way_in + _yaw(planner.forward)
+    ang = way_in + yaw(planner.forward)
     ahead = np.array([np.cos(ang), np.sin(ang), 0.0])
     side = np.array([-ahead[1], ahead[0], 0.0])
     loop = np.array([f.position for f in walk[i:j + 1]], float)
@@ -506,7 +499,7 @@ def _turned_at(planner: Planner, origin, spot, field, goal, goal_heading, body, 
     last = first.footprints[-1]
 
     way_on = facing_way(planner, [last, beside(planner, last)], goal, field)
-    if way_on is None or abs(float(_wrap(way_on - last.heading))) <= HAIRPIN_LEFT:
+    if way_on is None or abs(float(wrap(way_on - last.heading))) <= HAIRPIN_LEFT:
         return None
     turn = end_turn(planner, last, way_on, body)
     if not turn:
@@ -542,7 +535,7 @@ def arrival_way(planner: Planner, field, start: list[PathFootprint], goal) -> fl
     v = goal[:2] - p
     if np.hypot(*v) < 1e-6:
         return None
-    return float(np.arctan2(v[1], v[0])) - _yaw(planner.forward)
+    return float(np.arctan2(v[1], v[0])) - yaw(planner.forward)
 
 
 def _try(planner: Planner, start, goal, heading) -> tuple[PlanResult | None, PlanError | None]:
@@ -558,7 +551,7 @@ def _loops(fps: list[PathFootprint], facing: float, angle: float, reach: float =
     pos = np.array([f.position for f in fps], float)[:, :2]
     along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))]
     near = along <= reach
-    off = np.abs(_wrap(np.array([f.heading for f in fps], float)[near] - facing))
+    off = np.abs(wrap(np.array([f.heading for f in fps], float)[near] - facing))
     return bool((off > angle).any())
 
 

@@ -61,9 +61,10 @@ from ..footprint import PathFootprint
 from .distance_field import AHEAD_TURN_COST, EDGE_COST, FREE_TURN, DistanceField, FieldCells
 from .refusals import Refusals
 from .search_state import PlanError, SearchNode, _Batch, _Search
-from .step_rules import StepRules, _start_gaits, _wrap
+from .step_rules import StepRules, _start_gaits
 from .support_cache import FINE_CELL, FINE_HEADING_BINS, GAIT_IDS, FootprintCache, _pack, fine_keys, fine_xy
 from .surface import FootShape, Ground, footprint_support
+from ..base.angles import wrap
 
 
 #: m: a footprint the distance field samples in a cell stands at the cell's level when
@@ -347,7 +348,7 @@ class Planner(StepRules, Refusals):
             d = np.where(np.isfinite(d), np.maximum(d, straight) - radius, 3.0 * straight)
             h = np.maximum(d - slack, 0.0) / vmax
             if psi is not None and per_rad > 0:
-                off = np.abs(_wrap(np.asarray(psi, float) + yaw - ahead))
+                off = np.abs(wrap(np.asarray(psi, float) + yaw - ahead))
                 h = h + per_rad * np.nan_to_num(np.maximum(off - FREE_TURN, 0.0), nan=0.0)
             return h
         return heuristic
@@ -419,7 +420,7 @@ class Planner(StepRules, Refusals):
         cfg = self.settings
         return d_goal <= cfg.goal_radius and node.parent >= 0 and (
             search.goal_heading is None
-            or abs(_wrap(node.heading - search.goal_heading)) <= cfg.goal_heading_tolerance)
+            or abs(wrap(node.heading - search.goal_heading)) <= cfg.goal_heading_tolerance)
 
     def _expand(self, search: _Search, idx: int) -> None:
         """Push the successors of node ``idx`` unchecked (``_pop`` checks each as it
@@ -474,7 +475,7 @@ class Planner(StepRules, Refusals):
         f_ = np.array([np.cos(ang), np.sin(ang)])
         l_ = np.array([-f_[1], f_[0]])
         nxt = node.position[:2] + st.fwd[sel, None] * f_ + st.left[sel, None] * l_
-        npsi = _wrap(node.heading + st.turn[sel])
+        npsi = wrap(node.heading + st.turn[sel])
         keys = self._keys(1 - node.foot, self._gait_ids[sel], nxt, npsi)
         closed = search.closed
         todo = [j for j, k in enumerate(keys) if k not in closed]

@@ -18,6 +18,7 @@ from ..footprint import PIVOT, PathFootprint
 from .navgraph import PlanError, PlanResult, Planner
 from .plan_file import PlanFile
 from .surface import footprint_support
+from ..base.angles import yaw
 
 #: m and rad: a step further than this from every step of the library is out of reach
 REACH_SLACK = 0.3
@@ -37,14 +38,10 @@ class Edited:
     to_goal: bool = False  # the last span runs to the goal (no kept footprint after it)
 
 
-def _yaw(forward) -> float:
-    return float(np.arctan2(forward[1], forward[0]))
-
-
 def in_frame(plan: PlanFile, forward) -> list[PathFootprint]:
     """The plan's footprints with headings measured from ``forward`` instead of the
     plan's own."""
-    delta = _yaw(plan.forward) - _yaw(forward)
+    delta = yaw(plan.forward) - yaw(forward)
     return [PathFootprint(f.foot, np.asarray(f.position, float), float(f.heading + delta), f.time, f.label,
                           f.gait, f.jump) for f in plan.footprints]
 
@@ -53,7 +50,7 @@ def step_offsets(fps: list[PathFootprint], forward) -> np.ndarray:
     """(N - 1, 3) each footprint's (forward, left, turn) from the one before it, in that
     footprint's frame: the step the search would need to take."""
     pos = np.array([f.position for f in fps], float)
-    head = np.array([f.heading for f in fps], float) + _yaw(forward)
+    head = np.array([f.heading for f in fps], float) + yaw(forward)
     d = pos[1:, :2] - pos[:-1, :2]
     c, s = np.cos(head[:-1]), np.sin(head[:-1])
     turn = (np.diff(head) + np.pi) % (2 * np.pi) - np.pi
@@ -174,7 +171,7 @@ def edited_path(planner: Planner, plan: PlanFile, goal=None, goal_heading=None) 
     bad = np.array([bool(p) for p in problems])
     if goal is None and plan.goal is not None:
         goal = plan.goal
-        goal_heading = None if plan.goal_heading is None else plan.goal_heading + _yaw(plan.forward) - _yaw(planner.forward)
+        goal_heading = None if plan.goal_heading is None else plan.goal_heading + yaw(plan.forward) - yaw(planner.forward)
     return _rebuild(planner, fps, _spans(bad, locked, moved), goal, goal_heading, problems, t0)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from ..footprint import PathFootprint
 from .distance_field import DistanceField
 from .search_state import PlanError, SearchNode, _Search
-from .step_rules import _wrap
+from ..base.angles import wrap
 
 
 class Refusals:
@@ -109,7 +109,7 @@ class Rejections:
             sel, nxt = sel[keep], nxt[keep]
             if not len(sel):
                 continue
-            psi = _wrap(node.heading + st.turn[sel])
+            psi = wrap(node.heading + st.turn[sel])
             sup = planner._support(np.c_[nxt, np.full(len(sel), node.position[2])], psi)
             reason = np.where(sup.ok, "", sup.reason).astype(object)
             reason[(reason == "") & (np.abs(sup.z - node.position[2]) > planner.max_step_height)] = "step height"

@@ -14,6 +14,7 @@ import numpy as np
 from ..clips.steps import StepSet
 from ..footprint import PIVOT, STAND_LABEL, START_LABEL, PathFootprint
 from .search_state import SearchNode, _Search
+from ..base.angles import wrap
 
 
 #: m: a step's curvature (``Settings.curvature_penalty``) is its veer over its clip's
@@ -75,10 +76,6 @@ def climb_reach(steps: StepSet) -> np.ndarray:
             return np.full(steps.n, limit)
         out[steps.gait == gait] = limit
     return out
-
-
-def _wrap(a):
-    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
 
 class StepRules:

@@ -46,6 +46,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..base import quat as quaternions
+from ..base.angles import wrap
 
 #: Decimal places of the floats ``quality`` returns (mm to the micrometre, m to the mm).
 DIGITS = 3
@@ -198,11 +199,6 @@ def floating(heel, toe, ground_z, stances: Stances, planted_height: float = 0.02
     return {"mean_mm": mean, "max_mm": mx}
 
 
-def _wrap(a):
-    """Angle(s) wrapped to [-pi, pi)."""
-    return (np.asarray(a, dtype=float) + np.pi) % (2 * np.pi) - np.pi
-
-
 def goal_error(body_pos, body_heading, goal, goal_heading=None) -> dict:
     """Horizontal distance (m) from the last frame's body position to ``goal`` (3,), and
     the absolute heading error (deg, wrapped to [0, 180]) of the last frame's body heading
@@ -215,7 +211,7 @@ def goal_error(body_pos, body_heading, goal, goal_heading=None) -> dict:
     dist = _num(np.linalg.norm(p[-1, :2] - gp[:2]))
     head = None
     if goal_heading is not None and len(hd):
-        head = _num(np.degrees(abs(_wrap(hd[-1] - float(goal_heading)))))
+        head = _num(np.degrees(abs(wrap(hd[-1] - float(goal_heading)))))
     return {"distance_m": dist, "heading_deg": head}
 
 

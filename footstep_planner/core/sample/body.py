@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from ..solve.easing import lower_smoothly, smoothstep
 from ..solve.legs import chain_bases, leg_lengths, reach_need, two_bone
 from ..clips.rig import Rig, forward_kinematics
-from .course import G, _Course, _lean, _left, _yaw
+from .course import G, _Course, _lean, _left, _yaw_matrices
 from .specs import SIDES, ClipSpec, Gait
 
 #: The legs are kept within this share of their length (the knee never locks).
@@ -87,7 +87,7 @@ def _body_frame(course: _Course, sigma, lift, height, spec: ClipSpec, size: floa
     pitch = g.lean * ramp + accel_lean
     roll = _lean(spec, v) - g.pelvis_roll * sigma * ramp
     yaw = course.heading - g.pelvis_yaw * lift * ramp
-    return pos, _yaw(yaw) @ Rotation.from_euler("YX", np.c_[roll, pitch]).as_matrix()
+    return pos, _yaw_matrices(yaw) @ Rotation.from_euler("YX", np.c_[roll, pitch]).as_matrix()
 
 
 def _hips_bases(rig: Rig, pos, R_body, foot_m, loop: bool, fps: float) -> tuple[np.ndarray, np.ndarray]:

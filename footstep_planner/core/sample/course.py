@@ -185,7 +185,7 @@ def _path_at(tq, t, v, tau):
     return pos, heading
 
 
-def _yaw(h):
+def _yaw_matrices(h):
     """(N, 3, 3) rotations about +Z by the angles h."""
     h = np.atleast_1d(np.asarray(h, float))
     return root_frames(np.zeros((len(h), 3)), h)[:, :3, :3]

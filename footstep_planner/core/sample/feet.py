@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from ..solve.easing import smoothstep
 from ..clips.rig import Rig
-from .course import _Course, _yaw
+from .course import _Course, _yaw_matrices
 from .specs import SIDES, Gait, GaitStance
 
 #: The back of the heel is this far behind the ankle, m.
@@ -164,7 +164,7 @@ def _placed(st: GaitStance, pitch, pivot, rest_foot, heel_g) -> np.ndarray:
     ``pivot`` (n, 3) (rest coordinates on the ground)."""
     n = len(pitch)
     Rp = Rotation.from_rotvec(np.c_[pitch, np.zeros(n), np.zeros(n)]).as_matrix()
-    Rz = _yaw(st.heading)[0]
+    Rz = _yaw_matrices(st.heading)[0]
     out = np.tile(np.eye(4), (n, 1, 1))
     out[:, :3, :3] = Rz @ Rp @ rest_foot[:3, :3]
     # x -> P + Rp (x - P), then the heel ground point to st.pos

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.interpolate import BPoly, CubicHermiteSpline, PchipInterpolator
+from ..base.angles import wrap
 
 __all__ = [
     "centripetal_catmull_rom",
@@ -41,11 +42,6 @@ __all__ = [
 
 
 # ----------------------------------------------------------------------------- helpers
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """Angles mapped to [-pi, pi)."""
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
-
 
 def _rotate(v: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """Rows of ``v`` (F, 3) turned by R(angle) (F,) about Z; z is kept. A new array."""
@@ -258,7 +254,7 @@ def midpoints(position, heading, times) -> tuple[np.ndarray, np.ndarray, np.ndar
     p, h, tt = _footprints(position, heading, times)
     m = 0.5 * (p[:-1] + p[1:])
     mt = 0.5 * (tt[:-1] + tt[1:])
-    mq = h[:-1] + 0.5 * _wrap(h[1:] - h[:-1])
+    mq = h[:-1] + 0.5 * wrap(h[1:] - h[:-1])
     if len(mq) > 1:
         mq = np.unwrap(mq)
     return m, mq, mt
