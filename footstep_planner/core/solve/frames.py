@@ -21,7 +21,7 @@ from ..plan.surface import footprint_support, ground_heights
 from ..synth.pipeline import Synthesis
 from .ik import IKResult, solve_ik
 from .pose import blend_pose, pose_bases
-from .targets import FootPoints, Footprints
+from .targets import BodyMotion, FootPoints, Footprints
 from .toes import toe_tip
 
 
@@ -93,7 +93,7 @@ def solve(syn: Synthesis, setup: PlanSetup, settings: Settings) -> Solved:
         return ground_heights(pl.ground, np.asarray(points, float) + [0.0, 0.0, look], 2 * look)
 
     with timer("ik"):
-        ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
+        ik = solve_ik(setup.rig, basis, BodyMotion(syn.final.schedule.t, syn.body_position, syn.body_heading, spin),
                       FootPoints(walk.heel_local, walk.toe_local),
                       Footprints(syn.final.schedule.feet, syn.planted(), pos, head, normal), setup.forward,
                       settings.for_body(pl.settings.body_scale), ground_z=ground_z, still=syn.flat)
