@@ -114,7 +114,7 @@ def main():
     from footstep_planner.core.report.metrics import foot_skate, footprint_error
     from footstep_planner.core.solve.pose import blend_pose, pose_bases
     from footstep_planner.core.clips.rig import forward_kinematics
-    from footstep_planner.core.plan.surface import footprint_support
+    from footstep_planner.core.plan.surface import SupportLimits, footprint_support
 
     from footstep_planner.blender.sample import mannequin
     register()
@@ -143,7 +143,8 @@ def main():
         basis = pose_bases(s.rig, quat, hips)
         pos, head = syn.footprints
         pl = s.planner
-        sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot, clearance=pl.clearance)
+        sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot,
+                                SupportLimits(clearance=pl.clearance))
         normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
         walk = next(a for a in s.analyses if a.kind == "cycle").motion
         spin = body_spin(s.forward, s.analyses)

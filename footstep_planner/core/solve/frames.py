@@ -17,7 +17,7 @@ from ..base.settings import Settings
 from ..base.timing import StageTimer
 from ..clips.rig import Rig, forward_kinematics
 from ..plan.setup import PlanSetup
-from ..plan.surface import footprint_support, ground_heights
+from ..plan.surface import SupportLimits, footprint_support, ground_heights
 from ..synth.pipeline import Synthesis
 from .ik import IKResult, solve_ik
 from .pose import blend_pose, pose_bases
@@ -83,7 +83,8 @@ def solve(syn: Synthesis, setup: PlanSetup, settings: Settings) -> Solved:
                           walk.toe_local)
     pl = setup.planner
     pos, head = syn.footprints
-    sup = footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot, clearance=pl.clearance)
+    sup = footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot,
+                            SupportLimits(clearance=pl.clearance))
     normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
     spin = body_spin(setup.forward, setup.analyses)
 
