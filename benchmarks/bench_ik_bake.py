@@ -110,11 +110,11 @@ def main():
     from footstep_planner.blender.read.clips import import_clips
     from footstep_planner.blender.sample.sample_scenes import build
     from footstep_planner.core.solve.ik import body_frames, solve_ik
-    from footstep_planner.core.solve.targets import FootPoints, Footprints
+    from footstep_planner.core.solve.targets import BodyMotion, FootPoints, Footprints
     from footstep_planner.core.report.metrics import foot_skate, footprint_error
     from footstep_planner.core.solve.pose import blend_pose, pose_bases
     from footstep_planner.core.clips.rig import forward_kinematics
-    from footstep_planner.core.plan.surface import footprint_support
+    from footstep_planner.core.plan.surface import SupportLimits, footprint_support
 
     from footstep_planner.blender.sample import mannequin
     register()
@@ -143,13 +143,14 @@ def main():
         basis = pose_bases(s.rig, quat, hips)
         pos, head = syn.footprints
         pl = s.planner
-        sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot, clearance=pl.clearance)
+        sup = footprint_support(pl.ground, pl.obstacles, pos, head, s.forward, pl.foot,
+                                SupportLimits(clearance=pl.clearance))
         normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
         walk = next(a for a in s.analyses if a.kind == "cycle").motion
         spin = body_spin(s.forward, s.analyses)
         planted = syn.planted()
         t0 = time.perf_counter()
-        ik = solve_ik(s.rig, basis, sched.t, syn.body_position, syn.body_heading, spin,
+        ik = solve_ik(s.rig, basis, BodyMotion(sched.t, syn.body_position, syn.body_heading, spin),
                       FootPoints(walk.heel_local, walk.toe_local), Footprints(sched.feet, planted, pos, head, normal),
                       s.forward)
         t_ours = time.perf_counter() - t0

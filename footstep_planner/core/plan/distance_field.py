@@ -1,6 +1,7 @@
 """The search's heuristic: ``DistanceField``, the walking distance to the goal on a
 coarse grid of up to ``LAYERS`` levels per cell, solved over ``FieldCells`` (the grid,
-``_Grid``, and its walking edges and bridges across gaps, built once per search), with the
+``_Grid``, and its walking edges and bridges across gaps, built once per search, within
+the field's ``FieldLimits``), with the
 weighted search's preferences it carries (``EDGE_COST``, ``CLIMB_COST``, the way ahead:
 ``AHEAD_CELLS``, ``FREE_TURN``, ``AHEAD_TURN_COST``).
 """
@@ -11,6 +12,28 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+
+
+@dataclass(frozen=True)
+class FieldLimits:
+    """What the distance field's cells are built to: the grid and the body's limits on it.
+
+    cell: m, the grid's cell size.
+    clearance: m, how far the body keeps from obstacles for a cell to be walkable.
+    jump_reach: m, the longest bridge across a gap of missing ground.
+    step_height: m, the most two neighbouring walkable levels' heights differ.
+    jump_extra: m, what a bridge costs more than its length.
+    edge_cost: a way along cells beside unwalkable ones counts this many times its length.
+    scale: the body's (``Settings.body_scale``), for the grid's own lengths (``HEADROOM``, ...).
+    """
+
+    cell: float
+    clearance: float
+    jump_reach: float
+    step_height: float
+    jump_extra: float = 0.0
+    edge_cost: float = 1.0
+    scale: float = 1.0
 
 
 @dataclass
@@ -89,21 +112,19 @@ class DistanceField:
         return np.array([cx[k], cy[k], float(np.nan_to_num(self.z.ravel()[ok[k]]))])
 
     @staticmethod
-    def build(ground, obstacles, goal, cell, clearance, jump_reach, step_height,
-              jump_extra: float = 0.0, avoid: tuple | None = None, edge_cost: float = 1.0,
-              support: Callable | None = None, scale: float = 1.0) -> "DistanceField":
-        """The walking distance (m) to ``goal`` from every cell level of a grid of ``cell``
-        metres over the ground's bounds: walkable levels (ground, body clear of obstacles
-        by ``clearance``), joined 8-connected within ``step_height`` and, across gaps, by
-        bridges up to ``jump_reach`` long that cost ``jump_extra`` m more than their
-        length (none with an end within ``avoid`` = (point, radius)); a way along cells
-        beside unwalkable ones counts ``edge_cost`` times its length; Dijkstra from the
-        goal's cell. With ``support`` (footprints (N, 3), headings (N,) -> whether a foot
-        may stand there (N,)), a cell where the ground's slope changes (a step's edge) is
-        walkable only where a foot fits in it (``_Grid.foot_room``). ``scale``: the body's
-        (``Settings.body_scale``), for the grid's own lengths (``HEADROOM``, ...)."""
-        cells = FieldCells.build(ground, obstacles, cell, clearance, jump_reach, step_height, jump_extra,
-                                 edge_cost, support, scale)
+    def build(ground, obstacles, goal, limits: FieldLimits, avoid: tuple | None = None,
+              support: Callable | None = None) -> "DistanceField":
+        """The walking distance (m) to ``goal`` from every cell level of a grid of
+        ``limits.cell`` metres over the ground's bounds: walkable levels (ground, body
+        clear of obstacles by ``limits.clearance``), joined 8-connected within
+        ``limits.step_height`` and, across gaps, by bridges up to ``limits.jump_reach``
+        long that cost ``limits.jump_extra`` m more than their length (none with an end
+        within ``avoid`` = (point, radius)); a way along cells beside unwalkable ones
+        counts ``limits.edge_cost`` times its length; Dijkstra from the goal's cell. With
+        ``support`` (footprints (N, 3), headings (N,) -> whether a foot may stand there
+        (N,)), a cell where the ground's slope changes (a step's edge) is walkable only
+        where a foot fits in it (``_Grid.foot_room``)."""
+        cells = FieldCells.build(ground, obstacles, limits, support)
         return DistanceField.solve(cells, goal, avoid)
 
     @staticmethod
@@ -148,15 +169,16 @@ class FieldCells:
     bridge_edges: tuple
 
     @staticmethod
-    def build(ground, obstacles, cell, clearance, jump_reach, step_height, jump_extra: float = 0.0,
-              edge_cost: float = 1.0, support: Callable | None = None, scale: float = 1.0,
+    def build(ground, obstacles, limits: FieldLimits, support: Callable | None = None,
               steps: tuple = ()) -> "FieldCells":
         """The cells of ``DistanceField.build`` (same arguments, less the goal and ``avoid``).
         ``steps``: (reach m, extra m) of the library's gaits whose steps cross gaps (a walk
         or run step over any gap its swing clears, ``Planner._gap_steps``), shortest
         first: a gap is bridged up to each one's reach at its extra, beyond the last by
-        the jump's (up to ``jump_reach``, at ``jump_extra``)."""
-        grid = _Grid.over(ground, cell, step_height, scale)
+        the jump's (up to ``limits.jump_reach``, at ``limits.jump_extra``)."""
+        cell, clearance, step_height = limits.cell, limits.clearance, limits.step_height
+        jump_reach, jump_extra, edge_cost = limits.jump_reach, limits.jump_extra, limits.edge_cost
+        grid = _Grid.over(ground, cell, step_height, limits.scale)
         has_ground, blocked = grid.ground_and_blocked(obstacles, clearance)
         walk = has_ground & ~blocked
         if support is not None:

@@ -55,16 +55,16 @@ from typing import Callable
 
 import numpy as np
 
+from ..base.angles import wrap
 from ..base.settings import Settings
 from ..clips.steps import StepSet
 from ..footprint import PathFootprint
-from .distance_field import AHEAD_TURN_COST, EDGE_COST, FREE_TURN, DistanceField, FieldCells
+from .distance_field import AHEAD_TURN_COST, EDGE_COST, FREE_TURN, DistanceField, FieldCells, FieldLimits
 from .refusals import Refusals
 from .search_state import PlanError, SearchNode, _Batch, _Search
 from .step_rules import StepRules, _start_gaits
 from .support_cache import FINE_CELL, FINE_HEADING_BINS, GAIT_IDS, FootprintCache, _pack, fine_keys, fine_xy
-from .surface import FootShape, Ground, footprint_support
-from ..base.angles import wrap
+from .surface import FootShape, Ground, SupportLimits, footprint_support
 
 
 #: m: a footprint the distance field samples in a cell stands at the cell's level when
@@ -177,9 +177,15 @@ class Planner(StepRules, Refusals):
         """A human's ``metres`` (this module's constants) for the character."""
         return self.settings.length(metres)
 
+    @property
+    def support_limits(self) -> SupportLimits:
+        """What a footprint of this planner's stands within (``SupportLimits.of`` its settings:
+        ``max_step_height`` and ``clearance``)."""
+        return SupportLimits.of(self.settings)
+
     def _support(self, pos, heading):
         return footprint_support(self.ground, self.obstacles, pos, heading, self.forward, self.foot,
-                                 step_height=self.max_step_height, clearance=self.clearance)
+                                 self.support_limits)
 
     def _keys(self, foot: int, gaits, xy: np.ndarray, psi: np.ndarray) -> list[int]:
         """Merge-grid keys (foot, gait, cell x, cell y, heading bin, packed in one int:
@@ -246,9 +252,9 @@ class Planner(StepRules, Refusals):
     def field_cells(self) -> "FieldCells":
         """The distance field's cells and edges over this planner's ground (any goal)."""
         edge_cost = EDGE_COST if self.settings.heuristic_weight > 1.0 else 1.0
-        return FieldCells.build(self.ground, self.obstacles, self.field_cell, self.clearance, self._jump_reach(),
-                                self.max_step_height, self._jump_extra(), edge_cost, self._stands,
-                                scale=self.settings.body_scale,
+        limits = FieldLimits(self.field_cell, self.clearance, self._jump_reach(), self.max_step_height,
+                             self._jump_extra(), edge_cost, self.settings.body_scale)
+        return FieldCells.build(self.ground, self.obstacles, limits, self._stands,
                                 steps=self._gap_steps() if self.settings.cross_gaps else ())
 
     def _stands(self, pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
@@ -256,7 +262,7 @@ class Planner(StepRules, Refusals):
         ``heading`` (N,), at their own height (a cell's level: not on a step beside it, its
         heel hanging over this one), obstacles aside (the distance field's own test of them)."""
         sup = footprint_support(self.ground, None, pos, heading, self.forward, self.foot,
-                                step_height=self.max_step_height)
+                                SupportLimits(step_height=self.max_step_height))
         return sup.ok & (np.abs(sup.z - np.asarray(pos, float)[:, 2]) <= self._len(LEVEL_TOL))
 
     def _reroute(self, search: _Search) -> None:

@@ -64,7 +64,7 @@ def problems_of(planner: Planner, fps: list[PathFootprint]) -> list[str]:
     pos = np.array([f.position for f in fps], float)
     head = np.array([f.heading for f in fps], float)
     sup = footprint_support(planner.ground, planner.obstacles, pos, head, planner.forward, planner.foot,
-                            step_height=planner.max_step_height, clearance=planner.clearance)
+                            planner.support_limits)
     out = [f"it is {r}" if not ok else "" for ok, r in zip(sup.ok, sup.reason)]
     st = planner.steps
     for i, (fwd, left, turn) in enumerate(step_offsets(fps, planner.forward), 1):

@@ -17,6 +17,7 @@ from typing import Protocol
 import numpy as np
 
 from ..base.errors import FootstepError
+from ..base.settings import Settings
 
 
 class SurfaceError(FootstepError):
@@ -339,30 +340,56 @@ class Support:
     reason: np.ndarray  # (N,) str: "" or why not ("off surface", "uneven", "steep", "obstacle")
 
 
+@dataclass(frozen=True)
+class SupportLimits:
+    """What ``footprint_support`` holds a footprint to. A length left None is a human's
+    (the default in brackets) times the foot's ``FootShape.scale``.
+
+    step_height: m, how far above the footprint its ground points are dropped from (and
+        below it they look: twice this) (0.3 m).
+    unevenness: m, how far the foot's ground points may lie from their plane (0.05 m).
+    max_slope: rad, the steepest plane a foot stands on (30 degrees, whatever the scale).
+    clearance: m, how far the body above the footprint keeps from obstacles (0.25 m).
+    body_height: m, how high above the footprint that clearance is kept (1.6 m).
+    """
+
+    step_height: float | None = None
+    unevenness: float | None = None
+    max_slope: float = np.radians(30)
+    clearance: float | None = None
+    body_height: float | None = None
+
+    @staticmethod
+    def of(settings: Settings) -> "SupportLimits":
+        """The planner's limits: ``Settings.max_step_height`` and ``Settings.clearance``
+        (already the character's), the rest a human's times the foot's scale."""
+        return SupportLimits(step_height=settings.max_step_height, clearance=settings.clearance)
+
+
 def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
                       heading: np.ndarray, forward: np.ndarray, foot: FootShape,
-                      step_height: float | None = None, unevenness: float | None = None,
-                      max_slope: float = np.radians(30), clearance: float | None = None,
-                      body_height: float | None = None) -> Support:
+                      limits: SupportLimits | None = None) -> Support:
     """Whether each footprint (positions (N, 3), headings (N,)) stands on the traversable
-    surface and clear of obstacles.
+    surface and clear of obstacles, within ``limits`` (``SupportLimits``; a human's
+    times the foot's ``scale`` when not given).
 
-    The foot's four corners and centre are dropped onto the surface from ``step_height``
-    above ``pos``: all must land, within ``unevenness`` of each other, on a slope no
-    steeper than ``max_slope``. Or, on a step's edge, the front half of the foot (its
-    front corners, centre and sides level with it) so, with the heel hanging over lower
-    ground (a stair's nosing, going up: a long foot on a short tread), never over
-    nothing. The toe tip (``FootShape.tip``) is never inside higher ground (a riser);
-    it may hang over lower ground (a nosing, going down). The body above the footprint
-    must keep ``clearance`` from every obstacle at the ankle, knee, hip, chest and head
-    (up to ``body_height``). Lengths not given are a human's (0.3, 0.05, 0.25 and 1.6 m)
-    times the foot's ``scale``.
+    The foot's four corners and centre are dropped onto the surface from
+    ``limits.step_height`` above ``pos``: all must land, within ``limits.unevenness`` of
+    each other, on a slope no steeper than ``limits.max_slope``. Or, on a step's edge,
+    the front half of the foot (its front corners, centre and sides level with it) so,
+    with the heel hanging over lower ground (a stair's nosing, going up: a long foot on a
+    short tread), never over nothing. The toe tip (``FootShape.tip``) is never inside
+    higher ground (a riser); it may hang over lower ground (a nosing, going down). The
+    body above the footprint must keep ``limits.clearance`` from every obstacle at the
+    ankle, knee, hip, chest and head (up to ``limits.body_height``).
     """
+    limits = limits or SupportLimits()
     k = foot.scale
-    step_height = 0.3 * k if step_height is None else step_height
-    unevenness = 0.05 * k if unevenness is None else unevenness
-    clearance = 0.25 * k if clearance is None else clearance
-    body_height = 1.6 * k if body_height is None else body_height
+    step_height = 0.3 * k if limits.step_height is None else limits.step_height
+    unevenness = 0.05 * k if limits.unevenness is None else limits.unevenness
+    clearance = 0.25 * k if limits.clearance is None else limits.clearance
+    body_height = 1.6 * k if limits.body_height is None else limits.body_height
+    max_slope = limits.max_slope
     pos = np.atleast_2d(np.asarray(pos, dtype=np.float64))
     pts = foot.probes(pos, np.broadcast_to(heading, (len(pos),)), forward)  # (N, 8, 2)
     got, z, nor = _drop_onto(ground, pos, pts, step_height)

@@ -17,11 +17,11 @@ from ..base.settings import Settings
 from ..base.timing import StageTimer
 from ..clips.rig import Rig, forward_kinematics
 from ..plan.setup import PlanSetup
-from ..plan.surface import footprint_support, ground_heights
+from ..plan.surface import SupportLimits, footprint_support, ground_heights
 from ..synth.pipeline import Synthesis
 from .ik import IKResult, solve_ik
 from .pose import blend_pose, pose_bases
-from .targets import FootPoints, Footprints
+from .targets import BodyMotion, FootPoints, Footprints
 from .toes import toe_tip
 
 
@@ -83,7 +83,8 @@ def solve(syn: Synthesis, setup: PlanSetup, settings: Settings) -> Solved:
                           walk.toe_local)
     pl = setup.planner
     pos, head = syn.footprints
-    sup = footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot, clearance=pl.clearance)
+    sup = footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot,
+                            SupportLimits(clearance=pl.clearance))
     normal = np.where(np.isfinite(sup.normal), sup.normal, [0.0, 0.0, 1.0])
     spin = body_spin(setup.forward, setup.analyses)
 
@@ -93,7 +94,7 @@ def solve(syn: Synthesis, setup: PlanSetup, settings: Settings) -> Solved:
         return ground_heights(pl.ground, np.asarray(points, float) + [0.0, 0.0, look], 2 * look)
 
     with timer("ik"):
-        ik = solve_ik(setup.rig, basis, syn.final.schedule.t, syn.body_position, syn.body_heading, spin,
+        ik = solve_ik(setup.rig, basis, BodyMotion(syn.final.schedule.t, syn.body_position, syn.body_heading, spin),
                       FootPoints(walk.heel_local, walk.toe_local),
                       Footprints(syn.final.schedule.feet, syn.planted(), pos, head, normal), setup.forward,
                       settings.for_body(pl.settings.body_scale), ground_z=ground_z, still=syn.flat)

@@ -59,7 +59,7 @@ from .legs import MAX_REACH, SIDES, _Legs, _legs_in_world, _solve_legs, body_fra
 from .lift import _ground_lift, _kept_over_footprints_need, _swing_planes
 from .reach import _drop_budget, _reach_drop, _swing_within_reach
 from .swing import CLIMB_MIN, _all_frame_targets, _low_swing
-from .targets import FootPoints, Footprints, FootTargets, foot_targets
+from .targets import BodyMotion, FootPoints, Footprints, FootTargets, foot_targets
 from .toes import _tip_lift, sole_points, toe_bend, toe_tip
 
 #: s: the finest level of the body's height offset (3.8.1) where the feet stand at
@@ -90,11 +90,12 @@ def _timed(seconds: dict, stage: str):
     seconds[stage] = seconds.get(stage, 0.0) + time.perf_counter() - t0
 
 
-def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, body_heading: np.ndarray,
-             spin: float, points: FootPoints, footprints: Footprints, forward: np.ndarray,
-             settings: Settings | None = None, ground_z=None, still: np.ndarray | None = None) -> IKResult:
+def solve_ik(rig: Rig, basis: np.ndarray, body: BodyMotion, points: FootPoints, footprints: Footprints,
+             forward: np.ndarray, settings: Settings | None = None, ground_z=None,
+             still: np.ndarray | None = None) -> IKResult:
     """Thesis 3.8 on a synthesized motion. ``basis`` (F, B, 4, 4) the blended pose
-    (``pose.pose_bases``), the body on (body_pos, body_heading); ``points`` the feet's heel
+    (``pose.pose_bases``), the body on ``body`` (its times, position, heading and
+    ``spin``, ``BodyMotion``); ``points`` the feet's heel
     and ball in their bones' frames; ``footprints`` and their planted ranges from the
     synthesis. ``ground_z(points (M, 3)) -> heights (M,)`` (NaN where there is no
     surface) lets a swinging foot clear the ground: where the heel or the toe would pass
@@ -110,8 +111,8 @@ def solve_ik(rig: Rig, basis: np.ndarray, t: np.ndarray, body_pos: np.ndarray, b
     settings = settings or Settings()
     k = settings.body_scale
     if abs(k - 1.0) > 1e-12:
-        return _solved_at_human_size(k, rig, basis, t, body_pos, body_heading, spin, points, footprints, forward,
-                                     settings, ground_z, still)
+        return _solved_at_human_size(rig, basis, body, points, footprints, forward, settings, ground_z, still)
+    t, body_pos, body_heading, spin = body.t, body.pos, body.heading, body.spin
     heel_local, toe_local = points.heel_local, points.toe_local
     sec = {}
     t0 = time.perf_counter()
@@ -175,14 +176,16 @@ def _leg_targets(rig: Rig, world: np.ndarray, legs: _Legs, tg: FootTargets, sole
     return ankle_t, rot_t, lift, bend
 
 
-def _solved_at_human_size(k: float, rig: Rig, basis, t, body_pos, body_heading, spin, points: FootPoints,
-                          footprints: Footprints, forward, settings: Settings, ground_z, still) -> IKResult:
-    """``solve_ik`` of a character ``k`` times a human's size: solved on everything divided
-    by ``k`` (the settings at a human's size), its lengths multiplied back."""
+def _solved_at_human_size(rig: Rig, basis, body: BodyMotion, points: FootPoints, footprints: Footprints,
+                          forward, settings: Settings, ground_z, still) -> IKResult:
+    """``solve_ik`` of a character ``k = settings.body_scale`` times a human's size: solved
+    on everything divided by ``k`` (the settings at a human's size), its lengths
+    multiplied back."""
+    k = settings.body_scale
     inv = 1.0 / k
     gz = None if ground_z is None else (lambda p: np.asarray(ground_z(np.asarray(p, float) * k), float) * inv)
-    r = solve_ik(scaled_rig(rig, inv), scaled_bases(basis, inv), t, np.asarray(body_pos, float) * inv, body_heading,
-                 spin, FootPoints(scaled_points(points.heel_local, inv), scaled_points(points.toe_local, inv)),
+    r = solve_ik(scaled_rig(rig, inv), scaled_bases(basis, inv), replace(body, pos=np.asarray(body.pos, float) * inv),
+                 FootPoints(scaled_points(points.heel_local, inv), scaled_points(points.toe_local, inv)),
                  replace(footprints, pos=np.asarray(footprints.pos, float) * inv), forward, settings.for_body(1.0),
                  gz, still)
     tg = r.targets
@@ -245,4 +248,4 @@ def _on_steps(tg: FootTargets, fps: float) -> np.ndarray:
 
 
 # (``body_frames`` and ``toe_tip``, of the parts, are imported from here across the package)
-__all__ = ["IKResult", "body_frames", "solve_ik", "toe_tip"]
+__all__ = ["BodyMotion", "IKResult", "body_frames", "solve_ik", "toe_tip"]

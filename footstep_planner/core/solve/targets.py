@@ -2,7 +2,8 @@
 the foot keeping its clip's own roll, turned onto the footprint's heading and tilted onto
 its surface, pinned at the heel or the toe, whichever is nearer the ground
 (``foot_targets``, giving ``FootTargets``), from the feet's own points (``FootPoints``) and
-the footprints (``Footprints``).
+the footprints (``Footprints``). The body's planned motion the IK starts from is a
+``BodyMotion``.
 """
 
 from __future__ import annotations
@@ -54,6 +55,23 @@ class Footprints:
     pos: np.ndarray  # (N, 3) m its centre
     heading: np.ndarray  # (N,) rad from the world direction of heading 0
     normal: np.ndarray  # (N, 3) unit, the surface's
+
+
+@dataclass(frozen=True)
+class BodyMotion:
+    """The body's motion as the synthesis planned it, per frame (F), before the IK moves it.
+
+    t: (F,) s, each frame's time.
+    pos: (F, 3) m, the armature object's world position.
+    heading: (F,) rad, its heading: a yaw about +Z from the world direction of heading 0.
+    spin: rad, the world yaw of heading 0 minus the rig's rest forward's yaw, so the
+        object's world yaw is ``spin + heading``.
+    """
+
+    t: np.ndarray
+    pos: np.ndarray
+    heading: np.ndarray
+    spin: float
 
 
 def _tilt(normal: np.ndarray) -> np.ndarray:

@@ -25,7 +25,8 @@ from ..base.settings import Settings
 from ..base.timing import StageTimer
 from ..clips.analysis import ClipAnalysis
 from ..clips.library import Library
-from ..plan.surface import EDGE_STEP, FootShape, Ground, footprint_support, ground_heights, largest_step_along
+from ..plan.surface import (EDGE_STEP, FootShape, Ground, SupportLimits, footprint_support, ground_heights,
+                            largest_step_along)
 from .blending import Playback
 from .ends import _end_fixed, _standing, _standing_planted, end_stretch, standing_ends, turn_in_place_path
 from .labels import _LazyTracks, _climb_pace, _step_pace, _tracks_of, cyclic_clips, plan_steps
@@ -188,17 +189,16 @@ def surface_snap(ground: Ground, obstacles: Ground | None, forward: np.ndarray, 
     k = foot.scale
     clearance = 0.25 * k if clearance is None else clearance
     step_height = 0.3 * k if step_height is None else step_height
+    limits = SupportLimits(step_height=step_height, clearance=clearance)
 
     def snap(pos: np.ndarray, heading: np.ndarray):
         pos = np.array(pos, float, copy=True)
-        sup = footprint_support(ground, obstacles, pos, heading, forward, foot,
-                                step_height=step_height, clearance=clearance)
+        sup = footprint_support(ground, obstacles, pos, heading, forward, foot, limits)
         off = ~sup.ok & (sup.reason == "off surface")
         if off.any():
             near, _ = ground.nearest(pos[off], max_dist=0.5 * k)
             pos[off] = np.where(np.isfinite(near), near, pos[off])
-            again = footprint_support(ground, obstacles, pos[off], heading[off], forward, foot,
-                                      step_height=step_height, clearance=clearance)
+            again = footprint_support(ground, obstacles, pos[off], heading[off], forward, foot, limits)
             sup.ok[off], sup.z[off] = again.ok, again.z
         pos[:, 2] = np.where(sup.ok, sup.z, pos[:, 2])
         return pos, sup.ok

@@ -18,7 +18,7 @@ def _check(fp, result, setup, goal):
     assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= pl.settings.goal_radius
     sup = core.footprint_support(pl.ground, pl.obstacles, np.array([f.position for f in fs]),
                                  np.array([f.heading for f in fs]), setup.forward, pl.foot,
-                                 clearance=pl.clearance)
+                                 core.SupportLimits(clearance=pl.clearance))
     assert sup.ok.all(), list(zip(sup.reason, [f.position for f in fs]))
     assert [f.foot for f in fs[1:]] == [1 - f.foot for f in fs[:-1]]
 

@@ -30,7 +30,7 @@ def _supported(fp, setup, pos, head):
     core = import_module(fp.__name__ + ".core.plan.surface")
     pl = setup.planner
     return core.footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot,
-                                  clearance=pl.clearance)
+                                  core.SupportLimits(clearance=pl.clearance))
 
 
 @pytest.fixture(scope="module")

@@ -478,7 +478,7 @@ def test_the_jumps_scene_planned_and_synthesized_with_the_mirror(fp, monkeypatch
     pl = setup.planner
     pos, head = syn.footprints
     assert core.footprint_support(pl.ground, pl.obstacles, pos, head, setup.forward, pl.foot,
-                                  clearance=pl.clearance).ok.all()
+                                  core.SupportLimits(clearance=pl.clearance)).ok.all()
     assert np.linalg.norm(result.footprints[-1].position[:2] - goal[:2]) <= pl.settings.goal_radius
 
 

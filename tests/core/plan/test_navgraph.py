@@ -6,7 +6,7 @@ import pytest
 from footstep_planner.core.plan.navgraph import PlanError, Planner
 from footstep_planner.core.base.settings import Settings
 from footstep_planner.core.clips.steps import StepSet
-from footstep_planner.core.plan.surface import FootShape, MeshGround, TriMesh, footprint_support
+from footstep_planner.core.plan.surface import FootShape, MeshGround, SupportLimits, TriMesh, footprint_support
 from conftest import box, plane, standing
 
 FWD = np.array([0.0, -1.0])
@@ -39,7 +39,7 @@ def check_path(planner, result, goal):
     assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= planner.settings.goal_radius
     pos = np.array([f.position for f in fs[1:]])
     sup = footprint_support(planner.ground, planner.obstacles, pos, np.array([f.heading for f in fs[1:]]),
-                            FWD, planner.foot, clearance=planner.clearance)
+                            FWD, planner.foot, SupportLimits(clearance=planner.clearance))
     assert sup.ok.all(), sup.reason
     assert [f.foot for f in fs[1:]] == [1 - f.foot for f in fs[:-1]]  # feet alternate
     assert all(b.time > a.time for a, b in zip(fs[:-1], fs[1:]))

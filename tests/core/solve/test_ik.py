@@ -16,7 +16,7 @@ from footstep_planner.core.solve.ik import solve_ik
 from footstep_planner.core.solve.legs import MAX_REACH, body_frames, min_rotation
 from footstep_planner.core.solve.reach import HIPS_DROP_MAX, MAX_ROLL, roll_to_reach
 from footstep_planner.core.solve.swing import swing_targets
-from footstep_planner.core.solve.targets import FootPoints, Footprints
+from footstep_planner.core.solve.targets import BodyMotion, FootPoints, Footprints
 from footstep_planner.core.solve.toes import toe_tip
 from footstep_planner.core.clips.rig import Rig, forward_kinematics
 
@@ -156,7 +156,7 @@ def _run(targets_l, targets_r, planted_frames, body, basis, **kw):
     normal = np.tile([0.0, 0.0, 1.0], (2, 1))
     a, b = planted_frames
     planted = [(t[a], t[(a + b) // 2], t[b]), (t[a], t[(a + b) // 2], t[b])]
-    return solve_ik(RIG, basis, t, body, np.zeros(F), 0.0, FootPoints(HEEL, TOE),
+    return solve_ik(RIG, basis, BodyMotion(t, body, np.zeros(F), 0.0), FootPoints(HEEL, TOE),
                     Footprints(np.array([0, 1]), planted, pos, head, normal), np.array([0.0, -1.0]), **kw)
 
 
