@@ -1,9 +1,10 @@
 """The passes of the synthesis (thesis 3.3, 3.5 to 3.7): the smoothing (``_smooth``), one
-play-refine-carry round (``Pass``, ``_one_pass``: the clips played, the footprints
-refined, the body carried onto them; the standing body, a turn in place's body), the
-path's end eased onto the goal (``ease_end``), the blend groups' curvature tau
-(``_tau_curves``), walk/run speed pins (``speed_pins``) and weights (``_LocoWeights``),
-and the blend groups' pass (``_final_pass``).
+play-refine-carry round (``Pass``, ``_one_pass``, with what both rounds share in a
+``PassContext``: the clips played, the footprints refined, the body carried onto them;
+the standing body, a turn in place's body), the path's end eased onto the goal
+(``ease_end``), the blend groups' curvature tau (``_tau_curves``), walk/run speed pins
+(``speed_pins``) and weights (``_LocoWeights``), and the blend groups' pass
+(``_final_pass``).
 """
 
 from __future__ import annotations

@@ -30,8 +30,8 @@ from ..plan.surface import EDGE_STEP, FootShape, Ground, footprint_support, grou
 from .blending import Playback
 from .ends import _end_fixed, _standing, _standing_planted, end_stretch, standing_ends, turn_in_place_path
 from .labels import _LazyTracks, _climb_pace, _step_pace, _tracks_of, cyclic_clips, plan_steps
-from .passes import (Pass, PassContext, SnapFn, _blend_group_schedule, _final_pass, _LocoWeights, _one_pass, _smooth,
-                     _tau_curves, _TauCurves, speed_pins)
+from .passes import (Pass, PassContext, SnapFn, _blend_group_schedule, _final_pass, _LocoWeights, _one_pass,
+                     _smooth, _tau_curves, _TauCurves, speed_pins)
 from .schedule import PlanStep, Schedule, build_schedule
 from .smoothing import Smoothed
 from .standing import Standing
