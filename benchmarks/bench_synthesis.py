@@ -85,7 +85,7 @@ def main():
                 snap = scene_snap if k == 1 else floor_snap
                 best = None
                 for _ in range(args.repeat):
-                    syn = synthesize(path, setup.library, tracks, Settings(), fps=fps, forward=setup.forward,
+                    syn = synthesize(path, setup.library, tracks, settings=Settings(), fps=fps, forward=setup.forward,
                                      snap=snap)
                     tot = sum(syn.seconds[s] for s in STAGES)
                     if best is None or tot < best[0]:

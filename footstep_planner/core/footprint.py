@@ -58,3 +58,26 @@ def beside_position(fp, foot: int, forward, width: float, stand=None, at: float 
 
 
 __all__ = ["PIVOT", "STAND_LABEL", "STAND_WIDTH", "START_LABEL", "PathFootprint", "beside_position"]
+
+
+@dataclass(frozen=True, eq=False)
+class Leg:
+    """What a leg's ends are, as a synthesis plays a path (``pipeline.synthesize``): where
+    it ends, whether it starts and stops from standing, and how long it stands there.
+
+    ``goal``: (2,) or (3,) world m, where the body ends (the path's end is eased onto it),
+    None to end where the path does. ``goal_heading``: rad from the world forward, the
+    heading the last two (standing) feet face, None for the path's own. ``standing``: the
+    character starts from standing on the path's first footprint and stops to standing.
+    ``start_other``: the other standing foot at the start (a ``PathFootprint``), None for
+    one beside the first. ``pace``: a number, or one per step of the path, by which the
+    walking steps are played faster (None: 1). ``lead`` and ``hold``: s of standing before
+    the first step and after the last (None: the settings')."""
+
+    goal: np.ndarray | None = None
+    goal_heading: float | None = None
+    standing: bool = False
+    start_other: PathFootprint | None = None
+    pace: object = None
+    lead: float | None = None
+    hold: float | None = None

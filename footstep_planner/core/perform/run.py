@@ -17,7 +17,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from ..base.settings import Settings
-from ..footprint import PIVOT
+from ..footprint import PIVOT, Leg
 from ..plan.navgraph import PlanResult
 from ..plan.setup import PlanSetup
 from ..solve.frames import Solved, solve
@@ -55,14 +55,14 @@ def legs(setup: PlanSetup, settings: Settings, fps: float) -> SynthFn:
     def leg(path, other, goal, heading, lead, hold, pace):
         if other is None:
             other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
-        return synthesize_leg(path, setup.library, setup.analyses, settings, fps=fps, forward=setup.forward, snap=snap,
-                           goal=goal, standing=True, start_other=other, goal_heading=heading, pace=pace, lead=lead,
-                           hold=hold)
+        ends = Leg(goal=goal, goal_heading=heading, standing=True, start_other=other, pace=pace, lead=lead, hold=hold)
+        return synthesize_leg(path, setup.library, setup.analyses, ends, settings, fps=fps, forward=setup.forward,
+                              snap=snap)
 
     def turning(path, other, goal, heading, lead, hold, pace):
         if any(f.label == PIVOT for f in path):
-            return turn_in_place.synthesize(path, leg, other, goal, heading, lead, hold, pace, setup.forward, pl.foot,
-                                            settings.turn_step_angle, body)
+            ends = Leg(goal=goal, goal_heading=heading, start_other=other, pace=pace, lead=lead, hold=hold)
+            return turn_in_place.synthesize(path, leg, ends, setup.forward, pl.foot, settings.turn_step_angle, body)
         return leg(path, other, goal, heading, lead, hold, pace)
 
     return turning

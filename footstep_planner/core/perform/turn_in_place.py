@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..footprint import PIVOT, STAND_LABEL, STAND_WIDTH, PathFootprint, beside_position
+from ..footprint import PIVOT, STAND_LABEL, STAND_WIDTH, Leg, PathFootprint, beside_position
 from ..plan.navgraph import PlanError, PlanResult, Planner
 from ..plan.surface import FootShape
 from .directed import join
@@ -557,39 +557,31 @@ def _loops(fps: list[PathFootprint], facing: float, angle: float, reach: float =
 
 # ----------------------------------------------------------------------------- synthesis
 
-def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, goal, goal_heading, lead, hold, pace,
-               forward, foot: FootShape, step_angle: float, body=(0.0, 0.0)):
+def synthesize(path: list[PathFootprint], synth, leg: Leg, forward, foot: FootShape, step_angle: float,
+               body=(0.0, 0.0)):
     """The motion of a path that turns in place (``split``): each turn a leg from standing
     to standing on its pivot steps, the start turn's laid again from the feet it stands on
     (a stop's are eased onto its waypoint), the walk a leg leaving from the feet the start
     turn stood on, the end turn's pivot steps laid from the feet the walk stood on to the
     last one's heading; joined (``directed.join``). ``synth`` makes a leg as
     ``directed.SynthFn`` does: (path, other standing foot, goal, goal heading, lead s,
-    hold s, pace) -> Synthesis. ``other`` is the start's other standing foot; ``lead``
-    and ``hold`` s of standing before the first step and after the last (None: the
-    settings'); ``pace`` the walk's, one per step of ``path`` (the pivot steps' ignored)
-    or one for all. The result's ``turns`` say where it turned, by how much and on which
-    frames; its plan labels the pivot steps ``PIVOT``. ``body``: see
-    ``pivot_footprints``."""
-
+    hold s, pace) -> Synthesis. ``leg`` (``footprint.Leg``) gives the whole path's ends:
+    ``start_other`` the start's other standing foot; ``goal`` and ``goal_heading``;
+    ``lead`` and ``hold`` s of standing before the first step and after the last (None:
+    the settings'); ``pace`` the walk's, one per step of ``path`` (the pivot steps'
+    ignored) or one for all (its ``standing`` is not read: every leg stands). The
+    result's ``turns`` say where it turned, by how much and on which frames; its plan
+    labels the pivot steps ``PIVOT``. ``body``: see ``pivot_footprints``."""
+    other, goal, goal_heading, lead, hold, pace = (leg.start_other, leg.goal, leg.goal_heading, leg.lead, leg.hold,
+                                                   leg.pace)
     if path and path[0].label == STAND_LABEL:  # (a synthesized path, both standing feet at either end)
         other, path = path[0], list(path[1:])
         if not any(f.label == PIVOT for f in path[-2:]):
             path = path[:-1]
     runs = hairpins(path)
     if runs:  # (the walk to the first hairpin and its turn, then the rest from the turned feet)
-        k = runs[0][1]
-        pace1 = pace2 = pace
-        if pace is not None and np.ndim(pace):
-            pace1, pace2 = np.asarray(pace, float)[:k], np.asarray(pace, float)[k:]
-        first = synthesize(path[:k + 1], synth, other, None, None, lead, 0.0, pace1, forward, foot, step_angle, body)
-        if first.turns and first.turns[-1]["where"] == "end":  # (its end turn is the hairpin's)
-            first.turns[-1]["where"] = "hairpin"
-        pos, hd = first.footprints
-        stood = replace(first.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]), label="walk")
-        rest = [replace(path[k], position=pos[-1].copy(), heading=float(hd[-1]), label="start")] + list(path[k + 1:])
-        return join([first, synthesize(rest, synth, stood, goal, goal_heading, 0.0, hold, pace2, forward, foot,
-                                       step_angle, body)])
+        return _through_hairpin(path, runs[0][1], synth, replace(leg, start_other=other), forward, foot, step_angle,
+                                body)
     head, walk_path, tail = split(path)
     if pace is not None and np.ndim(pace):
         k = max(len(head) - 1, 0)
@@ -621,6 +613,25 @@ def synthesize(path: list[PathFootprint], synth, other: PathFootprint | None, go
     out = join(parts)
     out.plan = _labelled(out.plan, parts, turns)
     return out
+
+
+def _through_hairpin(path: list[PathFootprint], k: int, synth, leg: Leg, forward, foot: FootShape,
+                     step_angle: float, body):
+    """``synthesize`` of a path with a hairpin turn ending at footprint ``k``: the walk to it
+    and its turn (no goal, holding 0 s), then the rest from the turned feet (leading 0 s),
+    joined; ``leg.pace`` split between them when given per step."""
+    pace1 = pace2 = leg.pace
+    if leg.pace is not None and np.ndim(leg.pace):
+        pace1, pace2 = np.asarray(leg.pace, float)[:k], np.asarray(leg.pace, float)[k:]
+    first = synthesize(path[:k + 1], synth, replace(leg, goal=None, goal_heading=None, hold=0.0, pace=pace1),
+                       forward, foot, step_angle, body)
+    if first.turns and first.turns[-1]["where"] == "end":  # (its end turn is the hairpin's)
+        first.turns[-1]["where"] = "hairpin"
+    pos, hd = first.footprints
+    stood = replace(first.plan[-2], position=pos[-2].copy(), heading=float(hd[-2]), label="walk")
+    rest = [replace(path[k], position=pos[-1].copy(), heading=float(hd[-1]), label="start")] + list(path[k + 1:])
+    return join([first, synthesize(rest, synth, replace(leg, start_other=stood, lead=0.0, pace=pace2), forward, foot,
+                                   step_angle, body)])
 
 
 def _turned(leg, where: str):

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..base.settings import Settings
 from ..clips.library import Library
-from ..footprint import PIVOT, STAND_LABEL, STAND_WIDTH, beside_position
+from ..footprint import PIVOT, STAND_LABEL, STAND_WIDTH, Leg, beside_position
 from .labels import _clip_gait, _straight, plan_steps
 from .passes import GOAL_STEPS, Pass, SnapFn
 from .schedule import PlanStep, Schedule
@@ -106,15 +106,16 @@ def turn_in_place_path(path, library: Library, cyc: list[str], start_other=None)
 
 
 def standing_ends(path, library: Library, tracks: dict, cyc: list[str], settings: Settings, forward, snap,
-                  start_other, goal_heading, pace, lead: float | None, hold: float | None, end_clips: bool = True
-                  ) -> tuple[list, list[PlanStep], Standing, object]:
-    """(path, steps, standing, pace) of a path walked from standing to standing: the
-    standing (``_standing``: ``lead`` and ``hold`` s), both standing feet at either end
-    (``standing_path``: ``start_other``, ``goal_heading``), the pace of the standing steps
-    their neighbours'; the plan's steps (``plan_steps``) and, with ``end_clips``, the
+                  leg: Leg, end_clips: bool = True) -> tuple[list, list[PlanStep], Standing, object]:
+    """(path, steps, standing, pace) of a path walked from standing to standing, its ends
+    as ``leg`` says (``footprint.Leg``): the standing (``_standing``: ``leg.lead`` and
+    ``leg.hold`` s), both standing feet at either end (``standing_path``:
+    ``leg.start_other``, ``leg.goal_heading``), ``leg.pace`` with the pace of the standing
+    steps their neighbours'; the plan's steps (``plan_steps``) and, with ``end_clips``, the
     library's start and stop clips on them where they fit (``end_clip_steps``)."""
+    start_other, goal_heading, pace = leg.start_other, leg.goal_heading, leg.pace
     fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
-    stand = _standing(library, tracks, cyc, settings, lead, hold)
+    stand = _standing(library, tracks, cyc, settings, leg.lead, leg.hold)
     n_plan = len(path)
     given = len(path) > 2 and path[0].label == STAND_LABEL  # (a synthesis's own path: laid out already)
     path = standing_path(path, library, cyc, fwd, start_other, goal_heading, tracks[stand.clip],

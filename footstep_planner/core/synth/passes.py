@@ -1,14 +1,15 @@
 """The passes of the synthesis (thesis 3.3, 3.5 to 3.7): the smoothing (``_smooth``), one
-play-refine-carry round (``Pass``, ``_one_pass``: the clips played, the footprints
-refined, the body carried onto them; the standing body, a turn in place's body), the
-path's end eased onto the goal (``ease_end``), the blend groups' curvature tau
-(``_tau_curves``), walk/run speed pins (``speed_pins``) and weights (``_LocoWeights``),
-and the blend groups' pass (``_final_pass``).
+play-refine-carry round (``Pass``, ``_one_pass``, with what both rounds share in a
+``PassContext``: the clips played, the footprints refined, the body carried onto them;
+the standing body, a turn in place's body), the path's end eased onto the goal
+(``ease_end``), the blend groups' curvature tau (``_tau_curves``), walk/run speed pins
+(``speed_pins``) and weights (``_LocoWeights``), and the blend groups' pass
+(``_final_pass``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -121,14 +122,37 @@ def ease_end(pos: np.ndarray, heading: np.ndarray, off, snap: SnapFn | None = No
     return moved
 
 
-def _one_pass(schedule, tracks, desired_pos, desired_head, forward, settings: Settings, snap,
-              timer: StageTimer, key: str, bends=None, stand: Standing | None = None, pinned: bool = False) -> Pass:
+@dataclass(frozen=True)
+class PassContext:
+    """What both play-refine-carry rounds of a synthesis share (``_one_pass``, ``_final_pass``).
+
+    ``tracks``: clip name -> ``ClipTrack``. ``forward``: (3,) the world direction of
+    heading 0, None for the clips' rest forward. ``settings``: the synthesis's
+    ``Settings``. ``snap``: keeps footprints on the surface (``SnapFn``), or None.
+    ``timer``: the ``StageTimer`` the stages are timed on (s). ``bends``: (N-1,) 1/m, how
+    the planner bent each step, or None. ``stand``: the ``Standing`` at either end, or
+    None. ``pinned``: every footprint stays where it is desired (a turn in place's pivot
+    steps)."""
+
+    tracks: dict
+    forward: np.ndarray | None
+    settings: Settings
+    snap: SnapFn | None
+    timer: StageTimer
+    bends: np.ndarray | None = None
+    stand: Standing | None = None
+    pinned: bool = False
+
+
+def _one_pass(ctx: PassContext, schedule: Schedule, desired_pos, desired_head, key: str) -> Pass:
     """One round: play the schedule, refine the played footprints (each step bent by
-    ``bends`` (N-1,) 1/m, as the planner bent it) towards the desired ones (stage
+    ``ctx.bends`` (N-1,) 1/m, as the planner bent it) towards the desired ones (stage
     ``refinement<key>``), carry the played body onto them (``body_trajectory<key>``).
-    With ``stand`` the standing feet at either end stay where they are desired and the
-    body stands over them (``stand_body``) as the standing clip takes over. ``pinned``:
+    With ``ctx.stand`` the standing feet at either end stay where they are desired and the
+    body stands over them (``stand_body``) as the standing clip takes over. ``ctx.pinned``:
     every footprint stays where it is desired (a turn in place's pivot steps)."""
+    tracks, forward, settings, snap, timer = ctx.tracks, ctx.forward, ctx.settings, ctx.snap, ctx.timer
+    bends, stand, pinned = ctx.bends, ctx.stand, ctx.pinned
     fwd = forward if forward is not None else next(iter(tracks.values())).rest_forward
     with timer(f"refinement{key}"):
         played = playback(schedule, tracks, start=(desired_pos[0], desired_head[0]), forward=forward)
@@ -276,18 +300,17 @@ def _blend_group_schedule(steps: list[PlanStep], tracks, cyc: list[str], fps: fl
                           step_durations=dur, standing=standing, pace=rate)
 
 
-def _final_pass(sch2: Schedule, tracks, first: Pass, forward, settings: Settings, snap, timer: StageTimer,
-                goal, bends=None, stand: Standing | None = None, pinned: bool = False) -> Pass:
+def _final_pass(ctx: PassContext, sch2: Schedule, first: Pass, goal) -> Pass:
     """The blend groups' pass. With a goal, the path's end is moved by where the first
-    pass's body ended, and once more if the blend groups still miss it by more than
-    GOAL_TOLERANCE."""
+    pass's body ended, and once more (not pinned) if the blend groups still miss it by
+    more than GOAL_TOLERANCE."""
     desired, heading = first.refined.position, first.refined.heading
     if goal is not None:
-        desired = ease_end(desired, heading, np.asarray(goal, float)[:2] - first.body_pos[-1, :2], snap)
-    final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand, pinned)
+        desired = ease_end(desired, heading, np.asarray(goal, float)[:2] - first.body_pos[-1, :2], ctx.snap)
+    final = _one_pass(ctx, sch2, desired, heading, "_2")
     if goal is not None:
         miss = np.asarray(goal, float)[:2] - final.body_pos[-1, :2]
-        if np.linalg.norm(miss) > settings.length(GOAL_TOLERANCE):
-            desired = ease_end(desired, heading, miss, snap)
-            final = _one_pass(sch2, tracks, desired, heading, forward, settings, snap, timer, "_2", bends, stand)
+        if np.linalg.norm(miss) > ctx.settings.length(GOAL_TOLERANCE):
+            desired = ease_end(desired, heading, miss, ctx.snap)
+            final = _one_pass(replace(ctx, pinned=False), sch2, desired, heading, "_2")
     return final

@@ -25,13 +25,14 @@ from ..base.settings import Settings
 from ..base.timing import StageTimer
 from ..clips.analysis import ClipAnalysis
 from ..clips.library import Library
+from ..footprint import Leg
 from ..plan.surface import (EDGE_STEP, FootShape, Ground, SupportLimits, footprint_support, ground_heights,
                             largest_step_along)
 from .blending import Playback
 from .ends import _end_fixed, _standing, _standing_planted, end_stretch, standing_ends, turn_in_place_path
 from .labels import _LazyTracks, _climb_pace, _step_pace, _tracks_of, cyclic_clips, plan_steps
-from .passes import (Pass, SnapFn, _blend_group_schedule, _final_pass, _LocoWeights, _one_pass, _smooth,
-                     _tau_curves, _TauCurves, speed_pins)
+from .passes import (Pass, PassContext, SnapFn, _blend_group_schedule, _final_pass, _LocoWeights, _one_pass,
+                     _smooth, _tau_curves, _TauCurves, speed_pins)
 from .schedule import PlanStep, Schedule, build_schedule
 from .smoothing import Smoothed
 from .standing import Standing
@@ -262,27 +263,27 @@ def standing_body(library: Library, analyses) -> np.ndarray:
     return -np.array([local[:2] @ f, local[:2] @ [-f[1], f[0]]])
 
 
-def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, ClipTrack],
+def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, ClipTrack], leg: Leg = Leg(),
                settings: Settings | None = None, fps: float = 30.0, forward=None,
-               snap: SnapFn | None = None, goal=None, standing: bool = False, start_other=None,
-               goal_heading: float | None = None, pace=None, lead: float | None = None,
-               hold: float | None = None) -> Synthesis:
+               snap: SnapFn | None = None) -> Synthesis:
     """Synthesize the motion of a planned path (``navgraph.PathFootprint`` list, feet
     alternating). ``analyses`` are the library's clips analysed (or their tracks);
     ``snap`` keeps footprints on the surface (see ``surface_snap``); ``forward`` is
-    the world direction of heading 0 (default the clips' rest forward). With ``goal``
-    the path's end is moved so that the body ends on it (the planner stops anywhere
-    within its goal radius; see ``ease_end``). With ``standing`` the character starts
-    from standing on the path's first footprint and ``start_other`` (the other standing
-    foot, default beside it) and stops to standing, the last two feet side by side facing
-    ``goal_heading`` when given (``standing_path``, ``standing.Standing``); ``lead`` and
-    ``hold`` (s) then set how long it stands before its first step and after its last
-    (default: ``Settings.stand_hold``, the lead at most STAND_LEAD).
+    the world direction of heading 0 (default the clips' rest forward). ``leg`` says
+    what its ends are (``footprint.Leg``). With ``leg.goal`` the path's end is moved so
+    that the body ends on it (the planner stops anywhere within its goal radius; see
+    ``ease_end``). With ``leg.standing`` the character starts from standing on the path's
+    first footprint and ``leg.start_other`` (the other standing foot, default beside it)
+    and stops to standing, the last two feet side by side facing ``leg.goal_heading`` when
+    given (``standing_path``, ``standing.Standing``); ``leg.lead`` and ``leg.hold`` (s)
+    then set how long it stands before its first step and after its last (default:
+    ``Settings.stand_hold``, the lead at most STAND_LEAD).
 
-    ``pace`` (a number, or one per step of ``path``) plays the walking steps that much
+    ``leg.pace`` (a number, or one per step of ``path``) plays the walking steps that much
     faster (the clips' time warped: a step lasts its clips' duration over its pace; the
     footprints stay where they are)."""
     settings = settings or Settings()
+    goal, standing, pace = leg.goal, leg.standing, leg.pace
     if len(path) < 2:
         raise BlendError("the path has a single footprint: the character is already at its goal")
     timer = StageTimer()
@@ -290,12 +291,12 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
         with timer("tracks"):
             tracks = _tracks_of(library, analyses)
         cyc = cyclic_clips(library)
-        shown, path = turn_in_place_path(path, library, cyc, start_other) if standing and cyc else (None, path)
+        shown, path = turn_in_place_path(path, library, cyc, leg.start_other) if standing and cyc else (None, path)
         if shown is not None:  # (every footprint kept: no goal to ease the path's end onto)
-            goal = goal_heading = None
+            goal, leg = None, replace(leg, goal=None, goal_heading=None)
         if standing and cyc:  # the standing feet at either end, the start and stop clips where they fit
-            path, steps, stand, pace = standing_ends(path, library, tracks, cyc, settings, forward, snap, start_other,
-                                                     goal_heading, pace, lead, hold, end_clips=shown is None)
+            path, steps, stand, pace = standing_ends(path, library, tracks, cyc, settings, forward, snap, leg,
+                                                     end_clips=shown is None)
         else:
             steps, stand = plan_steps(path, library, cyc), None
         rate = _climb_pace(_step_pace(pace, len(steps)), path, settings.climb_time)
@@ -304,13 +305,11 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
             smoothed = _smooth(path, settings, snap, goal, fixed=len(path) if shown else _end_fixed(steps, stand))
         # 3.5 / 3.6 with the plan's clips
         sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand, pace=rate)
-        first = _one_pass(sch1, tracks, smoothed.position, smoothed.heading, forward, settings, snap, timer, "_1",
-                          bends, stand, pinned=shown is not None)
+        ctx = PassContext(tracks, forward, settings, snap, timer, bends, stand, pinned=shown is not None)
+        first = _one_pass(ctx, sch1, smoothed.position, smoothed.heading, "_1")
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
-            curves, pins, loco, sch2 = _blend_groups(path, steps, library, tracks, cyc, sch1, first, fps, settings,
-                                                     stand, rate)
-        final = _final_pass(sch2, tracks, first, forward, settings, snap, timer, goal, bends, stand,
-                            pinned=shown is not None)
+            curves, pins, loco, sch2 = _blend_groups(path, steps, library, ctx, cyc, sch1, first, rate)
+        final = _final_pass(ctx, sch2, first, goal)
         tau_final = np.interp(sch2.u, sch1.u, curves.tau)
         s_final = loco.speed(sch2.u, sch2.n)
     seconds = timer.seconds
@@ -322,17 +321,18 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
                      standing=stand, flat=None if shown is None else np.full(sch2.n, TURN_FLAT))
 
 
-def _blend_groups(path, steps: list[PlanStep], library: Library, tracks: dict, cyc: list[str], sch1: Schedule,
-                  first: Pass, fps: float, settings: Settings, stand: Standing | None, rate
-                  ) -> tuple[_TauCurves, list[tuple[float, float]], _LocoWeights, Schedule]:
+def _blend_groups(path, steps: list[PlanStep], library: Library, ctx: PassContext, cyc: list[str], sch1: Schedule,
+                  first: Pass, rate) -> tuple[_TauCurves, list[tuple[float, float]], _LocoWeights, Schedule]:
     """3.7: (the tau curves, the speed pins, the blend groups' weights, their schedule) of
     the ``first`` pass: tau from its body trajectory, s pinned by the special clips and the
     plan's gaits; the start and stop clips' steps stretched onto the footprints
-    (``end_stretch``)."""
+    (``end_stretch``). ``ctx`` gives the tracks, the settings and the standing; ``rate``
+    is the steps' pace; the schedule's frame rate is ``sch1``'s."""
+    tracks, settings, stand = ctx.tracks, ctx.settings, ctx.stand
     curves = _tau_curves(library, cyc, sch1, first, settings)
     pins = speed_pins(steps, tracks, [f.gait for f in path[1:]])
     loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
     if stand is not None and (stand.start or stand.stop):
         steps = end_stretch(steps, first, stand)
-    sch2 = _blend_group_schedule(steps, tracks, cyc, fps, settings, loco, stand, rate)
+    sch2 = _blend_group_schedule(steps, tracks, cyc, sch1.fps, settings, loco, stand, rate)
     return curves, pins, loco, sch2

@@ -13,6 +13,7 @@ together (Kovar and Gleicher's registration, keyed at footsteps as in Johansen).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -130,8 +131,8 @@ def build_schedule(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyclic: 
         du_dt = sigma / dur[np.minimum(u.astype(np.int64), len(dur) - 1)]
     clip_time, clip_rate = _cyclic_clip_times(cyc, feet[0], u, du_dt, len(clips))
     W = _locomotion_weights(len(cyc), walk, u, footprint_times, w_step, transition, loco_weights)
-    lam = _play_specials(steps, tracks, windows, clips[:len(clips) - bool(standing)], len(cyc), walk, u,
-                         footprint_times, dur, transition, clip_time, clip_rate)
+    lam = _play_specials(steps, tracks, StepTiming(walk, u, footprint_times, dur, windows),
+                         clips[:len(clips) - bool(standing)], len(cyc), transition, clip_time, clip_rate)
     clip_rate[:, len(cyc):] *= sigma[:, None]
     if standing is None:
         return Schedule(t=t, u=u, clips=clips, weights=_all_weights(W, lam, len(cyc)), clip_time=clip_time,
@@ -249,13 +250,29 @@ def _locomotion_weights(nc: int, t: np.ndarray, u: np.ndarray, footprint_times: 
     return _ramped(t, footprint_times, w_step, transition)
 
 
-def _play_specials(steps: list[PlanStep], tracks: dict[str, ClipTrack], windows: dict, clips: list[str],
-                   nc: int, t: np.ndarray, u: np.ndarray, footprint_times: np.ndarray, dur: np.ndarray,
-                   transition: float, clip_time: np.ndarray, clip_rate: np.ndarray) -> np.ndarray:
+class StepTiming(NamedTuple):
+    """When a schedule's steps and frames fall (``_play_specials``).
+
+    ``t``: (F,) s, each frame's (walk) time. ``u``: (F,) footsteps, each frame's
+    normalized time. ``footprint_times``: (N,) s, each footprint's stance time on ``t``.
+    ``dur``: (N-1,) s, each step's duration. ``windows``: step index -> (take-off,
+    landing) clip times (s) of the special clip it plays."""
+
+    t: np.ndarray
+    u: np.ndarray
+    footprint_times: np.ndarray
+    dur: np.ndarray
+    windows: dict
+
+
+def _play_specials(steps: list[PlanStep], tracks: dict[str, ClipTrack], timing: StepTiming, clips: list[str],
+                   nc: int, transition: float, clip_time: np.ndarray, clip_rate: np.ndarray) -> np.ndarray:
     """The special clips' weights (F, len(clips) - nc), each clip's the largest of its
-    steps' ramps; fills their columns of ``clip_time`` and ``clip_rate`` (F, C) in place
-    where a step's ramp is the clip's weight (``_special_timing``), its clip time clamped
-    to the clip and its rate 0 outside it."""
+    steps' ramps, at the frames and steps of ``timing``; fills their columns of
+    ``clip_time`` and ``clip_rate`` (F, C) in place where a step's ramp is the clip's
+    weight (``_special_timing``), its clip time clamped to the clip and its rate 0
+    outside it."""
+    t, u, footprint_times, dur, windows = timing
     lam = np.zeros((len(t), len(clips) - nc))
     for j, step in enumerate(steps):
         if not step.special:

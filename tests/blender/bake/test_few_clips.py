@@ -12,7 +12,7 @@ import pytest
 
 from footstep_planner.core.clips.analysis import analyze_clip
 from footstep_planner.core.clips.library import propose_library
-from footstep_planner.core.footprint import PathFootprint
+from footstep_planner.core.footprint import Leg, PathFootprint
 from footstep_planner.core.plan.navgraph import PlanError, Planner
 from footstep_planner.core.synth.labels import label_weights
 from footstep_planner.core.synth.pipeline import surface_snap, synthesize
@@ -183,7 +183,7 @@ def test_one_walk_plans_round_a_bend_that_it_cannot_pass_without_bending():
 def run(footsteps, ground, goal=None):
     lib, analyses = one_walk()
     snap = surface_snap(ground, None, FWD, FootShape())
-    return synthesize(footsteps, lib, analyses, Settings(), fps=30.0, forward=FWD, snap=snap, goal=goal), snap
+    return synthesize(footsteps, lib, analyses, Leg(goal=goal), Settings(), fps=30.0, forward=FWD, snap=snap), snap
 
 
 def test_the_motion_of_the_bent_plan_follows_its_footprints_round_the_bend():
@@ -202,7 +202,7 @@ def test_the_motion_of_the_bent_plan_follows_its_footprints_round_the_bend():
     h = np.unwrap([f.heading for f in r.footprints])
     assert turned == pytest.approx(np.degrees(h[-4:].mean() - h[0]), abs=20)  # the last steps' heading
     lib, analyses = one_walk()
-    stood = synthesize(r.footprints, lib, analyses, Settings(), fps=30.0, forward=FWD, snap=snap, standing=True)
+    stood = synthesize(r.footprints, lib, analyses, Leg(standing=True), Settings(), fps=30.0, forward=FWD, snap=snap)
     turned = np.degrees(np.unwrap(stood.body_heading)[-1] - stood.body_heading[0])
     assert turned == pytest.approx(np.degrees(h[-2:].mean() - h[0]), abs=5)
     assert 0.5 < syn.tau_final.max() < 1.0 and syn.tau_final.min() > -0.5

@@ -68,7 +68,7 @@ def run(footsteps, **kw):
     lib, analyses = library()
     g = floor()
     snap = surface_snap(g, None, FORWARD, FootShape())
-    return synthesize(footsteps, lib, analyses, Settings(**kw), fps=30.0, forward=FORWARD, snap=snap)
+    return synthesize(footsteps, lib, analyses, settings=Settings(**kw), fps=30.0, forward=FORWARD, snap=snap)
 
 
 def middle(x, frac=0.25):
