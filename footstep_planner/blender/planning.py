@@ -29,10 +29,14 @@ from ..core.plan.surface import FootShape
 from ..core.report import document as report
 from ..core.solve.frames import Solved, solve, toe_tips, walk_motion
 from ..core.synth.pipeline import Synthesis, stage_row, standing_body
+from . import rigify
 from .read.character import analyze_character, library_for
 from .read.scene import facing_rotation, object_scale, rotation_heading, scene_fps
 from .read.surfaces import scene_surfaces
 from .ui import overlay
+from .write import bake as baking
+from .write import rebake
+from .write.owned import RANGE_PROP
 
 #: Support answers per scene, reused while its tagged geometry is unchanged.
 _CACHES: dict[tuple[str, FootShape, bool], FootprintCache] = {}
@@ -41,9 +45,7 @@ _CACHES: dict[tuple[str, FootShape, bool], FootprintCache] = {}
 def world_forward(ob, analyses) -> np.ndarray:
     """The character's heading-0 direction in the world, checking its object transform
     (its own one: a bake of the planner's animates the object, and does not count)."""
-    from .write.bake import own_frame
-
-    m = own_frame(ob)  # (an even scale is the rig's, read in world units: ``scene.object_scale``)
+    m = baking.own_frame(ob)  # (an even scale is the rig's, read in world units: ``scene.object_scale``)
     if abs(m[2, 2] - 1) > 1e-3:
         raise PlanError(f"character {ob.name!r} is tilted in object mode; only a turn about Z "
                         "is allowed: clear its X and Y rotation")
@@ -99,9 +101,7 @@ def character_footprints(ob, setup: PlanSetup) -> list[PathFootprint]:
     its object's own transform (not the one a bake of the planner's animates it to, nor
     the pose its active clip has at the current frame), facing its forward. The same
     scene gives the same start, so re-baking gives the same footprints."""
-    from .write.bake import own_frame
-
-    m = own_frame(ob)  # (the rig is in world units)
+    m = baking.own_frame(ob)  # (the rig is in world units)
     hips = setup.rig.rest[setup.rig.role_index("hips")][:, 3]
     return standing_footprints(m @ hips, 0.0, setup, f"character {ob.name!r}")
 
@@ -168,33 +168,31 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
 SPLICE_SKATE_MM = 1.0
 
 
-def measure(scene, ob, planned: Planned, solved: Solved, frame_start: int, goal, goal_heading, fps: float,
-            body_on: str = "OBJECT", planted=None, frames: int | None = None, played: dict | None = None) -> dict:
+def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTiming, goal,
+            body_on: str = "OBJECT", played: dict | None = None) -> dict:
     """The quality of the scene as Blender plays it (``bake.evaluate_played``: the bake
-    with every other track and the active action as they are), measured by
-    ``core.report.document.measure_bake``; ``planted`` and ``frames`` when the bake's timing is
-    not the synthesis's (a re-bake's splice)."""
-    from .write import bake as baking
-
-    setup, syn = planned.setup, planned.synthesis
-    frames = solved.ik.frames if frames is None else frames
+    with every other track and the active action as they are) over the bake's ``timing``
+    (its ``planted`` when the bake's timing is not the synthesis's: a re-bake's splice),
+    measured by ``core.report.document.measure_bake`` against ``goal`` and the plan's goal
+    heading; the body as keyed (``body_on``) stands for the body. With ``played`` (a dict),
+    its ``"body"`` is set to the body's positions (F, 3) as played."""
+    setup, syn, rig = planned.setup, planned.synthesis, planned.setup.rig
+    frames, fps = timing.frames, timing.fps
     root = None
     if body_on == "ROOT":  # (a Rigify rig's torso carries the body: its hips stand for it)
-        from . import rigify
-
-        root = setup.rig.role_index("hips") if rigify.is_rigify(ob) else baking.root_bone(ob, setup.rig)
-    world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, setup.rig, frame_start, frames, root)
+        root = rig.role_index("hips") if rigify.is_rigify(ob) else baking.root_bone(ob, rig)
+    world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, rig, timing.frame_start, frames, root)
     if played is not None:  # (for the caller: the body as played)
         played["body"] = body_pos
     sched = syn.final.schedule
     walk = walk_motion(setup.analyses)
-    stances = report.planted_stances(sched.feet, syn.planted() if planted is None else planted, *syn.footprints,
-                                     fps, frames)
+    stances = report.planted_stances(sched.feet, syn.planted() if timing.planted is None else timing.planted,
+                                     *syn.footprints, fps, frames)
     allowance = report.source_steps(syn.tracks, sched.clips, sched.weights, fps)
-    return report.measure_bake(world, bone_rot, body_pos, body_yaw - solved.spin,
-                               [setup.rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local,
-                               setup.planner.ground, stances, goal, goal_heading, allowance, setup.rig.names,
-                               tips=toe_tips(setup.rig, world, walk.heel_local, walk.toe_local))
+    pose = report.PlayedPose(world, bone_rot, body_pos, body_yaw - solved.spin, rig.names,
+                             toe_tips(rig, world, walk.heel_local, walk.toe_local))
+    feet = report.FootPoints([rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local)
+    return report.measure_bake(pose, feet, setup.planner.ground, stances, goal, planned.goal_heading, allowance)
 
 
 @dataclass
@@ -225,6 +223,17 @@ class BakeRequest:
     splice: object = None
     force: bool = False
     new_track: bool = False
+
+    def options(self, ob, scene, settings: Settings) -> baking.BakeOptions:
+        """What ``bake.bake`` writes for this request on ``ob`` in ``scene``: its name (default
+        "<character> to goal"; with ``new_track``, a new name, made beside that one), its
+        first frame (default: the scene's current one) and the ``settings``' Rigify feet."""
+        name, beside = self.name or f"{ob.name} to goal", None
+        if self.new_track:
+            name, beside = baking.new_track_name(ob, name), name
+        frame_start = int(scene.frame_current if self.frame_start is None else self.frame_start)
+        return baking.BakeOptions(name, frame_start, self.markers, self.body_on, self.frame_range,
+                                  settings.rigify_ik_feet, self.force, beside)
 
 
 def run(scene, ob, *args, progress=None, **options) -> dict:
@@ -264,13 +273,11 @@ def bake_steps(scene, ob, req: BakeRequest):
     frame_start, fps)``: it may change the baked keys before they are measured and returns
     the timing they then have. Every bake records its footprints and their frames
     (``rebake.record``)."""
-    from .write import bake as baking
-
     job = _Job(scene, ob, req)
     baking.check_scene(scene, ob, req.body_on)
     yield 0.0, "planning"
     job.planned = planned = plan_and_synthesize(scene, ob, req.goal, req.goal_heading, req.start_marker, job.settings,
-                                                req.traversable, req.obstacles, req.route, job.frame_start)
+                                                req.traversable, req.obstacles, req.route, job.opts.frame_start)
     baking.check_leg_constraints(ob, planned.setup.rig)
     yield 0.5, "inverse kinematics"
     if req.splice is not None:
@@ -290,42 +297,32 @@ def bake_steps(scene, ob, req: BakeRequest):
 
 
 class _Job:
-    """One bake's state between ``bake_steps``' stages: what it bakes as (its name, the one
-    it is made beside, its first frame and rate), the plan and IK once made, and the bake
-    once written (its action, track, timing, and the earlier bake it mutes)."""
+    """One bake's state between ``bake_steps``' stages: what it bakes as (``opts``: its name,
+    the one it is made beside, its first frame; and the scene's rate), the plan and IK once
+    made, and the bake once written (its action, track, ``timing``, and the earlier bake it
+    mutes)."""
 
     def __init__(self, scene, ob, req: BakeRequest):
-        from .write import bake as baking
-
         self.scene, self.ob, self.req = scene, ob, req
         self.settings = req.settings or Settings()
         self.fps = scene_fps(scene)
-        self.name, self.beside = req.name or f"{ob.name} to goal", None
-        if req.new_track:
-            self.name, self.beside = baking.new_track_name(ob, self.name), self.name
-        self.frame_start = int(scene.frame_current if req.frame_start is None else req.frame_start)
+        self.opts = req.options(ob, scene, self.settings)
         self.timer, self.replaced, self.track, self.played = StageTimer(), [], None, {}
         self.planned = self.solved = None
 
     def bake(self, spliced: bool) -> None:
         """Bake (splicing into the old bake's keys, with ``spliced``) and record its timing."""
-        from .write import bake as baking
-        from .write import rebake
-
-        req, planned, solved, syn = self.req, self.planned, self.solved, self.planned.synthesis
+        planned, solved, syn, first = self.planned, self.solved, self.planned.synthesis, self.opts.frame_start
         self._remember_range()
         with self.timer("bake"):
             self.act, self.track = baking.bake(self.ob, self.scene, planned.setup.rig, solved.ik, solved.spin,
-                                               self.name, self.frame_start, planned.result.footprints, syn.planted(),
-                                               req.markers, req.body_on, req.frame_range,
-                                               rigify_ik_feet=self.settings.rigify_ik_feet, replaced=self.replaced,
-                                               force=req.force, beside=self.beside)
+                                               self.opts, planned.result.footprints, syn.planted(), self.replaced)
         try:
-            self.planted, self.frames = syn.planted(), solved.ik.frames
+            planted, frames = syn.planted(), solved.ik.frames
             if spliced:
-                self.planted, self.frames = req.splice.after_bake(self.act, self.track, self.planted, self.frames,
-                                                                  self.frame_start, self.fps)
-            rebake.record(self.act, self.planted, syn.footprints, self.frame_start, self.fps)
+                planted, frames = self.req.splice.after_bake(self.act, self.track, planted, frames, first, self.fps)
+            self.timing = report.BakeTiming(first, frames, self.fps, planted)
+            rebake.record(self.act, planted, syn.footprints, first, self.fps)
             baking.record_keys(self.act)
         except BaseException:
             self.take_back()
@@ -334,9 +331,6 @@ class _Job:
     def _remember_range(self) -> None:
         """The scene's frame range and the range records on the character's bakes, as they
         are before this bake grows them (``take_back`` gives them back)."""
-        from .write import bake as baking
-        from .write.owned import RANGE_PROP
-
         self._range = (self.scene.frame_start, self.scene.frame_end)
         acts = {st.action for tr in baking.owned_tracks(self.ob) for st in tr.strips if st.action is not None}
         self._records = {a: (list(a[RANGE_PROP]) if RANGE_PROP in a else None) for a in acts}
@@ -344,9 +338,6 @@ class _Job:
     def take_back(self) -> None:
         """The bake taken back: its track and action removed, the earlier bake of its name as
         it was, and the frame range and the other bakes' records as before it."""
-        from .write import bake as baking
-        from .write.owned import RANGE_PROP
-
         if self.track is None:
             return
         baking.discard(self.ob, self.scene, self.track, self.replaced)
@@ -365,14 +356,12 @@ class _Job:
 
     def _measure(self) -> dict:
         self.played = {}
-        return measure(self.scene, self.ob, self.planned, self.solved, self.frame_start, self.req.goal,
-                       self.planned.goal_heading, self.fps, self.req.body_on, self.planted, self.frames, self.played)
+        return measure(self.scene, self.ob, self.planned, self.solved, self.timing, self.req.goal, self.opts.body_on,
+                       self.played)
 
     def measured(self) -> dict:
         """The bake's quality as Blender plays it; a splice that slides a foot is re-baked
         whole; BakeError when a figure is beyond the report's tolerances."""
-        from .write import bake as baking
-
         qual, splice = self._measure(), self.req.splice
         if splice is not None and splice.span is not None and qual["foot_skate"]["max_mm"] > SPLICE_SKATE_MM:
             # the edit turned the walk too far round the kept footprints for their keys to mix
@@ -393,19 +382,16 @@ class _Job:
 
     def report(self, qual: dict) -> dict:
         """The bake's report: the plan, the stage times, the quality, the feet's points."""
-        from .write import bake as baking
-
         planned, solved, act = self.planned, self.solved, self.act
         result, syn = planned.result, planned.synthesis
         stages = stage_row(len(result.footprints), result.seconds, syn, pose_blend=solved.pose_seconds,
                            ik=solved.ik_seconds, bake=self.timer.seconds["bake"])
-        doc = report.bake_report(result, syn, character=self.ob.name, goal=self.req.goal, name=self.name,
-                                 forward=planned.setup.forward, frame_start=self.frame_start, frames=self.frames,
-                                 fps=self.fps, action=act.name, track=self.track.name, stages=stages, quality=qual,
-                                 planted=self.planted)
+        baked = report.BakeIdentity(self.ob.name, self.opts.name, act.name, self.track.name)
+        doc = report.bake_report(result, syn, baked, self.timing, goal=self.req.goal, forward=planned.setup.forward,
+                                 stages=stages, quality=qual)
         doc["stashed_action"] = act.get(baking.STASH_PROP)
         if planned.performance is not None:
-            doc["waypoints"] = waypoint_rows(planned, self.frame_start, self.fps, self.played.get("body"))
+            doc["waypoints"] = waypoint_rows(planned, self.opts.frame_start, self.fps, self.played.get("body"))
         walk, rig = walk_motion(planned.setup.analyses), planned.setup.rig
         own = 1.0 / object_scale(self.ob)  # (in the armature's own units: as an independent read of the file has them)
         doc["feet"] = report.feet_points([rig.names[rig.foot_chain(x)[0]] for x in ("l", "r")],

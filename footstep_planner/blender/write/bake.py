@@ -28,6 +28,7 @@ refuses before it writes in ``checks.py``; this module writes the bake and reads
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass, replace
 
 import numpy as np
 import bpy
@@ -35,7 +36,9 @@ from scipy.spatial.transform import Rotation
 
 from ...core.solve.ik import IKResult, body_frames
 from ...core.base.quat import continuous
-from ...core.clips.rig import Rig, armature_basis
+from ...core.clips.body import scaled_bases, scaled_rig
+from ...core.clips.rig import Rig, armature_basis, forward_kinematics
+from .. import rigify
 from .checks import (BESIDE_PROP, EditedBakeError, _check, _first_records, check_leg_constraints, check_not_tweaking,
                      check_overlap, check_scene, check_unedited, new_track_name, record_keys)
 from .keys import CONSTANT, fill_keys, new_fcurve
@@ -224,72 +227,93 @@ def root_bone(ob, rig: Rig) -> int:
     return r
 
 
-def bake(ob, scene, rig: Rig, res: IKResult, spin: float, name: str, frame_start: int,
-         path=None, planted=None, markers: bool = False, body_on: str = "OBJECT",
-         frame_range: bool = True, rigify_ik_feet: bool = False, replaced: list | None = None,
-         force: bool = False, beside: str | None = None):
+@dataclass(frozen=True)
+class BakeOptions:
+    """How ``bake`` writes a bake (what ``planning.BakeRequest`` asks for, resolved):
+
+    - ``name``: the bake's name (its track is ``TRACK_PREFIX`` + it; the planner's earlier
+      bake of this name is replaced);
+    - ``frame_start``: the scene frame (an integer frame) its first frame is keyed at;
+    - ``markers``: a timeline marker at each footprint's stance frame;
+    - ``body_on``: the body keyed on the object's transform (``"OBJECT"``) or on the rig's
+      root bone (``"ROOT"``, the object stays put);
+    - ``frame_range``: the scene's frame range grown to cover the bake;
+    - ``rigify_ik_feet``: on a Rigify rig, the legs keyed on their IK controls
+      (``rigify.key_controls(leg_ik=True)``) instead of the FK ones;
+    - ``force``: an earlier bake of this name replaced even when its keys were edited since;
+    - ``beside``: the name of a bake this one is made beside (``new_track_name``), which it
+      may overlap (the new track plays over it); None for none."""
+
+    name: str
+    frame_start: int
+    markers: bool = False
+    body_on: str = "OBJECT"
+    frame_range: bool = True
+    rigify_ik_feet: bool = False
+    force: bool = False
+    beside: str | None = None
+
+
+def bake(ob, scene, rig: Rig, res: IKResult, spin: float, opts: BakeOptions, path=None, planted=None,
+         replaced: list | None = None):
     """Key ``res`` into a new Action on the armature ``ob`` in a new NLA track of the
-    planner's, starting at ``frame_start``: the body on the object's transform
-    (``body_on="OBJECT"``) or on the rig's root bone (``"ROOT"``, the object stays put),
-    every bone's rotation, and the location of the hips and of any bone that moves from
-    its parent (``res.basis``, under the planner's hierarchy, is keyed under the
-    armature's, ``core.clips.rig.armature_basis``: a foot parented to the root moves from it).
+    planner's, as ``opts`` asks (``BakeOptions``), from ``opts.frame_start``: the body on the
+    object's transform or on the rig's root bone (``opts.body_on``), every bone's rotation,
+    and the location of the hips and of any bone that moves from its parent (``res.basis``,
+    under the planner's hierarchy, is keyed under the armature's,
+    ``core.clips.rig.armature_basis``: a foot parented to the root moves from it).
     The planner's earlier bake of this name is replaced; its other bakes of this
     character stay (a bake that would overlap one of them in time is refused, before
     anything changes). With ``replaced`` (a list), the earlier bake of this name is only
     muted and its tracks put in the list, for the caller to ``settle`` (remove them) or
     ``discard`` (take the new bake back and unmute them). The character's active action
-    is stashed (see the module's doc) and, with ``frame_range``, the scene's frame range
-    grows to cover the bake.
-    ``planted`` holds (strike, stance, liftoff) seconds per footprint of ``path``,
-    for the optional markers. ``rigify_ik_feet``: on a Rigify rig, the legs on their IK
-    controls (``rigify.key_controls(leg_ik=True)``) instead of the FK ones. ``force``:
-    replace an earlier bake of this name even when its keys were edited since. ``beside``:
-    the name of a bake this one is made beside (``new_track_name``), which it may overlap
-    (the new track plays over it)."""
-    from dataclasses import replace
-
-    from ...core.clips.body import scaled_bases, scaled_rig
-    from .. import rigify
-
-    _check(ob, rig, body_on)
+    is stashed (see the module's doc) and, with ``opts.frame_range``, the scene's frame
+    range grows to cover the bake. ``planted`` holds (strike, stance, liftoff) seconds per
+    footprint of ``path``, for the optional markers. Returns (action, track)."""
+    first, last = int(opts.frame_start), int(opts.frame_start) + res.frames - 1
+    _check(ob, rig, opts.body_on)
     check_not_tweaking(ob)
-    check_overlap(ob, name, int(frame_start), int(frame_start) + res.frames - 1, beside)
-    old = owned_tracks(ob, name)
-    if not force:
-        check_unedited(ob, old, name)
+    check_overlap(ob, opts.name, first, last, opts.beside)
+    old = owned_tracks(ob, opts.name)
+    if not opts.force:
+        check_unedited(ob, old, opts.name)
     s = object_scale(ob)
     if s != 1.0:  # (planned in world units: keyed in the armature's)
         rig, res = scaled_rig(rig, 1.0 / s), replace(res, basis=scaled_bases(res.basis, 1.0 / s))
     on_controls = rigify.is_rigify(ob)
-    basis = _root_carries_body(ob, rig, res, spin) if body_on == "ROOT" and not on_controls else res.basis
-    carried = _carried(ob)
-    if replaced is None:
-        remove_tracks(ob, scene, old)  # (the last bake gone: the character as it was, to read again)
-        carried = _carried(ob)
-    else:
-        for tr in old:
-            replaced.append((tr, tr.mute))
-            tr.mute = True
-    if not carried:
-        carried = _first_records(ob)
-    frames = frame_start + np.arange(res.frames, dtype=np.float64)
-    act, slot, keys = _new_action(ob, name, carried, body_on, frames)
-    if beside is not None:
-        act[BESIDE_PROP] = beside
-    if body_on == "OBJECT":
+    basis = _root_carries_body(ob, rig, res, spin) if opts.body_on == "ROOT" and not on_controls else res.basis
+    carried = _set_aside(ob, scene, old, replaced)
+    frames = opts.frame_start + np.arange(res.frames, dtype=np.float64)
+    act, slot, keys = _new_action(ob, opts.name, carried, opts.body_on, frames)
+    if opts.beside is not None:
+        act[BESIDE_PROP] = opts.beside
+    if opts.body_on == "OBJECT":
         _key_body(keys, ob, res.body_pos, spin + res.body_heading)
     if on_controls:
-        _key_rigify_controls(ob, rig, act, slot, frames, res, spin, body_on, rigify_ik_feet)
+        _key_rigify_controls(ob, rig, act, slot, frames, res, spin, opts.body_on, opts.rigify_ik_feet)
     else:  # (keys are Blender's bases: a foot parented to the root keyed relative to it)
         _key_bones(keys, ob, armature_basis(rig, basis))
-    track = _add_track(ob, name, act, slot, frame_start)
+    track = _add_track(ob, opts.name, act, slot, opts.frame_start)
     _stash_active(ob, act)
-    if frame_range:
-        _grow_range(scene, act, ob, int(frame_start), int(frame_start) + res.frames - 1)
-    if markers and path is not None and planted is not None:
-        _add_markers(scene, act, path, planted, frame_start)
+    if opts.frame_range:
+        _grow_range(scene, act, ob, first, last)
+    if opts.markers and path is not None and planted is not None:
+        _add_markers(scene, act, path, planted, opts.frame_start)
     return act, track
+
+
+def _set_aside(ob, scene, old: list, replaced: list | None) -> dict:
+    """The earlier bake of this name (its tracks ``old``) set aside for a new one: removed,
+    or with ``replaced`` (a list) muted and put in the list (``bake``). Returns the records
+    of the character's state before its first bake (from its bakes left, else read now)."""
+    if replaced is None:
+        remove_tracks(ob, scene, old)  # (the last bake gone: the character as it was, to read again)
+        return _carried(ob) or _first_records(ob)
+    carried = _carried(ob)
+    for tr in old:
+        replaced.append((tr, tr.mute))
+        tr.mute = True
+    return carried or _first_records(ob)
 
 
 def settle(ob, scene, replaced: list) -> None:
@@ -412,9 +436,6 @@ def _key_rigify_controls(ob, rig: Rig, act, slot, frames: np.ndarray, res: IKRes
     foot_ik, toe_ik and the knee's pole, switched to IK) so that its DEF bones, the
     planner's skeleton, follow the IK's pose; with the body on the rig (``ROOT``) the
     torso carries it and the object stays put."""
-    from ...core.clips.rig import forward_kinematics
-    from .. import rigify
-
     pose = forward_kinematics(rig, res.basis)  # armature space, the body at the object
     if body_on == "ROOT":
         carry = _in_object(ob, body_frames(res.body_pos, spin + res.body_heading))
@@ -525,7 +546,7 @@ def local_rotations(rig: Rig, pose: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(local[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
 
 
-__all__ = ["BODY_ON", "BakeError", "EditedBakeError", "STASH_PROP", "bake", "bake_name", "character_state",
+__all__ = ["BODY_ON", "BakeError", "BakeOptions", "EditedBakeError", "STASH_PROP", "bake", "bake_name", "character_state",
            "check_leg_constraints", "check_not_tweaking", "check_overlap", "check_scene", "clear", "discard",
            "evaluate_played", "give_back_state", "local_rotations", "new_track_name", "own_frame", "own_matrix_world",
            "owned_tracks", "record_keys", "remove_tracks", "root_bone", "settle"]

@@ -3,7 +3,7 @@
 Every caller (the command line's plan and bake, the panel's operators, the demo, the
 benchmarks) builds its report here, so the figures mean the same everywhere. The
 Blender layer's only part is to read what Blender evaluates into the arrays that
-``measure_bake`` takes.
+``measure_bake`` takes (``PlayedPose``, ``FootPoints``).
 
 Conventions: Blender world, Z up, metres; frames are scene frames, ``frame_start`` the
 first baked frame; times in seconds from the path's start; headings in radians.
@@ -11,6 +11,7 @@ first baked frame; times in seconds from the path's start; headings in radians.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -63,33 +64,67 @@ def ground_under(ground: Ground, points: np.ndarray) -> np.ndarray:
     return np.where(hit.hit, hit.z, np.nan).reshape(p.shape[:-1])
 
 
-def measure_bake(world: np.ndarray, bone_rot: np.ndarray, body_pos: np.ndarray, body_yaw: np.ndarray,
-                 foot_bones: Sequence[int], heel_local: np.ndarray, toe_local: np.ndarray, ground: Ground,
-                 stances: list[dict], goal, goal_heading, allowance: np.ndarray | None,
-                 bone_names: Sequence[str], tips: np.ndarray | None = None) -> dict:
-    """The quality of a baked motion as it plays (see ``metrics``): ``world`` (F, B, 4, 4)
-    bone matrices in the world, ``bone_rot`` (F, B, 4) local rotations, ``body_pos``
-    (F, 3) and ``body_yaw`` (F,) the body in the planner's heading frame; the heel and
-    toe points are ``heel_local``/``toe_local`` (2, 4) homogeneous points in the left
-    and right foot bones ``foot_bones``; ``allowance`` (B,) each bone's largest step in
-    its clips (``source_steps``), for the pops the planner made. Bones are named."""
-    heel = np.stack([(world[:, f] @ heel_local[k])[:, :3] for k, f in enumerate(foot_bones)])
-    toe = np.stack([(world[:, f] @ toe_local[k])[:, :3] for k, f in enumerate(foot_bones)])
+@dataclass(frozen=True, eq=False)
+class PlayedPose:
+    """A baked motion as Blender plays it, F frames of a rig of B bones, for
+    ``measure_bake``:
+
+    - ``world`` (F, B, 4, 4): each bone's matrix in the world (metres);
+    - ``bone_rot`` (F, B, 4): each bone's rotation relative to its rest pose (scipy x, y, z, w);
+    - ``body_pos`` (F, 3): the body's position in the world (metres);
+    - ``body_yaw`` (F,): the body's heading in the planner's heading frame (radians, unwrapped);
+    - ``bone_names`` (B,): the bones' names, for the figures that name one;
+    - ``tips`` (2, F, 3) or None: the left and right toe tips in the world (metres), when
+      the lowest of heel, ball and tip is to be measured too."""
+
+    world: np.ndarray
+    bone_rot: np.ndarray
+    body_pos: np.ndarray
+    body_yaw: np.ndarray
+    bone_names: Sequence[str]
+    tips: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class FootPoints:
+    """The points ``measure_bake`` measures on each foot (left, then right):
+
+    - ``bones`` (2,): the foot bones' indices in the rig;
+    - ``heel_local`` (2, 4): the heel points, homogeneous, each in its foot bone's own
+      space (metres);
+    - ``toe_local`` (2, 4): the toe (ball) points, likewise."""
+
+    bones: Sequence[int]
+    heel_local: np.ndarray
+    toe_local: np.ndarray
+
+
+def measure_bake(pose: PlayedPose, feet: FootPoints, ground: Ground, stances: list[dict], goal, goal_heading,
+                 allowance: np.ndarray | None) -> dict:
+    """The quality of a baked motion as it plays (see ``metrics``): the ``pose`` played, its
+    heel and toe points ``feet`` over the ``ground``, its ``stances`` (``planted_stances``),
+    the ``goal`` (3,) and ``goal_heading`` (rad, the planner's, or None) it is to reach;
+    ``allowance`` (B,) each bone's largest step in its clips (``source_steps``), for the pops
+    the planner made. Bones are named."""
+    world, bone_rot = pose.world, pose.bone_rot
+    heel = np.stack([(world[:, f] @ feet.heel_local[k])[:, :3] for k, f in enumerate(feet.bones)])
+    toe = np.stack([(world[:, f] @ feet.toe_local[k])[:, :3] for k, f in enumerate(feet.bones)])
     ground_z = np.stack([ground_under(ground, heel), ground_under(ground, toe)], axis=-1)
-    qual = quality(heel, toe, ground_z, stances, world[..., :3, 3], bone_rot, body_pos, body_yaw,
+    qual = quality(heel, toe, ground_z, stances, world[..., :3, 3], bone_rot, pose.body_pos, pose.body_yaw,
                    np.asarray(goal, float), goal_heading)
     qual["pops"]["introduced"] = introduced_pops(bone_rot, allowance)
-    if tips is not None:  # (the toe tips (2, F, 3) too: the lowest of heel, ball and tip)
-        depth = ground_under(ground, tips) - np.asarray(tips, float)[..., 2]
+    if pose.tips is not None:  # (the toe tips (2, F, 3) too: the lowest of heel, ball and tip)
+        depth = ground_under(ground, pose.tips) - np.asarray(pose.tips, float)[..., 2]
         tip = max(float(np.nanmax(depth)) if np.isfinite(depth).any() else 0.0, 0.0) * 1000.0
         pen = qual["penetration"]
         pen["tip_max_mm"] = round(tip, 3)
         pen["lowest_mm"] = round(max(pen["max_mm"], tip), 3)
+    names = pose.bone_names
     for key in ("rotation_bone", "offset_bone"):
         if qual["pops"].get(key) is not None:
-            qual["pops"][key] = bone_names[qual["pops"][key]]
+            qual["pops"][key] = names[qual["pops"][key]]
     if qual["pops"]["introduced"]["bone"] is not None:
-        qual["pops"]["introduced"]["bone"] = bone_names[qual["pops"]["introduced"]["bone"]]
+        qual["pops"]["introduced"]["bone"] = names[qual["pops"]["introduced"]["bone"]]
     return qual
 
 
@@ -151,20 +186,45 @@ def turn_rows(syn: Synthesis, frame_start: float) -> list[dict]:
     return [dict(t, frames=[frame_start + f for f in t["frames"]]) for t in getattr(syn, "turns", [])]
 
 
-def bake_report(result: PlanResult, syn: Synthesis, *, character: str, goal, name: str, forward,
-                frame_start: int, frames: int, fps: float, action: str, track: str, stages: dict,
-                quality: dict, planted=None) -> dict:
+@dataclass(frozen=True)
+class BakeIdentity:
+    """What a bake is, by name: ``character`` the character's (object's) name, ``name`` the
+    bake's name, ``action`` and ``track`` the names of the Action and the NLA track it was
+    baked into."""
+
+    character: str
+    name: str
+    action: str
+    track: str
+
+
+@dataclass(frozen=True, eq=False)
+class BakeTiming:
+    """When a bake plays: ``frame_start`` its first scene frame (an integer frame),
+    ``frames`` how many frames it has, ``fps`` the scene's frames per second, and
+    ``planted`` (strike, stance, liftoff) seconds from the path's start per footprint when
+    the bake's timing is not the synthesis's (as after a re-bake's splice), else None (the
+    synthesis's own, ``Synthesis.planted``)."""
+
+    frame_start: int
+    frames: int
+    fps: float
+    planted: Sequence[tuple[float, float, float]] | None = None
+
+
+def bake_report(result: PlanResult, syn: Synthesis, baked: BakeIdentity, timing: BakeTiming, *, goal, forward,
+                stages: dict, quality: dict) -> dict:
     """A bake's report: the plan's (``plan_report``) with the bake's name, frames, action
-    and track, its stage times and quality, and per footprint the frames its foot is
-    planted (scene frames; ``planted`` (strike, stance, liftoff) s per footprint when the
-    bake's timing is not the synthesis's, as after a re-bake's splice) and its final place."""
-    doc = plan_report(result, syn, character, goal, frame_start, synthesis=False)
+    and track (``baked``, ``timing``), its stage times and quality, and per footprint the
+    frames its foot is planted (scene frames, at ``timing``'s) and its final place."""
+    frame_start, frames = timing.frame_start, timing.frames
+    doc = plan_report(result, syn, baked.character, goal, frame_start, synthesis=False)
     pos, head = syn.footprints
-    planted = syn.planted() if planted is None else planted
-    fr = lambda t: frame_start + frame_index(t, fps, frames)  # noqa: E731
-    doc.update({"name": name, "forward": [round(float(v), 6) for v in forward],
+    planted = syn.planted() if timing.planted is None else timing.planted
+    fr = lambda t: frame_start + frame_index(t, timing.fps, frames)  # noqa: E731
+    doc.update({"name": baked.name, "forward": [round(float(v), 6) for v in forward],
                 "frame_start": frame_start, "frame_end": frame_start + frames - 1,
-                "action": action, "track": track, "stages": stages, "quality": quality,
+                "action": baked.action, "track": baked.track, "stages": stages, "quality": quality,
                 "footprints": [{**f, "planted_frames": [fr(a), fr(b)], "frame": fr(m),
                                 "position": _r4(pos[i]), "heading": round(float(head[i]), 4)}
                                for i, (f, (a, m, b)) in enumerate(zip(doc["footprints"], planted))]})

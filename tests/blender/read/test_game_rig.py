@@ -157,7 +157,7 @@ def _bake_and_compare(fp, scene, ob, rig, res, spin, body_on):
     """The largest distance (m) between where the planner's pose puts each foot (its head
     and tail, world space) and where the baked keys put it as Blender plays the scene."""
     _, _, bake = _mods(fp)
-    bake.bake(ob, scene, rig, res, spin, "round trip", 1, body_on=body_on)
+    bake.bake(ob, scene, rig, res, spin, bake.BakeOptions("round trip", 1, body_on=body_on))
     world, *_ = bake.evaluate_played(scene, ob, rig, 1, res.frames)
     planned = _planned_world(fp, ob, rig, res, spin)
     feet = [rig.foot_chain(s)[0] for s in "lr"]

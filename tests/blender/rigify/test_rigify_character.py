@@ -60,15 +60,16 @@ def test_a_generated_rigify_rig_walks_the_turns_as_played(fp, rigify_turns):
     planned = planning.plan_and_synthesize(scene, rig, goal, heading, None, settings)
     solved = import_module(fp.__name__ + ".core.solve.frames").solve(planned.synthesis, planned.setup, settings)
     bake = import_module(fp.__name__ + ".blender.write.bake")
-    bake.bake(rig, scene, planned.setup.rig, solved.ik, solved.spin, "rigify", 1, planned.result.footprints,
-              planned.synthesis.planted())
+    bake.bake(rig, scene, planned.setup.rig, solved.ik, solved.spin, bake.BakeOptions("rigify", 1),
+              planned.result.footprints, planned.synthesis.planted())
     world = bake.evaluate_played(scene, rig, r, 1, solved.ik.frames)[0]
     rig_mod = import_module(fp.__name__ + ".core.clips.rig")
     ik_mod = import_module(fp.__name__ + ".core.solve.ik")
     want = ik_mod.body_frames(solved.ik.body_pos, solved.spin + solved.ik.body_heading)[:, None] @ \
         rig_mod.forward_kinematics(r, solved.ik.basis)
     assert np.abs(world[..., :3, 3] - want[..., :3, 3]).max() < 1e-3  # every DEF bone within 1 mm
-    q = planning.measure(scene, rig, planned, solved, 1, goal, planned.goal_heading, 30.0)
+    timing = import_module(fp.__name__ + ".core.report.document").BakeTiming(1, solved.ik.frames, 30.0)
+    q = planning.measure(scene, rig, planned, solved, timing, goal)
     assert q["foot_skate"]["max_mm"] < 5.0 and q["footprint_error"]["max_mm"] < 5.0
     assert q["goal"]["distance_m"] < 0.05
     # the same from the panel: Bake, then Clear gives the whole scene back as it was (issue 26)
