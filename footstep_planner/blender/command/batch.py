@@ -13,7 +13,6 @@ import traceback
 from dataclasses import dataclass
 
 import bpy
-import numpy as np
 
 from ...core.base.errors import FootstepError
 from ...core.base.files import Outputs, describe_os_error
