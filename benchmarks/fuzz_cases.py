@@ -650,8 +650,9 @@ UNWRITABLE = ["under_file", "deep_under_file", "proc", "sys", "locked_dir", "loc
 
 def _unwritable(rng, ext, ctx) -> Arg:
     """A file (``ext``) or, without ``ext``, a folder that cannot be written ("" and a
-    trailing slash are fine names for a folder)."""
-    name = pick(rng, UNWRITABLE if ext else [u for u in UNWRITABLE if u not in ("empty", "trailing_slash")])
+    trailing slash are fine names for a folder, and a folder that is there already is
+    written into: ``plot --out DIR`` and ``analyze --plot DIR`` take one)."""
+    name = pick(rng, UNWRITABLE if ext else [u for u in UNWRITABLE if u not in ("empty", "trailing_slash", "is_dir")])
     p = HOSTILE_OUTPUTS[name](rng, ext, ctx)
     p.note = p.note or name
     return p
