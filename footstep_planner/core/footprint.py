@@ -37,6 +37,7 @@ class PathFootprint:
     label: str  # the clip (or "group@tau") that carried the foot here; "start" at first
     gait: str
     jump: bool = False
+    tread: bool = False  # set square and whole on a stair's tread by the search: kept where planned
 
 
 def beside_position(fp, foot: int, forward, width: float, stand=None, at: float = 0.0):

@@ -114,6 +114,12 @@ class Settings:
         gutter), a jump then only a gap no step spans. Off: a step walks on ground that
         continues under it, and any gap is jumped. Off by default for now: on, a step may also
         cut over a floor's corner or notch, which changes the paths on ordinary floors.""")
+    square_on_stairs: bool = setting(True, "", doc="""Set a footprint that lands on a stair's tread (a
+        narrow level patch with a riser up on one side and down on the other) square to the
+        tread and wholly on it, moved the least that does (a tread shorter than the foot: the
+        toe to the riser going up, the heel going down), before its support is checked: flights
+        are climbed with square feet, and the search finds the way up without trying thousands
+        of steps that miss the treads. Off: the library's steps as they land.""")
     run_penalty: float = setting(1.0, "s", 0.0, 100.0, """Seconds added to the cost of each running
         step: the path walks, and runs only where a clip needs it (a jump is entered running); 0
         plans the fastest path.""")

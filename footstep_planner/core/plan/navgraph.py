@@ -62,9 +62,10 @@ from ..footprint import PathFootprint
 from .distance_field import AHEAD_TURN_COST, EDGE_COST, FREE_TURN, DistanceField, FieldCells, FieldLimits
 from .refusals import Refusals
 from .search_state import PlanError, SearchNode, _Batch, _Search
-from .step_rules import StepRules, _start_gaits
+from .step_rules import CLIMB_DZ, StepRules, _start_gaits
 from .support_cache import FINE_CELL, FINE_HEADING_BINS, GAIT_IDS, FootprintCache, _pack, fine_keys, fine_xy
 from .surface import FootShape, Ground, SupportLimits, footprint_support
+from .treads import Treads, find_treads
 
 
 #: m: a footprint the distance field samples in a cell stands at the cell's level when
@@ -182,6 +183,19 @@ class Planner(StepRules, Refusals):
         """What a footprint of this planner's stands within (``SupportLimits.of`` its settings:
         ``max_step_height`` and ``clearance``)."""
         return SupportLimits.of(self.settings)
+
+    @property
+    def treads(self) -> Treads:
+        """The stair treads of the traversable surfaces (``treads.find_treads``), found
+        once per planner (its ground does not change), where the search's footprints are
+        set square and whole (``_successors``); none with ``Settings.square_on_stairs``
+        off."""
+        found = getattr(self, "_treads", None)
+        if found is None:
+            found = (find_treads(self.ground.mesh, self.ground, self.max_step_height, self.settings.body_scale)
+                     if self.settings.square_on_stairs else Treads.none())
+            self._treads = found
+        return found
 
     def _support(self, pos, heading):
         return footprint_support(self.ground, self.obstacles, pos, heading, self.forward, self.foot,
@@ -482,6 +496,15 @@ class Planner(StepRules, Refusals):
         l_ = np.array([-f_[1], f_[0]])
         nxt = node.position[:2] + st.fwd[sel, None] * f_ + st.left[sel, None] * l_
         npsi = wrap(node.heading + st.turn[sel])
+        if len(self.treads) and len(sel):  # (on a stair's tread: square to it, wholly on it)
+            yaw0 = ang - node.heading
+            side = 1.0 if node.foot == 1 else -1.0  # (a left foot follows a right one)
+            toe = np.full(len(sel), self.steps.toe_out() * side)
+            nxt, a, state = self.treads.square(nxt, npsi + yaw0, np.full(len(sel), node.position[2]), toe,
+                                               self.foot, self.max_step_height,
+                                               beside=(node.position, self.steps.stance_width(), side))
+            keep = state >= 0  # (no foot askew on a flight)
+            sel, nxt, npsi = sel[keep], nxt[keep], wrap(a[keep] - yaw0)
         keys = self._keys(1 - node.foot, self._gait_ids[sel], nxt, npsi)
         closed = search.closed
         todo = [j for j, k in enumerate(keys) if k not in closed]
@@ -524,11 +547,15 @@ class Planner(StepRules, Refusals):
             idx = search.nodes[idx].parent
         chain.reverse()
         out, tnow = [], 0.0
-        for n in chain:
+        on = np.zeros(len(chain), bool)
+        if len(self.treads):  # (the footprints on a tread, which the synthesis keeps where planned)
+            pos = np.array([n.position for n in chain], float)
+            on = self.treads.under(pos[:, :2], pos[:, 2], self._len(CLIMB_DZ)) >= 0
+        for n, tread in zip(chain, on.tolist()):
             if n.step >= 0:
                 tnow += float(self.steps.duration[n.step])
             out.append(PathFootprint(n.foot, n.position, n.heading, tnow,
                                 "start" if n.step < 0 else str(self.steps.label[n.step]),
-                                n.gait, bool(n.step >= 0 and self.steps.jump[n.step])))
+                                n.gait, bool(n.step >= 0 and self.steps.jump[n.step]), tread and n.step >= 0))
         return PlanResult(out, search.expanded, search.generated, seconds, chain[-1].cost, field_seconds,
                           search.nodes)

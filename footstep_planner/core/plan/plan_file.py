@@ -5,15 +5,17 @@ animator, by hand) to edit and bake (``plan --out-plan``, ``bake --plan``).
      "character": "Hero", "forward": [0, -1, 0],
      "goal": [x, y, z], "goal_heading": 1.57 or null,
      "footprints": [{"foot": "L", "position": [x, y, z], "heading": 0.0, "time": 0.0,
-                     "clip": "walk", "gait": "walk", "jump": false, "locked": false,
-                     "planned": [x, y, z, heading]}, ...]}
+                     "clip": "walk", "gait": "walk", "jump": false, "tread": false,
+                     "locked": false, "planned": [x, y, z, heading]}, ...]}
 
 Positions are world metres; a heading is a yaw (rad, positive turning left) from
 ``forward``, the world direction of heading 0 (the character's rest forward as it stood
 in the scene when planned). Numbers are written in full, so a plan read back is the plan
 written. ``planned`` is the pose the planner gave the footprint: a footprint whose
 position or heading an edit changed from it counts as moved (and so locked: whoever
-moved it wants it there); without ``planned`` a footprint counts as unmoved.
+moved it wants it there); without ``planned`` a footprint counts as unmoved. ``tread``:
+the planner set the footprint square and whole on a stair's tread, and the synthesis keeps
+it where it is (absent: false).
 Pure Python and numpy.
 """
 
@@ -62,7 +64,7 @@ class PlanFile:
                 "goal_heading": None if self.goal_heading is None else float(self.goal_heading),
                 "footprints": [{"foot": "LR"[f.foot], "position": fl(f.position), "heading": float(f.heading),
                                 "time": float(f.time), "clip": f.label, "gait": f.gait, "jump": bool(f.jump),
-                                "locked": bool(lk), "planned": [*fl(f.position), float(f.heading)]}
+                                "tread": bool(f.tread), "locked": bool(lk), "planned": [*fl(f.position), float(f.heading)]}
                                for f, lk in zip(self.footprints, self.locked)]}
 
 
@@ -110,11 +112,11 @@ def _footprint(i: int, d, where: str) -> tuple[PathFootprint, bool, bool]:
     for field in ("clip", "gait"):
         if not isinstance(d.get(field, ""), str):
             raise bad(field, "text")
-    for field in ("jump", "locked"):
+    for field in ("jump", "tread", "locked"):
         if not isinstance(d.get(field, False), bool):
             raise bad(field, "true or false")
     fp = PathFootprint("LR".index(d["foot"]), pos, heading, time, d.get("clip") or "",
-                       d.get("gait") or "walk", bool(d.get("jump", False)))
+                       d.get("gait") or "walk", bool(d.get("jump", False)), bool(d.get("tread", False)))
     return fp, bool(d.get("locked", False)), _moved(d, pos, heading, bad)
 
 

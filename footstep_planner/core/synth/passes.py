@@ -75,24 +75,28 @@ def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack], gaits=None) 
 
 def _smooth(path, settings: Settings, snap, goal, fixed=1) -> Smoothed:
     """3.3: the planned footprints smoothed, the first and last ``fixed`` kept (a number,
-    or (first, last)); with a goal, the path's end first eased so that the body ends
-    between the last two feet on it."""
+    or (first, last)), and every footprint the planner set on a stair's tread
+    (``PathFootprint.tread``); with a goal, the path's end first eased so that the body
+    ends between the last two feet on it."""
     pos0 = np.array([f.position for f in path], float)
     head0 = np.unwrap(np.array([f.heading for f in path], float))
     if goal is not None:
-        pos0 = ease_end(pos0, head0, np.asarray(goal, float)[:2] - 0.5 * (pos0[-1, :2] + pos0[-2, :2]), snap)
+        pos0 = ease_end(pos0, head0, np.asarray(goal, float)[:2] - 0.5 * (pos0[-1, :2] + pos0[-2, :2]), snap,
+                        kept=np.array([f.tread for f in path], bool))
     keep = np.zeros(len(pos0), bool)
     first, last = (fixed, fixed) if np.ndim(fixed) == 0 else fixed
     keep[:first] = keep[len(keep) - last:] = True
+    keep |= np.array([f.tread for f in path], bool)
     return smooth_footprints(pos0, head0, settings.smoothing_iterations, snap, fixed=keep,
                              preserve_arcs=settings.smoothing_keep_arcs)
 
 
 def ease_end(pos: np.ndarray, heading: np.ndarray, off, snap: SnapFn | None = None,
-             steps: int = GOAL_STEPS) -> np.ndarray:
+             steps: int = GOAL_STEPS, kept: np.ndarray | None = None) -> np.ndarray:
     """The path's last two footprints moved by ``off`` (x, y), the ``steps`` before them by
-    less and less; a footprint the surface refuses at its new place goes half or a quarter
-    of the way where it may stand, else keeps its old place."""
+    less and less, but for the ``kept`` (N,) bool ones (on a stair's tread); a footprint
+    the surface refuses at its new place goes half or a quarter of the way where it may
+    stand, else keeps its old place."""
     pos = np.array(pos, float, copy=True)
     n = len(pos)
     if off is None or n < 3 or not np.any(off):
@@ -102,6 +106,8 @@ def ease_end(pos: np.ndarray, heading: np.ndarray, off, snap: SnapFn | None = No
     k = min(steps, n - 3)
     if k > 0:
         w[n - 2 - k:n - 2] = (np.arange(1, steps + 1) / (steps + 1))[-k:]
+    if kept is not None:
+        w[np.asarray(kept, bool)] = 0.0
     moved = pos.copy()
     moved[:, :2] += w[:, None] * np.asarray(off, float)[:2]
     sel = np.flatnonzero(w > 0)
@@ -132,7 +138,9 @@ class PassContext:
     ``timer``: the ``StageTimer`` the stages are timed on (s). ``bends``: (N-1,) 1/m, how
     the planner bent each step, or None. ``stand``: the ``Standing`` at either end, or
     None. ``pinned``: every footprint stays where it is desired (a turn in place's pivot
-    steps)."""
+    steps). ``kept``: (N,) bool, the footprints that stay where they are desired whatever
+    (the planner set them square and whole on a stair's tread, ``PathFootprint.tread``),
+    or None."""
 
     tracks: dict
     forward: np.ndarray | None
@@ -142,6 +150,7 @@ class PassContext:
     bends: np.ndarray | None = None
     stand: Standing | None = None
     pinned: bool = False
+    kept: np.ndarray | None = None
 
 
 def _one_pass(ctx: PassContext, schedule: Schedule, desired_pos, desired_head, key: str) -> Pass:
@@ -161,6 +170,11 @@ def _one_pass(ctx: PassContext, schedule: Schedule, desired_pos, desired_head, k
         if stand is not None or pinned:
             fixed = np.full(len(desired_pos), pinned)
             fixed[[0, 1, -2, -1]] = True
+        if ctx.kept is not None and ctx.kept.any():
+            if fixed is None:  # (refine's own default: the first and the last)
+                fixed = np.zeros(len(desired_pos), bool)
+                fixed[[0, -1]] = True
+            fixed = fixed | ctx.kept
         refined = refine(*orig, desired_pos, desired_head, settings.refinement_iterations, snap, fixed=fixed,
                          height=getattr(snap, "height", None))
     with timer(f"body_trajectory{key}"):
@@ -306,11 +320,12 @@ def _final_pass(ctx: PassContext, sch2: Schedule, first: Pass, goal) -> Pass:
     more than GOAL_TOLERANCE."""
     desired, heading = first.refined.position, first.refined.heading
     if goal is not None:
-        desired = ease_end(desired, heading, np.asarray(goal, float)[:2] - first.body_pos[-1, :2], ctx.snap)
+        desired = ease_end(desired, heading, np.asarray(goal, float)[:2] - first.body_pos[-1, :2], ctx.snap,
+                           kept=ctx.kept)
     final = _one_pass(ctx, sch2, desired, heading, "_2")
     if goal is not None:
         miss = np.asarray(goal, float)[:2] - final.body_pos[-1, :2]
         if np.linalg.norm(miss) > ctx.settings.length(GOAL_TOLERANCE):
-            desired = ease_end(desired, heading, miss, ctx.snap)
+            desired = ease_end(desired, heading, miss, ctx.snap, kept=ctx.kept)
             final = _one_pass(replace(ctx, pinned=False), sch2, desired, heading, "_2")
     return final

@@ -305,7 +305,8 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
             smoothed = _smooth(path, settings, snap, goal, fixed=len(path) if shown else _end_fixed(steps, stand))
         # 3.5 / 3.6 with the plan's clips
         sch1 = build_schedule(steps, tracks, cyc, fps, settings.transition_time, standing=stand, pace=rate)
-        ctx = PassContext(tracks, forward, settings, snap, timer, bends, stand, pinned=shown is not None)
+        ctx = PassContext(tracks, forward, settings, snap, timer, bends, stand, pinned=shown is not None,
+                          kept=np.array([f.tread for f in path], bool))
         first = _one_pass(ctx, sch1, smoothed.position, smoothed.heading, "_1")
         with timer("blend_groups"):  # 3.7: tau from the body trajectory, s from the special clips
             curves, pins, loco, sch2 = _blend_groups(path, steps, library, ctx, cyc, sch1, first, rate)

@@ -9,6 +9,7 @@ from importlib import import_module
 import numpy as np
 import pytest
 
+from stairs_checks import square_and_straight
 from conftest import ROOT, needs_cmu
 
 FWD = np.array([0.0, -1.0])
@@ -122,7 +123,8 @@ def test_the_script_saves_the_scenes(tmp_path):
 
 def _climbs_the_stairs(fp, scene, ob):
     """Bake ``ob`` up and down the Stairs (Start to Goal, with the goal's heading) and
-    check what the user gets: every planned stance on one top (a tread, the landing, a
+    check what the user gets: the feet square to the treads and the body straight along
+    each flight (``square_and_straight``), every planned stance on one top (a tread, the landing, a
     floor: the front half of the foot, toes and middle, over the same height; the heel
     there or hanging over the nosing below; the toe tip, and TIP_ROOM ahead of it, in no
     riser), no heel, ball or toe tip inside the steps on any frame, as played through the depsgraph
@@ -161,6 +163,7 @@ def _climbs_the_stairs(fp, scene, ob):
         assert depth.max(initial=0.0) < 0.01, (side, depth.max(initial=0.0))
     vz = np.diff(body[:, 2]) * scene.render.fps
     assert np.abs(np.diff(vz)).max() * scene.render.fps < 12.0  # m/s^2: no jolt (over 1.2 g) up or down a step
+    square_and_straight(setup.planner, pos, head, body[:, :2])
     return doc
 
 
