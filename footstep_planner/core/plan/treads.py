@@ -119,31 +119,10 @@ class Treads:
         side = np.c_[-h[:, 1], h[:, 0]]
         d = xy[on] - self.center[p]
         along, across = np.einsum("nc,nc->n", d, h), np.einsum("nc,nc->n", d, side)
-        k = foot.scale
-        m = EDGE_MARGIN * k
-        half = 0.5 * self.depth[p]
-        # the room along the tread for the reference point: the heel EDGE_MARGIN inside the
-        # back edge; the front, going up, the toe tip TIP_ROOM from the riser ahead, and
-        # going down the foot's rectangle on the tread (the tip may hang over the nosing); the
-        # foot turned out by its toe-out reaches a little further along and across
-        c, s_ = np.cos(toe[on]), np.abs(np.sin(toe[on]))
-        front = np.where(climbing, (max(foot.front, foot.tip) + TIP_ROOM * k) * c + m,
-                         foot.front * c + foot.half_width * s_ + m)
-        lo, hi = -half + m + foot.back * c + foot.half_width * s_, half - front
-        short = lo > hi
-        # a tread shorter than the foot: going up, the toe to the riser, the heel hanging
-        # over the nosing below; going down it can't be stood on square
-        new_along = np.where(~short, np.clip(along, lo, hi), hi)
-        ok &= ~short | climbing
-        room = 0.5 * self.width[p] - m - (foot.half_width * c + max(foot.back, foot.front) * s_)
-        ok &= room >= 0.0
+        new_along, room, fits = self._room(p, along, climbing, toe[on], foot)
+        ok &= fits
         if beside is not None:  # (the other foot on a tread of this flight: a straight line up it)
-            other, width, sign = beside
-            other = np.asarray(other, float)[:2]
-            o = self.under(other[None], z_from[:1], CLIMB_DZ * k)[0]
-            if o >= 0:
-                same = np.abs(self.up[p] @ self.up[o]) > np.cos(SAME_FLIGHT)
-                across = np.where(same, np.einsum("nc,nc->n", other[None] - self.center[p], side) + sign * width, across)
+            across = self._beside(p, side, across, beside, z_from[:1], foot.scale)
         new_across = np.clip(across, -np.maximum(room, 0.0), np.maximum(room, 0.0))
         new_xy = self.center[p] + new_along[:, None] * h + new_across[:, None] * side
         sel = on[ok]
@@ -152,6 +131,43 @@ class Treads:
         moved[sel] = 1
         return xy, angle, moved
 
+
+    def _room(self, p: np.ndarray, along: np.ndarray, climbing: np.ndarray, toe: np.ndarray, foot: FootShape
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(along (n,) m, room (n,) m, fits (n,) bool) for footprints on treads ``p`` (n,)
+        facing square up (``climbing``) or down them, turned out ``toe`` (n,) rad: the
+        reference point's place along the tread nearest ``along`` (n,) (from the tread's
+        middle, the way the foot faces) where the foot stands on it, how far it may go to
+        either side, and whether it can stand there at all. The heel EDGE_MARGIN inside the
+        back edge; the front, going up, the toe tip TIP_ROOM from the riser ahead, and going
+        down the foot's rectangle on the tread (the tip may hang over the nosing); a foot
+        turned out reaches a little further along and across. A tread shorter than the
+        foot is taken going up with the toe to the riser, the heel hanging over the nosing
+        below; going down it can't be stood on square."""
+        k = foot.scale
+        m = EDGE_MARGIN * k
+        half = 0.5 * self.depth[p]
+        c, s = np.cos(toe), np.abs(np.sin(toe))
+        front = np.where(climbing, (max(foot.front, foot.tip) + TIP_ROOM * k) * c + m,
+                         foot.front * c + foot.half_width * s + m)
+        lo, hi = -half + m + foot.back * c + foot.half_width * s, half - front
+        short = lo > hi
+        room = 0.5 * self.width[p] - m - (foot.half_width * c + max(foot.back, foot.front) * s)
+        return np.where(~short, np.clip(along, lo, hi), hi), room, (~short | climbing) & (room >= 0.0)
+
+    def _beside(self, p: np.ndarray, side: np.ndarray, across: np.ndarray, beside: tuple, z_from: np.ndarray,
+                scale: float) -> np.ndarray:
+        """(n,) m across the treads ``p`` (their ``side`` (n, 2) unit vectors, left of the
+        way the foot faces) where the foot goes: ``beside``'s stance width to the side of
+        the other foot where that stands on a tread of the same flight (within SAME_FLIGHT),
+        else ``across`` as it is."""
+        other, width, sign = beside
+        other = np.asarray(other, float)[:2]
+        o = self.under(other[None], z_from, CLIMB_DZ * scale)[0]
+        if o < 0:
+            return across
+        same = np.abs(self.up[p] @ self.up[o]) > np.cos(SAME_FLIGHT)
+        return np.where(same, np.einsum("nc,nc->n", other[None] - self.center[p], side) + sign * width, across)
 
 def find_treads(mesh: TriMesh, ground: Ground, step_height: float, scale: float = 1.0) -> Treads:
     """The stair treads of ``mesh`` (the traversable surfaces; see the module's
