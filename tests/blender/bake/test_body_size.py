@@ -150,16 +150,21 @@ def test_an_evenly_scaled_object_is_taken_as_blender_shows_it(fp, human, data, s
     assert "scale" not in keyed
 
 
-def test_an_unevenly_scaled_object_is_refused_in_one_line_naming_the_scale(fp):
-    scene = _scaled_scene(fp, "turns", 1.0)
-    ob = _character(fp, scene, 1.0)
-    ob.scale = (1.0, 1.0, 0.5)
+def _refusal(fp, scene, ob, name: str) -> str:
+    """The one-line message ``planning.run`` refuses ``ob`` with on ``scene`` (Start to Goal)."""
     planning = import_module(fp.__name__ + ".blender.planning")
     goal, heading = planning.goal_of(scene, "Goal")
     errors = import_module(fp.__name__ + ".core.base.errors")
     with pytest.raises(errors.FootstepError) as ex:
-        planning.run(scene, ob, goal, heading, scene.objects["Start"], name="uneven", frame_start=1)
-    msg = str(ex.value)
+        planning.run(scene, ob, goal, heading, scene.objects["Start"], name=name, frame_start=1)
+    return str(ex.value)
+
+
+def test_an_unevenly_scaled_object_is_refused_in_one_line_naming_the_scale(fp):
+    scene = _scaled_scene(fp, "turns", 1.0)
+    ob = _character(fp, scene, 1.0)
+    ob.scale = (1.0, 1.0, 0.5)
+    msg = _refusal(fp, scene, ob, "uneven")
     assert "scaled 1, 1, 0.5 on X, Y, Z" in msg and "Apply > Scale" in msg and "\n" not in msg
 
 
@@ -168,16 +173,12 @@ def test_a_rig_in_centimetres_under_scale_one_is_told_its_size_first(fp):
     imported without its unit): 84 m legs over a 22 m scene. The one-line refusal says the
     size is wrong and how to scale it, before any step or start is tried (it said the
     Start was off the floor), and the character is left as it was."""
+    from fingerprint import differences, fingerprint
+
     scene = _scaled_scene(fp, "turns", 1.0)
     ob = _character(fp, scene, 100.0, 1.0)
-    from fingerprint import differences, fingerprint
     before = fingerprint()
-    planning = import_module(fp.__name__ + ".blender.planning")
-    goal, heading = planning.goal_of(scene, "Goal")
-    errors = import_module(fp.__name__ + ".core.base.errors")
-    with pytest.raises(errors.FootstepError) as ex:
-        planning.run(scene, ob, goal, heading, scene.objects["Start"], name="cm", frame_start=1)
-    msg = str(ex.value)
+    msg = _refusal(fp, scene, ob, "cm")
     assert "'Footstep Mannequin' has legs 84 m long" in msg and "centimetres" in msg and "0.01" in msg
     assert "\n" not in msg and "Start" not in msg
     assert not differences(before, fingerprint())

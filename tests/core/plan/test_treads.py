@@ -8,7 +8,7 @@ from hypothesis import given, settings, strategies as st
 
 from benchmarks.scene_generator import Scene, plates_mesh, stairs_turn
 from footstep_planner.core.base.angles import wrap
-from footstep_planner.core.plan.surface import TIP_ROOM, FootShape, MeshGround, TriMesh  # noqa: F401
+from footstep_planner.core.plan.surface import TIP_ROOM, FootShape, MeshGround, TriMesh
 from footstep_planner.core.plan.treads import EDGE_MARGIN, MAX_SQUARE_TURN, find_treads
 
 FOOT = FootShape(back=0.1, front=0.16, half_width=0.05)
