@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import bpy
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from ...core.base.quat import rotations
 from ...core.clips.roles import map_roles
 from .clip_checks import _tag_source
 from .clip_keys import _curve, _key_frames, _write_rotation
@@ -60,10 +60,10 @@ def _retarget(src_ob, src_act, target, src, local: bool = False):
         if local:  # the bone's rest in its parent's axes, in each skeleton
             ms = _parent_rest(src_ob, src_names, src_rest, bname).T @ ms
             mt = _parent_rest(target, tgt_names, tgt_rest, bname).T @ mt
-            rot = Rotation.from_matrix(mt.T @ ms @ rb)
+            rot = rotations(mt.T @ ms @ rb)
         else:
             world_rel = ms @ rb @ ms.T  # the joint's rotation in armature axes
-            rot = Rotation.from_matrix(mt.T @ world_rel @ mt)
+            rot = rotations(mt.T @ world_rel @ mt)
         pb = target.pose.bones[bname]
         base = f'pose.bones["{bpy.utils.escape_identifier(bname)}"]'
         _write_rotation(cbag, base, bname, pb.rotation_mode, rot, frames)

@@ -12,6 +12,7 @@ import numpy as np
 from mathutils import Matrix
 from scipy.spatial.transform import Rotation
 
+from ...core.base.quat import rotations
 from .clip_checks import ClipImportError, _Take
 from .clip_keys import _curve, _fcurves, _key_frames, _map_keys, _write_rotation
 from .scene import sample_basis
@@ -174,7 +175,7 @@ def _fold_object_motion(ob, act, frames, world, basis, rest: dict, s: float) -> 
         for fc in [fc for fc in cbag.fcurves if fc.data_path in paths]:
             cbag.fcurves.remove(fc)
         pb = ob.pose.bones[name]
-        _write_rotation(cbag, base, name, pb.rotation_mode, Rotation.from_matrix(new[:, :3, :3]), frames)
+        _write_rotation(cbag, base, name, pb.rotation_mode, rotations(new[:, :3, :3]), frames)
         for i in range(3):
             _curve(cbag, f"{base}.location", i, name, frames, new[:, i, 3])
 

@@ -35,7 +35,7 @@ import bpy
 from scipy.spatial.transform import Rotation
 
 from ...core.solve.ik import IKResult, body_frames
-from ...core.base.quat import continuous
+from ...core.base.quat import continuous, rotations
 from ...core.clips.body import scaled_bases, scaled_rig
 from ...core.clips.rig import Rig, armature_basis, forward_kinematics
 from .. import rigify
@@ -417,7 +417,7 @@ def _key_bones(keys: _Keys, ob, basis: np.ndarray) -> None:
     """Every bone's rotation (in its own rotation mode) and the location of the bones
     that move (the hips, a root carrying the body)."""
     F, B = basis.shape[:2]
-    q = Rotation.from_matrix(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
+    q = rotations(basis[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
     moved = np.abs(basis[..., :3, 3]).max(axis=0).max(axis=1) > 1e-6
     for b, pb in enumerate(ob.pose.bones):
         path = f'pose.bones["{bpy.utils.escape_identifier(pb.name)}"].'
@@ -543,7 +543,7 @@ def local_rotations(rig: Rig, pose: np.ndarray) -> np.ndarray:
     parent_inv = np.tile(np.eye(4), (F, B, 1, 1))
     parent_inv[:, has] = np.linalg.inv(pose[:, parents[has]])
     local = rel[None] @ parent_inv @ pose
-    return Rotation.from_matrix(local[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
+    return rotations(local[..., :3, :3].reshape(-1, 3, 3)).as_quat().reshape(F, B, 4)
 
 
 __all__ = ["BODY_ON", "BakeError", "BakeOptions", "EditedBakeError", "STASH_PROP", "bake", "bake_name", "character_state",

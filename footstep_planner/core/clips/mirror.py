@@ -51,6 +51,7 @@ from .stances import Footprint
 from .clip import ClipMotion
 from ..base.errors import FootstepError
 from .rig import Rig
+from ..base.quat import rotations
 from ..base.angles import wrap
 
 #: The suffix of a mirrored clip's name ("run_jump" -> "run_jump~mirror").
@@ -214,7 +215,7 @@ class Mirror:
         bone ``b'`` turns by ``Q^T B_b Q`` (``b = perm[b']``), vectorised over frames."""
         rot = np.asarray(rot)
         n, nb = rot.shape[:2]
-        src = Rotation.from_matrix(rot[:, self.perm].reshape(-1, 3, 3).astype(np.float64))
+        src = rotations(rot[:, self.perm].reshape(-1, 3, 3))
         q = Rotation.from_quat(np.broadcast_to(self.Q.as_quat()[None], (n, nb, 4)).reshape(-1, 4))
         out = (q.inv() * src * q).as_matrix().reshape(n, nb, 3, 3)
         return out.astype(rot.dtype, copy=False)

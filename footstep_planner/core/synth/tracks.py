@@ -206,20 +206,6 @@ def _unit3(m: np.ndarray) -> np.ndarray:
     return m / np.linalg.norm(m, axis=-2, keepdims=True)
 
 
-#: A clip's matrices read from Blender (single precision) are rotations to about 1e-7.
-RIGID_TOL = 1e-6
-
-
-def _rotation_of(m: np.ndarray):
-    """scipy Rotations of matrices ``m`` (n, 3, 3): when they are all rotations (to
-    RIGID_TOL) taken as they are, else orthogonalised first (scipy's SVD, a LAPACK call a
-    matrix, which gives the same rotation for a rotation, to that tolerance)."""
-    from scipy.spatial.transform import Rotation
-
-    rigid = bool(len(m)) and np.abs(np.einsum("nji,njk->nik", m, m) - np.eye(3)).max() < RIGID_TOL
-    return Rotation.from_matrix(m, assume_valid=rigid)
-
-
 def _raw_pose(quat: np.ndarray, hips: np.ndarray, rate: float, t: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(quats (F, B, 4), hips position (F, 3), hips quat (F, 4)) of a clip's pose
@@ -233,8 +219,8 @@ def _raw_pose(quat: np.ndarray, hips: np.ndarray, rate: float, t: np.ndarray
     q = quat[i0] * (1 - fr[..., None]) + quaternions.align(quat[i1], quat[i0]) * fr[..., None]
     q /= np.linalg.norm(q, axis=-1, keepdims=True)
     hp = hips[i0, :3, 3] * (1 - fr) + hips[i1, :3, 3] * fr
-    hq0 = _rotation_of(_unit3(hips[i0, :3, :3])).as_quat()
-    hq1 = quaternions.align(_rotation_of(_unit3(hips[i1, :3, :3])).as_quat(), hq0)
+    hq0 = quaternions.rotations(_unit3(hips[i0, :3, :3])).as_quat()
+    hq1 = quaternions.align(quaternions.rotations(_unit3(hips[i1, :3, :3])).as_quat(), hq0)
     hq = hq0 * (1 - fr) + hq1 * fr
     return q, hp, hq / np.linalg.norm(hq, axis=-1, keepdims=True)
 
@@ -264,10 +250,8 @@ def _seam_closing(quat: np.ndarray, hips: np.ndarray, rate: float, seam: tuple[f
 def _quats(rot: np.ndarray) -> np.ndarray:
     """(N, B, 3, 3) rotation matrices -> (N, B, 4) unit quaternions (x, y, z, w), each
     bone's sequence kept on one hemisphere (no sign flips between samples)."""
-    from scipy.spatial.transform import Rotation
-
     n, b = rot.shape[:2]
-    return quaternions.continuous(Rotation.from_matrix(rot.reshape(-1, 3, 3)).as_quat().reshape(n, b, 4))
+    return quaternions.continuous(quaternions.rotations(rot.reshape(-1, 3, 3)).as_quat().reshape(n, b, 4))
 
 
 def _phase_times(a: ClipAnalysis, quat: np.ndarray | None = None) -> np.ndarray:
