@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import needs_cmu, scene_with_cmu
+from fingerprint import _keys as keys
 
 pytestmark = needs_cmu
 
@@ -56,7 +57,7 @@ def _snapshot(ob, scene):
     stash = {a.get("footstep_stash_track") for a in ours} - {None}
     stashed = next((a.get("footstep_stashed_action") for a in ours if a.get("footstep_stashed_action")), None)
     return {
-        "actions": sorted((a.name, tuple(round(k.co[1], 6) for c in _curves(a) for k in c.keyframe_points))
+        "actions": sorted((a.name, tuple(v for c in _curves(a) for v in keys(c)[1::2]))
                           for a in bpy.data.actions if a.get("footstep_bake") is None),
         "tracks": [(t.name, t.mute, [(s.name, s.action.name, s.frame_start, s.frame_end) for s in t.strips])
                    for t in ad.nla_tracks if not t.name.startswith("Footstep: ") and t.name not in stash] if ad else [],
