@@ -95,14 +95,15 @@ def test_a_jump_never_flies_through_a_thick_wall():
     """A 1.2 m thick wall over a 1 m gap, a jump that reaches 3 m: without the wall the
     gap is jumped; with it, every way across goes through the wall (the jump's three
     midway points can all miss the wall's faces by more than the clearance), and there
-    is none."""
-    g = MeshGround(TriMesh.concat([plane(-2, 5, -1, 1, name="A"), plane(6, 12, -1, 1, name="B")]))
+    is none. (The take-off floor is 3 m by 1: room for the run-up, and little to search
+    before the search knows there is no way.)"""
+    g = MeshGround(TriMesh.concat([plane(2, 5, -0.5, 0.5, name="A"), plane(6, 12, -1, 1, name="B")]))
     goal = np.array([10.0, 0.0, 0.0])
-    r = Planner(g, None, steps(jump_len=3.0), FWD, settings=FASTEST).plan(start(0, 0), goal)
+    r = Planner(g, None, steps(jump_len=3.0), FWD, settings=FASTEST).plan(start(2.5, 0), goal)
     assert any(f.jump for f in r.footprints)
     wall = MeshGround(box((4.9, -1.5, 0.0), (6.1, 1.5, 2.5), name="wall"))
     with pytest.raises(PlanError, match="cannot be reached"):
-        Planner(g, wall, steps(jump_len=3.0), FWD, settings=FASTEST).plan(start(0, 0), goal)
+        Planner(g, wall, steps(jump_len=3.0), FWD, settings=FASTEST).plan(start(2.5, 0), goal)
 
 
 def test_without_a_jump_clip_a_gap_no_step_spans_is_never_crossed():
