@@ -17,7 +17,6 @@ import math
 import bpy
 import numpy as np
 
-from ...core.base.quat import rotations
 from ...core.sample.mannequin import HEIGHT, NAME, bone_table  # noqa: F401 (HEIGHT re-exported)
 from ..ui.operators import _Stepped
 
@@ -271,6 +270,8 @@ def _write_clip(act, slot, ob, bone_names, hips: str, basis: np.ndarray, frames:
     from ``basis`` (F, B, 4, 4) pose-basis matrices in ``bone_names`` order, at scene
     ``frames`` (F,), in the pose bone's rotation mode; bones that never turn are
     skipped, and bone ``hips`` also gets its location (metres, its rest axes)."""
+    from scipy.spatial.transform import Rotation
+
     from ..read.clip_keys import _curve, _write_rotation
 
     cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
@@ -280,7 +281,7 @@ def _write_clip(act, slot, ob, bone_names, hips: str, basis: np.ndarray, frames:
         rot = basis[:, b, :3, :3]
         if bname != hips and np.allclose(rot, np.eye(3), atol=1e-7):
             continue
-        _write_rotation(cbag, base, bname, pb.rotation_mode, rotations(rot), frames)
+        _write_rotation(cbag, base, bname, pb.rotation_mode, Rotation.from_matrix(rot), frames)
         if bname == hips:
             for i in range(3):
                 _curve(cbag, f"{base}.location", i, bname, frames, basis[:, b, i, 3])
