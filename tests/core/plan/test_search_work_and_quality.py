@@ -84,8 +84,10 @@ def test_plain_a_star_heuristic_stays_below_the_cost_to_come(bench_character, na
 
 
 @needs_cmu
-@pytest.mark.parametrize("name", ["clutter10", "corridor2_across", "stairs_wide"])
+@pytest.mark.parametrize("name", ["clutter10", "corridor2_across"])
 def test_the_weighted_search_costs_little_more_than_plain_a_star(bench_character, name):
+    """On the two scenes whose plain A* the test above searches (``bench_planner.py``
+    measures the ratio on all thirty scenes, each plain A* taking up to a minute)."""
     _, weighted = plan_scene(SCENES[name], bench_character)
     _, plain = _plain(bench_character, name)
     assert weighted.cost <= 1.2 * plain.cost  # issue 15: worst under 1.2
