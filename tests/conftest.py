@@ -110,9 +110,41 @@ def scene_with_cmu(fp, name, fps=30):
     import_module(fp.__name__ + ".blender.sample.sample_scenes").build(name)
     scene = bpy.context.scene
     scene.render.fps = fps
-    clips = import_module(fp.__name__ + ".blender.read.clips")
-    ob, _ = clips.import_clips([cmu(n) for n in LIBRARY], name="CMU")
-    return scene, ob
+    return scene, cmu_armature(fp)
+
+
+_IMPORTED: dict = {}
+
+
+def cmu_armature(fp, names=tuple(LIBRARY), name="CMU"):
+    """CMU clips ``names`` as one armature ``name`` in the current file, at its scene's
+    frame rate: imported by the add-on (``import_clips``) the first time in a test process,
+    then appended from a file holding what that import made (the same armature, actions,
+    slots and tags, in a tenth of the time: these tests are about what comes after the
+    import; the import's own tests import)."""
+    from importlib import import_module
+
+    import bpy
+
+    scene = bpy.context.scene
+    key = (tuple(names), name, scene.render.fps, scene.render.fps_base)
+    if key not in _IMPORTED:
+        clips = import_module(fp.__name__ + ".blender.read.clips")
+        ob, actions = clips.import_clips([cmu(n) for n in names], name=name)
+        path = os.path.join(tempfile.mkdtemp(prefix="fp_cmu_"), "cmu.blend")
+        bpy.data.libraries.write(path, {ob, *actions}, compress=False)
+        _IMPORTED[key] = (path, {a.name for a in actions if a.use_fake_user})
+        return ob
+    path, fake = _IMPORTED[key]
+    with bpy.data.libraries.load(path, link=False) as (src, dst):
+        dst.objects = [name]
+        dst.actions = list(src.actions)
+    for a in dst.actions:  # (a file written keeps no fake users)
+        a.use_fake_user = a.name in fake
+    ob = dst.objects[0]
+    scene.collection.objects.link(ob)
+    bpy.context.view_layer.update()  # (evaluated once, as the import leaves it)
+    return ob
 
 
 def analyse_bvh(fp, paths, fps):

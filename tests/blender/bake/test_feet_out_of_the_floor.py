@@ -11,7 +11,7 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import CMU, needs_cmu
+from conftest import cmu_armature, needs_cmu
 from conftest import QUATERNIUS, needs_quaternius
 
 #: m: no heel, ball or toe tip of a played bake goes deeper into the floor than this.
@@ -78,8 +78,7 @@ def test_the_sample_character_keeps_its_toes_out_of_the_floor(fp):
 
 @needs_cmu
 def test_the_cmu_library_keeps_its_toes_out_of_the_floor(fp):
-    from benchmarks.library import LIBRARY, cmu_files
 
     scene = _scene(fp, "obstacles")
-    ob, _ = import_module(fp.__name__ + ".blender.read.clips").import_clips(cmu_files(CMU, LIBRARY), name="CMU")
+    ob = cmu_armature(fp)
     _check(_bake(fp, scene, ob), (1.0, 10.0))

@@ -10,7 +10,7 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import CMU, needs_cmu
+from conftest import CMU, cmu_armature, needs_cmu
 from test_standing import FPS, _played
 
 from footstep_planner.core.sample import gait, mannequin
@@ -140,7 +140,7 @@ def test_the_cmu_library_starts_and_stops_with_its_own_clips(fp):
     from benchmarks.library import ENDS, LIBRARY, cmu_files
 
     scene = _straight_scene()
-    ob, _ = import_module(fp.__name__ + ".blender.read.clips").import_clips(cmu_files(CMU, LIBRARY + ENDS), name="CMU")
+    ob = cmu_armature(fp, tuple(LIBRARY + ENDS))
     start = scene.objects["Start"]
     ob.location, ob.rotation_euler.z = start.location, start.rotation_euler.z
     doc, heading = _bake_straight(fp, ob, scene)

@@ -9,7 +9,7 @@ from importlib import import_module
 
 import numpy as np
 
-from conftest import LIBRARY, cmu, needs_cmu
+from conftest import cmu_armature, needs_cmu
 
 #: the hills: z = AMP sin(2 pi x / WAVE) cos(2 pi y / ACROSS), steepest 25 degrees
 WAVE, ACROSS, MAX_SLOPE = 3.0, 9.0, math.radians(25.0)
@@ -145,9 +145,8 @@ def test_sample_character_walks_the_hills_with_feet_above_the_surface(fp):
 
 @needs_cmu
 def test_cmu_library_walks_the_hills_with_feet_above_the_surface(fp):
-    clips = import_module(fp.__name__ + ".blender.read.clips")
     scene = rolling_scene(fp)
-    ob, _ = clips.import_clips([cmu(n) for n in LIBRARY], name="CMU")
+    ob = cmu_armature(fp)
     doc, rig, world = _bake(fp, scene, ob)
     dip, off = _check_feet_above_hills(fp, doc, rig, world, tip_own=True)
     print(f"CMU on the hills: swing dips {dip * 1000:.1f} mm at most, planted {off * 1000:.1f} mm")

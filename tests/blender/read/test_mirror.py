@@ -309,13 +309,12 @@ def cmu_setup(fp):
     import bpy
     from importlib import import_module
 
-    from conftest import LIBRARY, cmu
+    from conftest import cmu_armature
 
     bpy.ops.wm.read_homefile(use_empty=True)
     scene = bpy.context.scene
     scene.render.fps = 30
-    clips = import_module(fp.__name__ + ".blender.read.clips")
-    ob, _ = clips.import_clips([cmu(n) for n in LIBRARY], name="CMU")
+    ob = cmu_armature(fp)
     character = import_module(fp.__name__ + ".blender.read.character")
     before = {k: len(getattr(bpy.data, k)) for k in ("actions", "objects", "meshes", "armatures", "collections")}
     res = character.analyze_character(ob, mirrors=True)
