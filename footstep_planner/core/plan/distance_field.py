@@ -192,6 +192,8 @@ class FieldCells:
         gap = grid.gaps(has_ground, step_height)
         bridges, shortest = [], 1.5 * cell  # (beyond the 8 neighbours)
         sole = grid.sole_islands(islands, walk, gap) if steps and islands is not None else None
+        if sole is not None and np.unique(sole[sole != -2]).tolist() in ([], [max(sole.max(), 0)]):
+            steps, sole = (), None  # (one island alone about the gaps: a jump over a metre, as without steps)
         for k, (reach, extra) in enumerate(list(steps) + [(jump_reach, jump_extra)]):
             jump = k == len(steps)
             # (a jump over one island's void, where steps keep to its ground: over a metre, as ever)
@@ -396,11 +398,11 @@ class _Grid:
     def sole_islands(self, islands: Callable, walk: np.ndarray, void: np.ndarray) -> np.ndarray:
         """(L * nx * ny,) the island of each walkable cell level on a gap's border where the
         ground under nine points of the cell (3 x 3, a third of a cell apart) is of that
-        island alone; -1 elsewhere (cells of two islands, or none, are bridged as any)."""
+        island alone, -1 where of two or none (bridged as any), -2 off the border."""
         pv = np.pad(void, 1)
         near_void = pv[2:, 1:-1] | pv[:-2, 1:-1] | pv[1:-1, 2:] | pv[1:-1, :-2]
         cand = np.flatnonzero((walk & near_void[None]).ravel())
-        out = np.full(self.ids.size, -1, np.int64)
+        out = np.full(self.ids.size, -2, np.int64)
         if not len(cand):
             return out
         n = self.nx * self.ny

@@ -60,12 +60,12 @@ from ..base.settings import Settings
 from ..clips.steps import StepSet
 from ..footprint import PathFootprint
 from .distance_field import AHEAD_TURN_COST, EDGE_COST, FREE_TURN, DistanceField, FieldCells, FieldLimits
+from .islands import Patches
 from .refusals import Refusals
 from .search_state import PlanError, SearchNode, _Batch, _Search
 from .step_rules import CLIMB_DZ, StepRules, _start_gaits
 from .support_cache import FINE_CELL, FINE_HEADING_BINS, GAIT_IDS, FootprintCache, _pack, fine_keys, fine_xy
 from .surface import FootShape, Ground, SupportLimits, footprint_support
-from .islands import Patches
 from .treads import Treads, find_treads
 
 
@@ -269,7 +269,7 @@ class Planner(StepRules, Refusals):
         edge_cost = EDGE_COST if self.settings.heuristic_weight > 1.0 else 1.0
         limits = FieldLimits(self.field_cell, self.clearance, self._jump_reach(), self.max_step_height,
                              self._jump_extra(), edge_cost, self.settings.body_scale)
-        if not self.settings.cross_gaps:
+        if not self.settings.cross_gaps or len(self.islands) <= 1:  # (one island: no step leaves its ground)
             return FieldCells.build(self.ground, self.obstacles, limits, self._stands)
         scale, look = self.settings.body_scale, self._len(LEVEL_TOL)
         return FieldCells.build(self.ground, self.obstacles, limits, self._stands, steps=self._gap_steps(),
