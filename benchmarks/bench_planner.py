@@ -39,7 +39,7 @@ REFERENCE_BUDGET = 1_500_000
 FALLBACK_WEIGHT = 1.05
 
 
-#: the Settings fields every plan of the benchmark uses (``--cross-gaps``)
+#: the Settings fields every plan of the benchmark uses (``--no-cross-gaps``)
 SETTINGS: dict = {}
 
 def path_length(fs) -> float:
@@ -191,13 +191,13 @@ def main():
                     "else analysed and written there")
     ap.add_argument("--library", choices=("cmu", "sample"), default="cmu",
                     help="the CMU subject-16 library (default) or the sample character's generated clips")
-    ap.add_argument("--cross-gaps", action="store_true",
-                    help="plan with Settings.cross_gaps (steps across small gaps: stepping stones)")
+    ap.add_argument("--no-cross-gaps", action="store_true",
+                    help="plan without Settings.cross_gaps (steps keep to the ground; every gap is jumped)")
     ap.add_argument("--held-out", action="store_true",
                     help="also the scenes of kinds the planner was never tuned on (scene_generator.held_out_scenes)")
     args = ap.parse_args()
     globals()["REFERENCE_BUDGET"] = args.reference_budget
-    SETTINGS["cross_gaps"] = args.cross_gaps
+    SETTINGS["cross_gaps"] = not args.no_cross_gaps
     scenes = benchmark_scenes(args.seed) + (held_out_scenes() if args.held_out else [])
     if args.only:
         keep = args.only.split(",")

@@ -37,7 +37,8 @@ class PathFootprint:
     label: str  # the clip (or "group@tau") that carried the foot here; "start" at first
     gait: str
     jump: bool = False
-    tread: bool = False  # set square and whole on a stair's tread by the search: kept where planned
+    # set square and whole on a stair's tread, or whole on a stepping stone, by the search: kept where planned
+    tread: bool = False
 
 
 def beside_position(fp, foot: int, forward, width: float, stand=None, at: float = 0.0):

@@ -189,6 +189,7 @@ class BvhGround:
         z = np.full(n, np.nan)
         nor = np.full((n, 3), np.nan)
         owner = np.full(n, -1)
+        face = np.full(n, -1)
         if self.tree is not None and n:
             cast, down, dist = self.tree.ray_cast, (0.0, 0.0, -1.0), max_dist + 1e-9
             for s in range(0, n, RAY_CHUNK):  # (see RAY_CHUNK)
@@ -199,8 +200,9 @@ class BvhGround:
                     z[at] = [res[i][0][2] for i in got]
                     nn = np.array([res[i][1][:] for i in got])
                     nor[at] = nn * np.where(nn[:, 2:3] < 0, -1.0, 1.0)
-                    owner[at] = self.mesh.owner[[res[i][2] for i in got]]
-        return GroundHit(owner >= 0, z, nor, owner)
+                    face[at] = [res[i][2] for i in got]
+                    owner[at] = self.mesh.owner[face[at]]
+        return GroundHit(owner >= 0, z, nor, owner, face)
 
     def heights(self, points, max_dist: float) -> np.ndarray:
         """(N,) ``ray_down``'s heights alone (nan where nothing is hit), without its normals

@@ -109,11 +109,12 @@ class Settings:
         nothing more, and an S-bend only once. Above 0 the library's straightest walk is
         also offered straightened, and the standing feet turn out as the walk turns them.""")
     jump_penalty: float = setting(0.5, "s", 0.0, 100.0, """Seconds added to the cost of each jump.""")
-    cross_gaps: bool = setting(False, "", doc="""Let a walking or running step cross a gap its swing
+    cross_gaps: bool = setting(True, "", doc="""Let a walking or running step cross a gap its swing
         clears when both its footprints stand (stepping stones, the gap between two slabs, a
-        gutter), a jump then only a gap no step spans. Off: a step walks on ground that
-        continues under it, and any gap is jumped. Off by default for now: on, a step may also
-        cut over a floor's corner or notch, which changes the paths on ordinary floors.""")
+        gutter), a jump then only a gap no step spans. Only from one piece of ground to
+        another (the traversable triangles joined where they share or touch a vertex, within
+        a step's height): a floor's corner or notch is walked round on the floor, never cut
+        over. Off: a step walks on ground that continues under it, and any gap is jumped.""")
     square_on_stairs: bool = setting(True, "", doc="""Set a footprint that lands on a stair's tread (a
         narrow level patch with a riser up on one side and down on the other) square to the
         tread and wholly on it, moved the least that does (a tread shorter than the foot: the

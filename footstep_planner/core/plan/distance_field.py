@@ -170,12 +170,16 @@ class FieldCells:
 
     @staticmethod
     def build(ground, obstacles, limits: FieldLimits, support: Callable | None = None,
-              steps: tuple = ()) -> "FieldCells":
+              steps: tuple = (), islands: Callable | None = None) -> "FieldCells":
         """The cells of ``DistanceField.build`` (same arguments, less the goal and ``avoid``).
         ``steps``: (reach m, extra m) of the library's gaits whose steps cross gaps (a walk
-        or run step over any gap its swing clears, ``Planner._gap_steps``), shortest
-        first: a gap is bridged up to each one's reach at its extra, beyond the last by
-        the jump's (up to ``limits.jump_reach``, at ``limits.jump_extra``)."""
+        or run step over a gap it spans from one island of the ground to another,
+        ``Planner._bridged``), shortest first: a gap is bridged up to each one's reach at
+        its extra, beyond the last by the jump's (up to ``limits.jump_reach``, at
+        ``limits.jump_extra``). ``islands``: points (N, 3) -> (N,) the ground's island
+        there (-1 none); with it, two cells on one island alone (a floor's notch between
+        them) are bridged only by a jump over a metre long, as without ``steps`` (the
+        search's steps keep to the ground there)."""
         cell, clearance, step_height = limits.cell, limits.clearance, limits.step_height
         jump_reach, jump_extra, edge_cost = limits.jump_reach, limits.jump_extra, limits.edge_cost
         grid = _Grid.over(ground, cell, step_height, limits.scale)
@@ -187,12 +191,24 @@ class FieldCells:
         walk_edges = tuple(np.concatenate(e) for e in zip(*edges))
         gap = grid.gaps(has_ground, step_height)
         bridges, shortest = [], 1.5 * cell  # (beyond the 8 neighbours)
-        for reach, extra in list(steps) + [(jump_reach, jump_extra)]:
-            if reach > shortest:
-                got = grid.bridges(walk, gap, blocked, reach, step_height,
-                                   shortest if steps else 1.0)  # (a jump alone: over a metre, as ever)
+        sole = grid.sole_islands(islands, walk, gap) if steps and islands is not None else None
+        if sole is not None and np.unique(sole[sole != -2]).tolist() in ([], [max(sole.max(), 0)]):
+            steps, sole = (), None  # (one island alone about the gaps: a jump over a metre, as without steps)
+        for k, (reach, extra) in enumerate(list(steps) + [(jump_reach, jump_extra)]):
+            jump = k == len(steps)
+            # (a jump over one island's void, where steps keep to its ground: over a metre, as ever)
+            lo = min(shortest, 1.0) if jump and sole is not None else shortest
+            if reach > lo:
+                got = grid.bridges(walk, gap, blocked, reach, step_height, lo if steps else 1.0)
+                if sole is not None:  # (a step only from island to island)
+                    kept = []
+                    for a, b, c in got:
+                        one = (sole[a] == sole[b]) & (sole[a] >= 0)
+                        keep = np.where(one, c > 1.0, c > shortest) if jump else ~one
+                        kept.append((a[keep], b[keep], c[keep]))
+                    got = kept
                 bridges += [(a, b, c + extra) for a, b, c in got]
-                shortest = reach
+                shortest = max(shortest, reach)
         if bridges:
             bridge_edges = tuple(np.concatenate(e) for e in zip(*bridges))
         else:
@@ -378,6 +394,27 @@ class _Grid:
         for a, b in ((pt[2:, 1:-1], pt[:-2, 1:-1]), (pt[1:-1, 2:], pt[1:-1, :-2])):
             sunk |= (top < a - step_height) & (top < b - step_height) & np.isfinite(a) & np.isfinite(b)
         return ~has_ground.any(axis=0) | sunk
+
+    def sole_islands(self, islands: Callable, walk: np.ndarray, void: np.ndarray) -> np.ndarray:
+        """(L * nx * ny,) the island of each walkable cell level on a gap's border where the
+        ground under nine points of the cell (3 x 3, a third of a cell apart) is of that
+        island alone, -1 where of two or none (bridged as any), -2 off the border."""
+        pv = np.pad(void, 1)
+        near_void = pv[2:, 1:-1] | pv[:-2, 1:-1] | pv[1:-1, 2:] | pv[1:-1, :-2]
+        cand = np.flatnonzero((walk & near_void[None]).ravel())
+        out = np.full(self.ids.size, -2, np.int64)
+        if not len(cand):
+            return out
+        n = self.nx * self.ny
+        u = np.array([-1.0, 0.0, 1.0]) * self.cell / 3
+        off = np.array([(a, b) for a in u for b in u])
+        xy = (self.xy[cand % n][:, None] + off[None]).reshape(-1, 2)
+        z = np.repeat(self.z.ravel()[cand], len(off))
+        lab = islands(np.c_[xy, z]).reshape(len(cand), len(off))
+        top = lab.max(axis=1)
+        low = np.where(lab >= 0, lab, np.iinfo(np.int64).max).min(axis=1)
+        out[cand] = np.where((top >= 0) & (top == low), top, -1)
+        return out
 
     def bridges(self, walk: np.ndarray, void: np.ndarray, blocked: np.ndarray, jump_reach: float,
                 step_height: float, shortest: float = 1.0) -> list[tuple]:

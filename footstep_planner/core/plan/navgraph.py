@@ -60,6 +60,7 @@ from ..base.settings import Settings
 from ..clips.steps import StepSet
 from ..footprint import PathFootprint
 from .distance_field import AHEAD_TURN_COST, EDGE_COST, FREE_TURN, DistanceField, FieldCells, FieldLimits
+from .islands import Patches
 from .refusals import Refusals
 from .search_state import PlanError, SearchNode, _Batch, _Search
 from .step_rules import CLIMB_DZ, StepRules, _start_gaits
@@ -268,8 +269,11 @@ class Planner(StepRules, Refusals):
         edge_cost = EDGE_COST if self.settings.heuristic_weight > 1.0 else 1.0
         limits = FieldLimits(self.field_cell, self.clearance, self._jump_reach(), self.max_step_height,
                              self._jump_extra(), edge_cost, self.settings.body_scale)
-        return FieldCells.build(self.ground, self.obstacles, limits, self._stands,
-                                steps=self._gap_steps() if self.settings.cross_gaps else ())
+        if not self.settings.cross_gaps or len(self.islands) <= 1:  # (one island: no step leaves its ground)
+            return FieldCells.build(self.ground, self.obstacles, limits, self._stands)
+        scale, look = self.settings.body_scale, self._len(LEVEL_TOL)
+        return FieldCells.build(self.ground, self.obstacles, limits, self._stands, steps=self._gap_steps(),
+                                islands=lambda p: self.islands.at(self.ground, p, scale, look))
 
     def _stands(self, pos: np.ndarray, heading: np.ndarray) -> np.ndarray:
         """(N,) whether a foot may stand on the ground at footprints ``pos`` (N, 3) turned
@@ -505,10 +509,54 @@ class Planner(StepRules, Refusals):
                                                beside=(node.position, self.steps.stance_width(), side))
             keep = state >= 0  # (no foot askew on a flight)
             sel, nxt, npsi = sel[keep], nxt[keep], wrap(a[keep] - yaw0)
+        if len(self.patches) and len(sel):  # (partly on a stepping stone: wholly on it)
+            nxt = self._onto_patches(node, sel, nxt, npsi)
         keys = self._keys(1 - node.foot, self._gait_ids[sel], nxt, npsi)
         closed = search.closed
         todo = [j for j, k in enumerate(keys) if k not in closed]
         return sel[todo], nxt[todo], npsi[todo], [keys[j] for j in todo]
+
+    def _onto_patches(self, node: SearchNode, sel: np.ndarray, nxt: np.ndarray, npsi: np.ndarray) -> np.ndarray:
+        """(K, 2) where steps ``sel`` from ``node`` land (``nxt`` (K, 2), turned ``npsi``),
+        each partly on a small island (a stepping stone: ``islands.Patches``) moved the
+        least that puts its foot wholly on it, but never further from ``node`` than the
+        longest step of its gait (a stride lengthened past the library's)."""
+        yaw0 = float(np.arctan2(self.forward[1], self.forward[0]))
+        moved_xy, moved = self.patches.onto(nxt, npsi + yaw0, np.full(len(sel), node.position[2]), self.foot,
+                                            self.max_step_height, self.settings.body_scale)
+        if moved.any():
+            length = np.linalg.norm(moved_xy - node.position[:2], axis=1)
+            moved &= length <= np.maximum(np.linalg.norm(nxt - node.position[:2], axis=1),
+                                          self._gait_reach()[sel]) + 1e-9
+            nxt = np.where(moved[:, None], moved_xy, nxt)
+        return nxt
+
+    def _gait_reach(self) -> np.ndarray:
+        """(S,) m: the longest step of each step's gait (jumps: of the jumps)."""
+        got = getattr(self, "_gait_reach_cache", None)
+        if got is None or len(got) != self.steps.n:
+            st = self.steps
+            length = np.hypot(st.fwd, st.left)
+            got = np.zeros(st.n)
+            for g in set(st.gait.tolist()):
+                for j in (False, True):
+                    own = (st.gait == g) & (st.jump == j)
+                    if own.any():
+                        got[own] = length[own].max()
+            self._gait_reach_cache = got
+        return got
+
+    @property
+    def patches(self) -> Patches:
+        """The ground's small islands (stepping stones: ``islands.Patches``), found once per
+        planner, where a successor landing partly on one is moved wholly onto it; none
+        without ``Settings.cross_gaps`` (no step crosses to one)."""
+        found = getattr(self, "_patches", None)
+        if found is None:
+            found = Patches.of(self.ground, self.islands, self.settings.body_scale) \
+                if self.settings.cross_gaps else Patches.none()
+            self._patches = found
+        return found
 
     def _supported(self, node: SearchNode, nxt: np.ndarray, npsi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(ok (K,), z (K,)): whether a foot may stand at each successor and the surface
@@ -525,20 +573,22 @@ class Planner(StepRules, Refusals):
 
     def _way_clear(self, node: SearchNode, steps: np.ndarray, to: np.ndarray, fine: list) -> np.ndarray:
         """(K,) whether each step from ``node`` to ``to`` (K, 3) may be taken: a walking or
-        running step over ground or over any gap its swing clears (both its footprints
-        stand: stepping stones, the gap between two slabs, a gutter), a jump only across a
-        gap, neither through an obstacle (cached per fine cell pair)."""
+        running step over ground or (``Settings.cross_gaps``) over a gap it spans from one
+        island of the ground to another (both its footprints stand: stepping stones, the
+        gap between two slabs, a gutter), a jump only across a gap, neither through an
+        obstacle (cached per fine cell pair, with whether the way leaves the ground: an
+        answer about islands, dropped when the scene changes, ``FootprintCache.update``)."""
         between = self.cache.between
         here = tuple(fine_xy(node.position[:2], self.fine_cell).tolist())
         pairs = [(here, k) for k in fine]
         ask = [n for n, k in enumerate(pairs) if k not in between]
         if ask:
-            ground, clear = self._between(np.repeat(node.position[None], len(ask), axis=0), to[ask])
-            for n, g_, c_ in zip(ask, ground.tolist(), clear.tolist()):
-                between[pairs[n]] = (g_, c_)
-        gc = np.array([between[k] for k in pairs], dtype=bool).reshape(-1, 2)
-        walk_ok = True if self.settings.cross_gaps else gc[:, 0]  # (over a gap it clears, or on ground only)
-        return np.where(self.steps.jump[steps], ~gc[:, 0], walk_ok) & gc[:, 1]
+            ground, clear, void = self._between(np.repeat(node.position[None], len(ask), axis=0), to[ask],
+                                                with_void=True)
+            for n, g_, c_, v_ in zip(ask, ground.tolist(), clear.tolist(), void.tolist()):
+                between[pairs[n]] = (g_, c_, v_)
+        gc = np.array([between[k][:2] for k in pairs], dtype=bool).reshape(-1, 2)
+        return np.where(self.steps.jump[steps], ~gc[:, 0], gc[:, 0]) & gc[:, 1]
 
     def _result(self, search: _Search, idx: int, seconds: float, field_seconds: float) -> PlanResult:
         chain = []
@@ -551,6 +601,9 @@ class Planner(StepRules, Refusals):
         if len(self.treads):  # (the footprints on a tread, which the synthesis keeps where planned)
             pos = np.array([n.position for n in chain], float)
             on = self.treads.under(pos[:, :2], pos[:, 2], self._len(CLIMB_DZ)) >= 0
+        if len(self.patches):  # (and on a stepping stone, wholly: kept where planned too)
+            pos = np.array([n.position for n in chain], float)
+            on |= self.patches.under(pos[:, :2], pos[:, 2], self._len(CLIMB_DZ))
         for n, tread in zip(chain, on.tolist()):
             if n.step >= 0:
                 tnow += float(self.steps.duration[n.step])

@@ -209,7 +209,7 @@ def _reach_words(planner: "Planner") -> str:
     words = (f"the library's longest {gait} step spans a gap of {max(step - foot, 0.0):.2f} m ({step:.2f} m from "
              f"footprint to footprint, less the foot's {foot:.2f} m)")
     if not planner.settings.cross_gaps:  # (steps walk on ground only: any gap is jumped)
-        words += " with Settings.cross_gaps on"
+        words += " with Settings.cross_gaps on (it is off: every gap is jumped)"
     reach = planner._jump_reach()
     return words + (f", and its jump reaches {reach:.2f} m from take-off to landing, after a running step"
                     if reach > 0 else ", and it has no jump clip for a wider one")

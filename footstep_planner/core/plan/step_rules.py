@@ -13,6 +13,7 @@ import numpy as np
 
 from ..clips.steps import StepSet
 from ..footprint import PIVOT, STAND_LABEL, START_LABEL, PathFootprint
+from .islands import Islands
 from .search_state import SearchNode, _Search
 from ..base.angles import wrap
 
@@ -82,18 +83,22 @@ class StepRules:
     """Which steps of the library may be taken where, and what they cost (a base of
     ``Planner``, whose ground, obstacles, steps, foot and settings its methods read)."""
 
-    def _between(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """For footprint pairs (rows of a, b (N, 3)): (with ``Settings.cross_gaps``, no gap
-        lies between them wider than the library's steps span, ``_widest_gap``: only a jump
-        may cross one, and a jump only that; without it, the ground continues under the
-        three points between, within a step's height; the way between them is clear of
-        obstacles). The ground is no higher than MAX_BUMP over the higher footprint; no obstacle
-        may stand there below head height, nor closer than half the clearance at the hips."""
+    def _between(self, a: np.ndarray, b: np.ndarray, with_void: bool = False) -> tuple[np.ndarray, ...]:
+        """For footprint pairs (rows of a, b (N, 3)): (whether a walking or running step
+        may go from each ``a`` to ``b``, a jump only where not: the ground continues under
+        the three points between, within a step's height, or, with ``Settings.cross_gaps``,
+        the step crosses a gap from one island of the ground to another (``_bridged``); the
+        way between them is clear of obstacles). The ground is no higher than MAX_BUMP
+        over the higher footprint; no obstacle may stand there below head height, nor
+        closer than half the clearance at the hips. ``with_void``: and (N,) whether the way
+        leaves the ground (its answer then rests on the islands, which any change of the
+        scene may join or part)."""
         pts, z = self._ground_between(a, b)
-        if self.settings.cross_gaps:
-            ground = self._widest_gap(a, b) <= self._gap_spanned()
-        else:  # (the ground must continue under the three points, within a step's height)
-            ground = np.isfinite(z).all(axis=1)
+        ground = np.isfinite(z).all(axis=1)
+        void = ~ground
+        if self.settings.cross_gaps and not ground.all():
+            off = np.flatnonzero(void)
+            ground[off] = self._bridged(a[off], b[off])
         # a step does not pass over ground higher than both its ends (a landing's corner
         # cut from one flight to the other): the swinging foot would have to climb it
         clear = self._under_bump(a, b, z)
@@ -109,7 +114,28 @@ class StepRules:
             long = np.flatnonzero(clear & (np.linalg.norm((b - a)[:, :2], axis=1) > self._len(LONG_WAY)))
             if len(long):  # (a jump's three points may all fall inside a thick wall: look all along)
                 clear[long] = self._clear_along(a[long], b[long])
-        return ground, clear
+        return (ground, clear, void) if with_void else (ground, clear)
+
+    @property
+    def islands(self) -> Islands:
+        """The ground's islands (``islands.Islands``), found once per planner (its ground
+        does not change)."""
+        found = getattr(self, "_islands", None)
+        if found is None:
+            found = Islands.of(self.ground, self.max_step_height, self.settings.body_scale)
+            self._islands = found
+        return found
+
+    def _bridged(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(N,) whether a walking or running step from each ``a`` to ``b`` (N, 3), whose
+        way leaves the ground, crosses a gap it spans (``_widest_gap``, no wider than
+        ``_gap_spanned``) from one island of the ground to another (``Islands.apart``):
+        stepping stones, two slabs, a gutter's banks; not a corner or a notch of one floor,
+        which a step keeps to the ground of, going round."""
+        out = self._widest_gap(a, b) <= self._gap_spanned()
+        if out.any():
+            out[out] = self.islands.apart(self.ground, a[out], b[out], self.settings.body_scale)
+        return out
 
     def _gap_spanned(self) -> float:
         """m: the widest gap a step of the library that is not a jump spans with both its

@@ -56,7 +56,8 @@ class FootprintCache:
 
     objects: dict = field(default_factory=dict)  # name -> (hash, lo (3,), hi (3,))
     table: dict = field(default_factory=dict)  # fine key (ix, iy, heading bin) -> (ok, z)
-    between: dict = field(default_factory=dict)  # (from fine cell, to fine key) -> (ground, clear)
+    # (from fine cell, to fine key) -> (ground, clear, the way leaves the ground)
+    between: dict = field(default_factory=dict)
     margin: float = 0.6  # m around a changed object whose answers are dropped
     cell: float = FINE_CELL  # m: the fine grid of the keys (the planner's ``fine_cell``)
 
@@ -71,9 +72,11 @@ class FootprintCache:
         self.objects = dict(objects)
         if not changed or not self.table:
             return 0
-        # a step's answer goes with either end's region (a step is shorter than 2 m)
-        for k in [k for k in self.between
-                  if any(lo[0] - self.margin - 2 <= k[0][0] * self.cell <= hi[0] + self.margin + 2
+        # a step's answer goes with either end's region (a step is shorter than 2 m), and
+        # one over void with the ground's islands (a change anywhere may join or part them)
+        for k in [k for k, v in self.between.items()
+                  if v[2:3] == (True,)
+                  or any(lo[0] - self.margin - 2 <= k[0][0] * self.cell <= hi[0] + self.margin + 2
                          and lo[1] - self.margin - 2 <= k[0][1] * self.cell <= hi[1] + self.margin + 2
                          for _, lo, hi in changed)]:
             del self.between[k]

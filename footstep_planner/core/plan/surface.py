@@ -99,6 +99,7 @@ class GroundHit:
     z: np.ndarray  # (N,) height of the surface (nan where no hit)
     normal: np.ndarray  # (N, 3) unit normals, facing up (nan where no hit)
     owner: np.ndarray  # (N,) object index (-1 where no hit)
+    face: np.ndarray | None = None  # (N,) the triangle hit (-1 where none), where the ground tells it
 
 
 class Ground(Protocol):
@@ -145,6 +146,7 @@ class MeshGround:
         z = np.full(n, np.nan)
         nor = np.full((n, 3), np.nan)
         owner = np.full(n, -1)
+        face = np.full(n, -1)
         if self.mesh.n and n:
             c, tn = self._tri()
             a, b, d = c[:, 0, :2], c[:, 1, :2], c[:, 2, :2]
@@ -169,7 +171,8 @@ class MeshGround:
                 nn *= np.sign(nn[:, 2:3] + (nn[:, 2:3] == 0))
                 nor[idx] = nn
                 owner[idx] = self.mesh.owner[j[got]]
-        return GroundHit(owner >= 0, z, nor, owner)
+                face[idx] = j[got]
+        return GroundHit(owner >= 0, z, nor, owner, face)
 
     def nearest(self, points: np.ndarray, max_dist: float = np.inf):
         p = np.atleast_2d(np.asarray(points, dtype=np.float64))

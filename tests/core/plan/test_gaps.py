@@ -1,7 +1,8 @@
-"""Steps across small gaps (issue 28), with ``Settings.cross_gaps``: a walk or run step
-crosses any gap its swing clears when both its footprints stand (stepping stones, the gaps between slabs, a gutter); only a
-gap no step spans needs a jump, and a refusal names the gap against the longest step as
-well as against the jump."""
+"""Steps across small gaps (issue 28), ``Settings.cross_gaps`` (on by default): a walk or
+run step crosses any gap its swing clears when both its footprints stand, from one piece
+of ground to another (stepping stones, the gaps between slabs, a gutter), never over a
+floor's own corner or notch; only a gap no step spans needs a jump, and a refusal names
+the gap against the longest step as well as against the jump."""
 
 import numpy as np
 import pytest
@@ -30,7 +31,7 @@ def sample(fp):
 
 def _walks_the_stones(character, name="stones_straight"):
     scene = SCENES[name]
-    pl, result = plan_scene(scene, character, cross_gaps=True)
+    pl, result = plan_scene(scene, character)  # (the default settings)
     fs = result.footprints
     assert np.linalg.norm(fs[-1].position[:2] - np.asarray(scene.goal)[:2]) <= pl.settings.goal_radius
     assert all(_on_a_plate(scene, f.position) for f in fs), [f.position for f in fs]
@@ -57,6 +58,32 @@ def test_the_sample_character_walks_the_stepping_stones_every_footprint_on_a_sto
     assert len(on) >= len(rocks) - 1
 
 
+def test_the_sample_character_walks_stepping_stones_40_cm_apart(sample):
+    """Gaps of 40 cm: a footprint landing partly on a stone is moved wholly onto it
+    (``islands.Patches``), so the search finds the few centimetres of a stone's edge its
+    steps span the gap from; the footprints on the stones are kept where planned."""
+    SCENES["stones_40"] = stones(np.random.default_rng(1), "stones_40", 6, gaps=(0.4, 0.4))
+    fs, on, rocks = _walks_the_stones(sample, "stones_40")
+    assert not any(f.jump for f in fs)
+    assert len(on) == len(rocks)  # (every stone stepped on)
+    rocky = [f for f in fs if any(SCENES["stones_40"].plates[k][0] <= f.position[0] <= SCENES["stones_40"].plates[k][1]
+                                  for k in rocks)]
+    assert rocky and all(f.tread for f in rocky)
+
+
+@needs_cmu
+def test_cmu_walks_stepping_stones_40_cm_apart(bench_character):
+    """CMU's steps (its run spans 0.9 m) on the 40 cm stones: no footprint off a stone, and
+    no jump onto or off one but past the last, straight to the far floor (a gap no step
+    spans along that line; the cheapest path, plain A*'s, takes it too)."""
+    SCENES["stones_40"] = stones(np.random.default_rng(1), "stones_40", 6, gaps=(0.4, 0.4))
+    fs, on, rocks = _walks_the_stones(bench_character, "stones_40")
+    assert len(on) >= len(rocks) - 1
+    far = SCENES["stones_40"].plates[-1]
+    assert all(b.position[0] >= far[0] for a, b in zip(fs[:-1], fs[1:]) if b.jump)
+    assert sum(f.jump for f in fs) <= 1
+
+
 def _steps(jump_len=1.7):
     from test_navgraph import steps
 
@@ -72,7 +99,7 @@ def test_a_gap_a_walking_step_spans_is_walked_across(gap):
     """The test library's walk steps 0.62 m (0.6 on, 0.15 across) with a foot 0.26 m long:
     it spans 0.36 m; its run (1.1 m) more. A gap it spans is crossed by a step, never a
     jump."""
-    pl = Planner(_two_floors(gap), None, _steps(), FWD, settings=Settings(run_penalty=1.0, cross_gaps=True))
+    pl = Planner(_two_floors(gap), None, _steps(), FWD, settings=Settings(run_penalty=1.0))
     goal = np.array([10.0, 0.0, 0.0])
     r = pl.plan(start(0, 0), goal)
     across = [b for a, b in zip(r.footprints[:-1], r.footprints[1:]) if a.position[0] < 5 < 5 + gap < b.position[0]]
@@ -82,18 +109,62 @@ def test_a_gap_a_walking_step_spans_is_walked_across(gap):
 
 def test_only_a_gap_no_step_spans_is_jumped():
     """1.0 m: beyond the run's 1.1 m step less the foot: a jump (from a run)."""
-    pl = Planner(_two_floors(1.0), None, _steps(), FWD, settings=Settings(run_penalty=0.0, cross_gaps=True))
+    pl = Planner(_two_floors(1.0), None, _steps(), FWD, settings=Settings(run_penalty=0.0))
     r = pl.plan(start(0, 0), np.array([10.0, 0.0, 0.0]))
     across = [(a, b) for a, b in zip(r.footprints[:-1], r.footprints[1:]) if a.position[0] < 5 < 6 < b.position[0]]
     assert len(across) == 1 and across[0][1].jump and across[0][0].gait == "run"
 
 
 def test_a_refusal_names_the_gap_against_the_longest_step_and_the_jump():
-    pl = Planner(_two_floors(2.5), None, _steps(), FWD, settings=Settings(cross_gaps=True))
+    pl = Planner(_two_floors(2.5), None, _steps(), FWD)
     with pytest.raises(PlanError, match=r"the gap beyond is 2\.[45]\d m wide; the library's longest running step "
                                         r"spans a gap of 0\.8\d m \(1\.11 m from footprint to footprint, less the "
                                         r"foot's 0\.26 m\), and its jump reaches 1\.70 m"):
         pl.plan(start(0, 0), np.array([10.0, 0.0, 0.0]))
+
+
+def test_without_cross_gaps_a_refusal_says_a_step_would_span_the_gap_with_it_on():
+    pl = Planner(_two_floors(2.5), None, _steps(), FWD, settings=Settings(cross_gaps=False))
+    with pytest.raises(PlanError, match=r"less the foot's 0\.26 m\) with Settings\.cross_gaps on \(it is off: every "
+                                        r"gap is jumped\), and its jump reaches 1\.70 m"):
+        pl.plan(start(0, 0), np.array([10.0, 0.0, 0.0]))
+
+
+def _u_floor():
+    """Two strips 2 m wide with a notch 0.3 m wide between them, joined at one end (a U
+    of three rectangles: a strip's corner on the end's edge, the other shared)."""
+    return MeshGround(TriMesh.concat([plane(-2, 6, -2.15, -0.15, name="A"), plane(-2, 6, 0.15, 2.15, name="B"),
+                                      plane(6, 8, -2.15, 2.15, name="C")]))
+
+
+def _on_the_u(p):
+    x, y = p[..., 0], p[..., 1]
+    return (((x >= -2) & (x <= 6) & (np.abs(y) >= 0.15) & (np.abs(y) <= 2.15))
+            | ((x >= 6) & (x <= 8) & (np.abs(y) <= 2.15)))
+
+
+def test_a_step_never_cuts_over_a_floors_notch():
+    """Across the notch of one floor, 0.3 m (a walking step spans it), from one strip to the
+    other: the path walks round by the U's end, every step's way over the floor."""
+    pl = Planner(_u_floor(), None, _steps(), FWD)
+    r = pl.plan(start(3, -1.15), np.array([3.0, 1.15, 0.0]))
+    p = np.array([f.position for f in r.footprints])
+    t = np.linspace(0.0, 1.0, 51)
+    ways = p[:-1, None, :2] + (p[1:, None, :2] - p[:-1, None, :2]) * t[None, :, None]
+    assert _on_the_u(ways).all()
+    assert p[:, 0].max() > 6.0 and not any(f.jump for f in r.footprints)
+
+
+def test_the_islands_of_a_ground():
+    """Touching rectangles (a vertex shared, a corner on the other's edge) are one island;
+    a stone, and a gutter's bottom deeper than a step, are islands of their own."""
+    from footstep_planner.core.plan.islands import Islands
+
+    g = MeshGround(TriMesh.concat([plane(-2, 6, -2.15, -0.15), plane(-2, 6, 0.15, 2.15), plane(6, 8, -2.15, 2.15),
+                                   plane(9, 9.5, 0, 0.5), plane(10, 11, -1, 1, z=-0.5), plane(11, 12, -1, 1)]))
+    isl = Islands.of(g, 0.3)
+    at = isl.at(g, np.array([[0, -1, 0], [0, 1, 0], [7, 0, 0], [9.2, 0.2, 0], [10.5, 0, -0.5], [11.5, 0, 0]], float))
+    assert at[0] == at[1] == at[2] and len(set(at.tolist())) == 4
 
 
 def test_a_walking_step_never_crosses_a_wall_over_a_gap():
@@ -101,7 +172,7 @@ def test_a_walking_step_never_crosses_a_wall_over_a_gap():
     g = _two_floors(0.3)
     wall = MeshGround(box((5.0, -1.5, -1.0), (5.3, 1.5, 2.5), name="wall"))
     with pytest.raises(PlanError):
-        Planner(g, wall, _steps(), FWD, settings=Settings(cross_gaps=True)).plan(start(0, 0), np.array([10.0, 0, 0]))
+        Planner(g, wall, _steps(), FWD).plan(start(0, 0), np.array([10.0, 0, 0]))
 
 
 def start(x, y, heading=EAST):
@@ -109,8 +180,9 @@ def start(x, y, heading=EAST):
 
 
 def test_without_cross_gaps_a_narrow_gap_is_jumped_not_stepped():
-    """The default: a step walks on ground that continues under it; a 0.3 m gap is jumped."""
-    pl = Planner(_two_floors(0.3), None, _steps(), FWD, settings=Settings(run_penalty=0.0))
+    """``Settings.cross_gaps`` off: a step walks on ground that continues under it; a 0.3 m
+    gap is jumped."""
+    pl = Planner(_two_floors(0.3), None, _steps(), FWD, settings=Settings(run_penalty=0.0, cross_gaps=False))
     r = pl.plan(start(0, 0), np.array([10.0, 0.0, 0.0]))
     across = [(a, b) for a, b in zip(r.footprints[:-1], r.footprints[1:]) if a.position[0] < 5 < 5.3 < b.position[0]]
     assert len(across) == 1 and across[0][1].jump

@@ -30,9 +30,11 @@ def test_reachable_scenes_find_a_path_without_loops(bench_character, name):
     scene = SCENES[name]
     pl, result = plan_scene(scene, bench_character)
     check_path(pl, result, scene)
-    if name == "zigzag1":  # the gap is jumped, from a run
-        jumps = [(a, b) for a, b in zip(result.footprints[:-1], result.footprints[1:]) if b.jump]
-        assert len(jumps) == 1 and jumps[0][0].gait == "run"
+    if name == "zigzag1":  # the 0.73 m gap, which a running step spans: crossed by one, not jumped
+        across = [(a, b) for a, b in zip(result.footprints[:-1], result.footprints[1:])
+                  if a.position[0] < 13.18 and b.position[0] > 13.91 and abs(a.position[1] - 6.5) < 1.0]
+        assert len(across) == 1 and across[0][1].gait == "run" and not across[0][1].jump
+        assert not any(f.jump for f in result.footprints)
     if name == "bridge_down":  # down from the bridge by the ramp, not through it
         assert result.footprints[-1].position[2] == pytest.approx(0.0, abs=0.01)
         assert max(f.position[1] for f in result.footprints) > 12.5
@@ -47,8 +49,8 @@ def test_an_island_is_refused_quickly_saying_why(bench_character):
     assert err.value.expanded == 0  # refused before any search (its speed: benchmarks/bench_planner.py)
     # the gap against the longest step (the run's) and against the jump
     assert re.search(r"the gap beyond is 3\.0\d m wide; the library's longest running step spans a gap of "
-                     r"0\.9\d m \(1\.1\d m from footprint to footprint, less the foot's 0\.2\d m\) "
-                     r"with Settings\.cross_gaps on, and its jump reaches 1\.8\d m", str(err.value)), err.value
+                     r"0\.9\d m \(1\.1\d m from footprint to footprint, less the foot's 0\.2\d m\), "
+                     r"and its jump reaches 1\.8\d m", str(err.value)), err.value
 
 
 @pytest.mark.parametrize("width", [1.2, 2.0, 3.0])
@@ -115,12 +117,10 @@ def test_a_negative_goal_radius_is_refused_before_any_search():
 
 
 @needs_cmu
-def test_with_cross_gaps_a_gap_a_running_step_spans_is_crossed_by_one(bench_character):
-    """zigzag1's 0.73 m gap, with ``Settings.cross_gaps``: one running step crosses it (a
-    step spans it: no jump)."""
-    pl, result = plan_scene(SCENES["zigzag1"], bench_character, cross_gaps=True)
+def test_without_cross_gaps_the_gap_is_jumped_from_a_run(bench_character):
+    """zigzag1's 0.73 m gap with ``Settings.cross_gaps`` off: steps keep to the ground, and
+    the gap is jumped (from a run)."""
+    pl, result = plan_scene(SCENES["zigzag1"], bench_character, cross_gaps=False)
     check_path(pl, result, SCENES["zigzag1"])
-    across = [(a, b) for a, b in zip(result.footprints[:-1], result.footprints[1:])
-              if a.position[0] < 13.18 and b.position[0] > 13.91 and abs(a.position[1] - 6.5) < 1.0]
-    assert len(across) == 1 and across[0][1].gait == "run" and not across[0][1].jump
-    assert not any(f.jump for f in result.footprints)
+    jumps = [(a, b) for a, b in zip(result.footprints[:-1], result.footprints[1:]) if b.jump]
+    assert len(jumps) == 1 and jumps[0][0].gait == "run"
