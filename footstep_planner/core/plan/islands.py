@@ -61,9 +61,9 @@ class Islands:
         rows = [tris[:, 0], tris[:, 1]]
         cols = [tris[:, 1], tris[:, 2]]
         # the open edges' vertices (an edge of one walkable triangle only): where islands may touch
-        e = np.sort(tris[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        uniq, counts = np.unique(e, axis=0, return_counts=True)
-        rim = np.unique(uniq[counts == 1])
+        e = np.sort(tris[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)
+        uniq, counts = np.unique(e[:, 0] * nv + e[:, 1], return_counts=True)  # (an edge as one int: a 1D sort)
+        rim = np.unique(np.r_[uniq[counts == 1] // nv, uniq[counts == 1] % nv])
         if len(rim):
             r = JOIN * scale
             ang = np.arange(8) * np.pi / 4
