@@ -17,7 +17,7 @@ held to the ground as ever.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -31,15 +31,20 @@ MAX_SLOPE = np.radians(30.0)
 JOIN = 0.02
 #: m (a human's): a point's island is the triangle's under it looked for from this high.
 LOOK = 0.02
+#: Most islands ``Islands.linked`` groups (their pairs, I x I, are compared).
+MAX_LINKED = 2000
 
 
 @dataclass(frozen=True)
 class Islands:
-    """``face`` (T,) each triangle's island (-1 for a triangle too steep to stand on) and
-    ``area`` (I,) m² each island's area seen from above."""
+    """``face`` (T,) each triangle's island (-1 for a triangle too steep to stand on),
+    ``area`` (I,) m² each island's area seen from above, and ``lo``, ``hi`` (I, 2) its
+    bounds in x and y."""
 
     face: np.ndarray
     area: np.ndarray
+    lo: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    hi: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
     @staticmethod
     def of(ground: Ground, step_height: float, scale: float = 1.0) -> "Islands":
@@ -84,10 +89,30 @@ class Islands:
         face = np.full(t, -1, np.int64)
         _, face[walk] = np.unique(label[mesh.tris[walk, 0]], return_inverse=True)
         area = np.bincount(face[walk], weights=0.5 * np.abs(cross[walk, 2]), minlength=int(face.max()) + 1)
-        return Islands(face, area)
+        n, xy = len(area), c[walk][..., :2]
+        lo, hi = np.full((n, 2), np.inf), np.full((n, 2), -np.inf)
+        np.minimum.at(lo, face[walk], xy.min(axis=1))
+        np.maximum.at(hi, face[walk], xy.max(axis=1))
+        return Islands(face, area, lo, hi)
 
     def __len__(self) -> int:
         return len(self.area)
+
+    def linked(self, reach: float) -> np.ndarray | None:
+        """(I,) each island's group: islands whose extents seen from above (their x and y
+        bounds, ``lo``, ``hi``) come within ``reach`` m of each other, directly or through
+        others, share one. An island's bounds hold all of it, so two islands nearer than
+        ``reach`` are always linked (overlapping ones too: a deck over a floor): a step or
+        a jump spanning at most ``reach`` of void never leaves its group. None for more
+        than MAX_LINKED islands (not worth the pairs)."""
+        n = len(self.area)
+        if n <= 1:
+            return np.zeros(n, np.int64)
+        if n > MAX_LINKED:
+            return None
+        gap = np.maximum(np.maximum(self.lo[:, None] - self.hi[None], self.lo[None] - self.hi[:, None]), 0.0)
+        near = np.hypot(gap[..., 0], gap[..., 1]) <= reach
+        return connected_components(coo_matrix(near), directed=False)[1]
 
     def at(self, ground: Ground, pts: np.ndarray, scale: float = 1.0, look: float | None = None) -> np.ndarray:
         """(N,) the island of the ground at points (N, 3) (footprints, at their ground's

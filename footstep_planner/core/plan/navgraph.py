@@ -223,6 +223,7 @@ class Planner(StepRules, Refusals):
         dist = self.distance_field(goal, cells=cells)
         field_seconds = time.perf_counter() - t_field
         self._refuse_unreachable(dist, start, goal)
+        self._refuse_apart(start, goal)
         search = _Search(goal, goal_heading, self._heuristic(dist, goal), self._base_costs(), self.steps.veer())
         search.cells = cells
         search.field_seconds = field_seconds

@@ -50,6 +50,34 @@ class Refusals:
                 f"point is ({near[0]:.2f}, {near[1]:.2f}), {d0:.2f} m from the goal"
                 + (f"; {blocker}" if blocker else ""))
 
+    def _refuse_apart(self, start: list[PathFootprint], goal: np.ndarray) -> None:
+        """PlanError before any search when the goal stands on ground that no step and no
+        jump of the library can reach from the start's: their islands (``islands.Islands``)
+        lie further apart, through any others, than the widest gap a step spans and the
+        jump's length. (The distance map, on its coarser cells, may still bridge them: the
+        search would flood the start's ground before it said so.)"""
+        isl = self.islands
+        if len(isl) <= 1:
+            return
+        span = self._gap_spanned()
+        jump = self._jump_reach()
+        # (also with cross_gaps off: a crack between the three points a step's ground test
+        # looks at, a quarter of its length apart, is stepped over)
+        reach = max(span, 0.25 * self._step_reach(), jump)
+        scale = self.settings.body_scale
+        at = isl.at(self.ground, np.array([f.position for f in start] + [goal], float), scale,
+                    self._len(0.05) + self.max_step_height)
+        if (at < 0).any():
+            return  # (a start or goal off the islands' ground: the map says the rest)
+        group = isl.linked(reach)
+        if group is None or group[at[-1]] in set(group[at[:-1]].tolist()):
+            return
+        jumps = (f"the jump clips' longest leap {jump:.2f} m" if jump > 0 else "the library has no jump clip")
+        steps = f"the widest gap its longest step spans is {span:.2f} m"
+        raise PlanError(f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) cannot be reached: it stands on ground apart "
+                        f"from the start's by gaps wider than {reach:.2f} m ({steps}; {jumps}); "
+                        "join the ground, or give the character a jump clip that leaps the gap")
+
     def _dead_end(self, search: _Search) -> PlanError:
         """The PlanError of a search that found no path: where it got to (the footprint it
         reached nearest the goal) and what blocks the library's steps from there."""
