@@ -17,6 +17,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from ..base.settings import Settings
+from ..base.timing import collection_paused
 from ..footprint import PIVOT, Leg
 from ..plan.navgraph import PlanResult
 from ..plan.setup import PlanSetup
@@ -80,6 +81,7 @@ class Planned:
     solved: Solved | None = None  # the IK of ``synthesis``, when timing it needed one already
 
 
+@collection_paused()
 def synthesize_plan(result: PlanResult, setup: PlanSetup, settings: Settings, fps: float, goal=None,
                     goal_heading: float | None = None) -> Synthesis:
     """Thesis 3.3 to 3.7 on a planned path: the body trajectory and every clip's weight
@@ -93,6 +95,7 @@ def synthesize_plan(result: PlanResult, setup: PlanSetup, settings: Settings, fp
     return legs(setup, settings, fps)(path, other, goal, goal_heading, None, None, None)
 
 
+@collection_paused()
 def perform_plan(result: PlanResult, setup: PlanSetup, settings: Settings, fps: float, goal, heading=None,
                  route=None, first: float = 0.0) -> Planned:
     """The plan synthesized: along its path, or with a route through waypoints that

@@ -57,6 +57,7 @@ import numpy as np
 
 from ..base.angles import wrap
 from ..base.settings import Settings
+from ..base.timing import collection_paused
 from ..clips.steps import StepSet
 from ..footprint import PathFootprint
 from .distance_field import AHEAD_TURN_COST, EDGE_COST, FREE_TURN, DistanceField, FieldCells, FieldLimits
@@ -210,6 +211,7 @@ class Planner(StepRules, Refusals):
         return _pack(foot, ids, xy, psi, self.cell, self.heading_bins).tolist()
 
     # ------------------------------------------------------------------ the search
+    @collection_paused()
     def plan(self, start: list[PathFootprint], goal: np.ndarray, goal_heading: float | None = None) -> PlanResult:
         """A footstep path from ``start`` (the character's current footprints, in any
         order: the search may step off either) to ``goal`` (x, y, z), arriving turned

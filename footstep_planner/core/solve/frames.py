@@ -14,7 +14,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..base.settings import Settings
-from ..base.timing import StageTimer
+from ..base.timing import StageTimer, collection_paused
 from ..clips.rig import Rig, forward_kinematics
 from ..plan.setup import PlanSetup
 from ..plan.surface import SupportLimits, footprint_support, ground_heights
@@ -72,6 +72,7 @@ def flat_feet(rig: Rig, basis: np.ndarray, weight: np.ndarray, heel_local: np.nd
     return basis
 
 
+@collection_paused()
 def solve(syn: Synthesis, setup: PlanSetup, settings: Settings) -> Solved:
     """Thesis 3.8: the clips' bone rotations blended per frame, then the feet pinned to
     the footprints (on the surface, along its normal) by the IK."""
