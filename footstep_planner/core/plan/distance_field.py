@@ -399,9 +399,7 @@ class _Grid:
         """(L * nx * ny,) the island of each walkable cell level on a gap's border where the
         ground under nine points of the cell (3 x 3, a third of a cell apart) is of that
         island alone, -1 where of two or none (bridged as any), -2 off the border."""
-        pv = np.pad(void, 1)
-        near_void = pv[2:, 1:-1] | pv[:-2, 1:-1] | pv[1:-1, 2:] | pv[1:-1, :-2]
-        cand = np.flatnonzero((walk & near_void[None]).ravel())
+        cand = np.flatnonzero(_gap_border(walk, void).ravel())
         out = np.full(self.ids.size, -2, np.int64)
         if not len(cand):
             return out
@@ -422,9 +420,7 @@ class _Grid:
         ``jump_reach`` between walkable cell levels on the border of a gap (``void`` (nx,
         ny), ``gaps``), within a step's height of each other, never across an obstacle."""
         nx, ny = self.nx, self.ny
-        pv = np.pad(void, 1)
-        near_void = pv[2:, 1:-1] | pv[:-2, 1:-1] | pv[1:-1, 2:] | pv[1:-1, :-2]
-        border = walk & near_void[None]
+        border = _gap_border(walk, void)
         bl, bi, bj = np.nonzero(border)
         r = int(np.ceil(jump_reach / self.cell))
         offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1)
@@ -443,3 +439,10 @@ class _Grid:
                 out.append((self.ids[sl[ok], si[ok], sj[ok]], self.ids[tl, ti[ok], tj[ok]],
                             np.full(ok.sum(), np.hypot(a, b) * self.cell)))
         return out
+
+
+def _gap_border(walk: np.ndarray, void: np.ndarray) -> np.ndarray:
+    """(L, nx, ny) the walkable cell levels (``walk``) beside a gap cell (``void`` (nx,
+    ny)) next to it along x or y: where bridges start and end."""
+    pv = np.pad(void, 1)
+    return walk & (pv[2:, 1:-1] | pv[:-2, 1:-1] | pv[1:-1, 2:] | pv[1:-1, :-2])[None]

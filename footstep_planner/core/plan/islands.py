@@ -17,7 +17,7 @@ held to the ground as ever.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -43,8 +43,8 @@ class Islands:
 
     face: np.ndarray
     area: np.ndarray
-    lo: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
-    hi: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    lo: np.ndarray
+    hi: np.ndarray
 
     @staticmethod
     def of(ground: Ground, step_height: float, scale: float = 1.0) -> "Islands":
@@ -55,7 +55,7 @@ class Islands:
         mesh = ground.mesh
         t = mesh.n
         if not t:
-            return Islands(np.zeros(0, np.int64), np.zeros(0))
+            return Islands(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)))
         c = mesh.corners()
         cross = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
         norm = np.linalg.norm(cross, axis=1)

@@ -601,11 +601,10 @@ class Planner(StepRules, Refusals):
         chain.reverse()
         out, tnow = [], 0.0
         on = np.zeros(len(chain), bool)
+        pos = np.array([n.position for n in chain], float)
         if len(self.treads):  # (the footprints on a tread, which the synthesis keeps where planned)
-            pos = np.array([n.position for n in chain], float)
             on = self.treads.under(pos[:, :2], pos[:, 2], self._len(CLIMB_DZ)) >= 0
         if len(self.patches):  # (and on a stepping stone, wholly: kept where planned too)
-            pos = np.array([n.position for n in chain], float)
             on |= self.patches.under(pos[:, :2], pos[:, 2], self._len(CLIMB_DZ))
         for n, tread in zip(chain, on.tolist()):
             if n.step >= 0:

@@ -110,7 +110,8 @@ def test_without_a_jump_clip_a_gap_no_step_spans_is_never_crossed():
     """1 m: the run's 1.1 m step less the foot's 0.26 m spans 0.85 m (a narrower gap is
     stepped across: tests/test_gaps.py). The distance map's coarse cells bridge it, but
     the two floors' islands lie too far apart: refused before any search, naming the
-    step's span and the missing jump (the search flooded floor A first: 26 s)."""
+    step's span and the missing jump, with no footprint expanded (the search used to flood
+    floor A before it refused)."""
     g = MeshGround(TriMesh.concat([plane(-2, 5, -1, 1, name="A"), plane(6.0, 12, -1, 1, name="B")]))
     with pytest.raises(PlanError, match=r"cannot be reached: it stands on ground apart from the start's by gaps "
                                         r"wider than 0\.8\d m \(the widest gap its longest step spans is 0\.8\d m; "
