@@ -51,7 +51,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 from scipy.ndimage import gaussian_filter1d
 
 from .clip import ClipMotion
@@ -220,6 +219,14 @@ def stance_weights(times: np.ndarray, stances) -> tuple[np.ndarray, np.ndarray]:
     return planted, core & planted
 
 
+def _integral(y: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The running integral of samples ``y`` (N, ...) over times ``t`` (N,), by trapezoids,
+    0 at ``t[0]`` (scipy's ``cumulative_trapezoid(..., axis=0, initial=0)``, whose module
+    alone takes half a second to import in every process that analyses a clip)."""
+    dt = np.diff(t).reshape((-1,) + (1,) * (np.ndim(y) - 1))
+    return np.concatenate([np.zeros((1,) + np.shape(y)[1:]), np.cumsum(0.5 * (y[1:] + y[:-1]) * dt, axis=0)])
+
+
 def reconstruct(motion: ClipMotion, planted: np.ndarray, core: np.ndarray,
                 dense: ClipMotion, s: Settings) -> ClipMotion | None:
     """``motion`` carried so that its planted feet stand still (see the module's notes):
@@ -243,13 +250,13 @@ def reconstruct(motion: ClipMotion, planted: np.ndarray, core: np.ndarray,
         if not w.any():
             return None
     local = np.stack([_blend(t, w, local_k[..., i]) for i in range(2)], axis=-1)
-    theta = cumulative_trapezoid(omega, t, initial=0.0)
+    theta = _integral(omega, t)
     heading = dense.root_heading + theta
     c, sn = np.cos(heading), np.sin(heading)
     vel = np.stack([c * local[:, 0] - sn * local[:, 1], sn * local[:, 0] + c * local[:, 1]], axis=-1)
     # C(t): the yaw theta, and the shift that takes the root (turned by theta) onto the
     # path its velocity integrates to; at the clip's own samples
-    path = dense.root_pos[0, :2] + cumulative_trapezoid(vel, t, axis=0, initial=0.0)
+    path = dense.root_pos[0, :2] + _integral(vel, t)
     ct, st_ = np.cos(theta), np.sin(theta)
     r = dense.root_pos[:, :2]
     shift = path - np.stack([ct * r[:, 0] - st_ * r[:, 1], st_ * r[:, 0] + ct * r[:, 1]], axis=-1)
