@@ -8,7 +8,7 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import MOD
+from conftest import MOD, rigify_rig
 
 MM = 1e-3
 
@@ -23,21 +23,14 @@ def rigify(fp):
 
 
 @pytest.fixture(scope="module")
-def rig(fp):
+def rig(fp, rigify_cache):
     """(rig, metarig): Rigify's human metarig and the rig generated from it."""
     import addon_utils
     import bpy
 
     was_enabled = addon_utils.check("rigify")[1]
     bpy.ops.wm.read_homefile(use_empty=True)
-    addon_utils.enable("rigify", default_set=True)
-    bpy.ops.object.armature_human_metarig_add()
-    meta = bpy.context.object
-    bpy.ops.object.mode_set(mode="OBJECT")
-    assert bpy.ops.pose.rigify_generate() == {"FINISHED"}
-    ob = bpy.data.objects["rig"]
-    bpy.context.view_layer.update()
-    yield ob, meta
+    yield rigify_rig(*rigify_cache)
     bpy.ops.wm.read_homefile(use_empty=True)
     if not was_enabled:
         addon_utils.disable("rigify", default_set=True)

@@ -7,20 +7,17 @@ from importlib import import_module
 import numpy as np
 import pytest
 
+from conftest import rigify_rig
+
 
 @pytest.fixture(scope="module")
-def rigify_turns(fp):
-    import addon_utils
+def rigify_turns(fp, rigify_cache):
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    addon_utils.enable("rigify", default_set=True)
     scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("turns")
     scene.render.fps = 30
-    bpy.ops.object.armature_human_metarig_add()
-    meta = bpy.context.object
-    bpy.ops.pose.rigify_generate()
-    rig = bpy.data.objects["rig"]
+    rig, meta = rigify_rig(*rigify_cache)
     start = scene.objects["Start"]
     rig.location, rig.rotation_euler.z = start.location, start.rotation_euler.z
     return scene, rig, meta

@@ -10,6 +10,8 @@ from importlib import import_module
 import numpy as np
 import pytest
 
+from conftest import rigify_rig
+
 MM = 1e-3
 LEGS_FK = ("thigh_fk", "shin_fk", "foot_fk", "toe_fk")
 
@@ -38,18 +40,13 @@ def _floor_scene():
 
 
 @pytest.fixture(scope="module")
-def walk(fp):
+def walk(fp, rigify_cache):
     """(scene, rig, planned, solved, settings): the plan solved, nothing baked yet."""
-    import addon_utils
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    addon_utils.enable("rigify", default_set=True)
     scene = _floor_scene()
-    bpy.ops.object.armature_human_metarig_add()
-    bpy.ops.object.mode_set(mode="OBJECT")
-    assert bpy.ops.pose.rigify_generate() == {"FINISHED"}
-    rig = bpy.data.objects["rig"]
+    rig, _ = rigify_rig(*rigify_cache)
     rig.rotation_euler.z = np.pi / 2
     _mod(fp, "blender.sample.mannequin").generate_clips(rig, names=["walk"])
     planning = _mod(fp, "blender.planning")
