@@ -59,14 +59,15 @@ _PLAIN: dict = {}
 
 def _plain(character, name):
     """(planner, result) of plain A* (weight 1) on scene ``name``: searched once for the
-    tests below (each such search takes tens of seconds; its answer is the same)."""
+    tests below (clutter10's takes 13 s, among obstacles; corridor1.2_across's, between
+    walls, 1.5 s: corridor2_across's took 19)."""
     if name not in _PLAIN:
         _PLAIN[name] = plan_scene(SCENES[name], character, heuristic_weight=1.0, max_expansions=100_000)
     return _PLAIN[name]
 
 
 @needs_cmu
-@pytest.mark.parametrize("name", ["clutter10", "corridor2_across"])
+@pytest.mark.parametrize("name", ["clutter10", "corridor1.2_across"])
 def test_plain_a_star_heuristic_stays_below_the_cost_to_come(bench_character, name):
     pl, result = _plain(bench_character, name)
     goal = np.asarray(SCENES[name].goal, float)
@@ -84,7 +85,7 @@ def test_plain_a_star_heuristic_stays_below_the_cost_to_come(bench_character, na
 
 
 @needs_cmu
-@pytest.mark.parametrize("name", ["clutter10", "corridor2_across"])
+@pytest.mark.parametrize("name", ["clutter10", "corridor1.2_across"])
 def test_the_weighted_search_costs_little_more_than_plain_a_star(bench_character, name):
     """On the two scenes whose plain A* the test above searches (``bench_planner.py``
     measures the ratio on all thirty scenes, each plain A* taking up to a minute)."""
