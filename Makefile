@@ -28,6 +28,10 @@ TEST_JOBS ?= auto
 # one BLAS thread a test process (the processes fill the cores; OpenBLAS's own threads on
 # top spun: 40 million context switches and 144 s of system time a run, now 0.4 million, 19 s)
 TEST_ENV := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+# The project's bytecode is compiled before the tests: where PYTHONDONTWRITEBYTECODE is set (as
+# on the machines CI runs on) nothing else writes it, and each of the suite's sixty-odd
+# Python processes compiled the package's 28,000 lines again, 0.3 to 0.5 s apiece.
+COMPILE := $(VENV_PY) -m compileall -q -j 0 footstep_planner tests benchmarks > /dev/null
 SCENE ?=
 PLATFORMS ?=
 BUILD_ARGS ?=
@@ -56,10 +60,12 @@ $(VENV): $(VENV_STAMP)
 venv: $(VENV_STAMP)
 
 test: $(VENV_STAMP)
+	@$(COMPILE)
 	$(TEST_ENV) $(VENV_PY) -m pytest -q -n $(TEST_JOBS) --dist loadfile tests $(PYTEST_ARGS)
 
 test-lts: $(LTS_STAMP)
 	$(LTS_PY) -c 'import bpy; print("Blender", bpy.app.version_string)'
+	@$(subst $(VENV_PY),$(LTS_PY),$(COMPILE))
 	$(TEST_ENV) $(LTS_PY) -m pytest -q -n $(TEST_JOBS) --dist loadfile $(LTS_TESTS) $(PYTEST_ARGS)
 
 demo: $(VENV_STAMP)
