@@ -268,14 +268,23 @@ class Planner(StepRules, Refusals):
         return DistanceField.solve(cells if cells is not None else self.field_cells(), goal, avoid)
 
     def field_cells(self) -> "FieldCells":
-        """The distance field's cells and edges over this planner's ground (any goal)."""
+        """The distance field's cells and edges over this planner's ground (any goal), kept
+        in the support cache (``FootprintCache.field_cells``) for the next plan on the same
+        geometry built to the same limits, steps, foot and forward."""
         edge_cost = EDGE_COST if self.settings.heuristic_weight > 1.0 else 1.0
         limits = FieldLimits(self.field_cell, self.clearance, self._jump_reach(), self.max_step_height,
                              self._jump_extra(), edge_cost, self.settings.body_scale)
-        if not self.settings.cross_gaps or len(self.islands) <= 1:  # (one island: no step leaves its ground)
+        # (one island: no step leaves its ground)
+        steps = self._gap_steps() if self.settings.cross_gaps and len(self.islands) > 1 else None
+        key = (limits, None if steps is None else tuple(map(tuple, steps)), self.foot,
+               tuple(np.asarray(self.forward, float).tolist()))
+        return self.cache.field_cells(key, lambda: self._build_field_cells(limits, steps))
+
+    def _build_field_cells(self, limits: FieldLimits, steps) -> "FieldCells":
+        if steps is None:
             return FieldCells.build(self.ground, self.obstacles, limits, self._stands)
         scale, look = self.settings.body_scale, self._len(LEVEL_TOL)
-        return FieldCells.build(self.ground, self.obstacles, limits, self._stands, steps=self._gap_steps(),
+        return FieldCells.build(self.ground, self.obstacles, limits, self._stands, steps=steps,
                                 islands=lambda p: self.islands.at(self.ground, p, scale, look))
 
     def _stands(self, pos: np.ndarray, heading: np.ndarray) -> np.ndarray:

@@ -60,6 +60,24 @@ class FootprintCache:
     between: dict = field(default_factory=dict)
     margin: float = 0.6  # m around a changed object whose answers are dropped
     cell: float = FINE_CELL  # m: the fine grid of the keys (the planner's ``fine_cell``)
+    # what the distance field's cells were built to -> the cells (``Planner.field_cells``):
+    # they hold for any goal, so the plans of one bake (its legs, its tries with and
+    # without a turn in place) and its re-plans build them once; all dropped at any change
+    fields: dict = field(default_factory=dict, repr=False)
+
+    #: cells kept for this many builds' keys at most (the latest)
+    MAX_FIELDS = 4
+
+    def field_cells(self, key, build):
+        """The distance field's cells for ``key`` (what they are built to), ``build()``
+        the first time."""
+        cells = self.fields.pop(key, None)
+        if cells is None:
+            cells = build()
+        self.fields[key] = cells  # (the latest last)
+        while len(self.fields) > self.MAX_FIELDS:
+            del self.fields[next(iter(self.fields))]
+        return cells
 
     def update(self, objects: dict) -> int:
         """Bring the cache to ``objects`` (name -> (hash, lo, hi)); returns how many
@@ -70,6 +88,8 @@ class FootprintCache:
             if old is None or new is None or old[0] != new[0]:
                 changed += [b for b in (old, new) if b is not None]
         self.objects = dict(objects)
+        if changed:
+            self.fields.clear()
         if not changed or not self.table:
             return 0
         # a step's answer goes with either end's region (a step is shorter than 2 m), and

@@ -1,5 +1,7 @@
 """A* over footprints (pure core, numpy ground, hand-made steps)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -155,6 +157,37 @@ def test_the_support_cache_serves_the_next_plan():
     assert np.all((left[:, 0] > 12.6) | (left[:, 0] < -2.6) | (left[:, 1] > 6.6) | (left[:, 1] < -6.6))
     pl.plan(start(0, 0), goal)
     assert pl.cache.objects["floor"][0] == "v2"
+
+
+def test_the_distance_fields_cells_serve_every_plan_on_the_same_geometry(monkeypatch):
+    """The field's cells hold for any goal: a second plan (another goal, a planner with other
+    penalties sharing the cache) builds none and finds what a planner of its own finds;
+    other limits (plain A*'s map) build their own; a changed object drops them all."""
+    from footstep_planner.core.plan import distance_field
+
+    built = []
+    build = distance_field.FieldCells.build
+    monkeypatch.setattr(distance_field.FieldCells, "build",
+                        staticmethod(lambda *a, **k: built.append(1) or build(*a, **k)))
+    g = MeshGround(TriMesh.concat([plane(-2, 12, -6, 6), box((4, -1, 0), (5, 1, 1), "crate")]))
+    pl = Planner(g, MeshGround(box((4, -1, 0), (5, 1, 1), "crate")), steps(), FWD, settings=FASTEST)
+    pl.cache.update({"floor": ("v1", np.array([-2, -6, 0.0]), np.array([12, 6, 0.0]))})
+    pl.plan(start(0, 0), np.array([10.0, 0.0, 0.0]))
+    assert len(built) == 1
+    other_goal = pl.plan(start(0, 0), np.array([9.0, 3.0, 0.0]))
+    slower = replace(pl, settings=FASTEST.replace(turn_penalty=0.5))  # (replace: the cache is shared)
+    penalised = slower.plan(start(0, 0), np.array([9.0, 3.0, 0.0]))
+    assert len(built) == 1
+    fresh = Planner(g, pl.obstacles, steps(), FWD, settings=FASTEST)
+    alone = fresh.plan(start(0, 0), np.array([9.0, 3.0, 0.0]))
+    assert [f.position.tolist() for f in other_goal.footprints] == [f.position.tolist() for f in alone.footprints]
+    assert penalised.cost >= other_goal.cost
+    replace(pl, settings=FASTEST.replace(heuristic_weight=1.0)).distance_field(np.array([9.0, 3.0, 0.0]))
+    assert len(built) == 3  # (the fresh planner's, and plain A*'s map: a lower bound, built to its own limits)
+    pl.cache.update({"floor": ("v2", np.array([-2, -6, 0.0]), np.array([12, 6, 0.0]))})
+    assert not pl.cache.fields
+    pl.plan(start(0, 0), np.array([10.0, 0.0, 0.0]))
+    assert len(built) == 4
 
 
 def test_a_changed_object_drops_only_the_answers_near_it():
