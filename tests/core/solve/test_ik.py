@@ -382,3 +382,25 @@ def test_a_pivot_step_barely_lifts_the_foot(rise, dz, still):
     assert over.max() <= allowed + 1e-9
     assert over.max() >= min(rise, PIVOT_LIFT) * np.sin(np.pi * 5 / 11) - 1e-9
     np.testing.assert_allclose(_low_swing(ankle, planted, np.zeros(F)), ankle)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(5.0, 45.0), st.floats(0.03, 0.09))
+def test_a_foot_rolled_far_onto_its_ball_bends_its_toes_enough_to_keep_the_tip_out(pitch_deg, length):
+    """A planted foot rolled onto its ball (a long step's toe-off held on its footprint:
+    CMU's run-up before a jump pitched it past 45 degrees) gets the toe bend that keeps
+    its tip within TIP_SINK of the floor, up to 45 degrees of roll; 30 degrees at most let
+    the tip sink 19 mm there. The bend never goes past MAX_TOE_BEND."""
+    from footstep_planner.core.solve.lift import TIP_SINK, _swing_planes
+    from footstep_planner.core.solve.toes import MAX_TOE_BEND, toe_bend
+
+    F = 60
+    pitch = np.radians(pitch_deg) * np.clip(np.arange(F) / 30.0, 0.0, 1.0)  # (rolls up over a second, holds)
+    rot = Rotation.from_rotvec(np.c_[np.zeros(F), pitch, np.zeros(F)]).as_matrix()  # (the toes turned down)
+    ball = np.array([0.15, 0.0, -0.08])  # (in the foot's frame)
+    ankle = -rot @ ball  # (the ball on the floor, at the origin)
+    tip = (np.tile(ball + [length, 0.0, 0.0], (F, 1)), np.zeros(F))  # (its clip's tip on its floor)
+    planes = _swing_planes(np.zeros(F, np.int64), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
+    bend = toe_bend(ankle, rot, np.ones(F, bool), tip, ball, planes, fps=30.0)
+    need = pitch - np.arcsin(TIP_SINK / length)
+    assert np.all(bend >= need - 1e-9) and bend.max() <= MAX_TOE_BEND + 1e-12
