@@ -418,27 +418,43 @@ class _Grid:
                 step_height: float, shortest: float = 1.0) -> list[tuple]:
         """(rows, cols, lengths) of straight bridges longer than ``shortest`` m and up to
         ``jump_reach`` between walkable cell levels on the border of a gap (``void`` (nx,
-        ny), ``gaps``), within a step's height of each other, never across an obstacle."""
+        ny), ``gaps``), within a step's height of each other, never across an obstacle
+        (each border cell with every offset in reach at once, BRIDGE_PAIRS at a time)."""
         nx, ny = self.nx, self.ny
         border = _gap_border(walk, void)
         bl, bi, bj = np.nonzero(border)
         r = int(np.ceil(jump_reach / self.cell))
-        offs = [(a, b) for a in range(-r, r + 1) for b in range(-r, r + 1)
-                if shortest < np.hypot(a, b) * self.cell <= jump_reach and max(abs(a), abs(b)) > 1]
+        a, b = (g.ravel() for g in np.meshgrid(np.arange(-r, r + 1), np.arange(-r, r + 1), indexing="ij"))
+        length = np.hypot(a, b) * self.cell
+        keep = (shortest < length) & (length <= jump_reach) & (np.maximum(np.abs(a), np.abs(b)) > 1)
+        a, b, length = a[keep], b[keep], length[keep]
         out = []
-        for a, b in offs:
-            ti, tj = bi + a, bj + b
-            ok = (ti >= 0) & (ti < nx) & (tj >= 0) & (tj < ny)
-            ti, tj, si, sj, sl = ti[ok], tj[ok], bi[ok], bj[ok], bl[ok]
-            clear = np.ones(len(si), bool)
+        if not len(bl) or not len(a):
+            return out
+        per = max(BRIDGE_PAIRS // len(bl), 1)
+        z = self.z
+        for k0 in range(0, len(a), per):  # (offsets in order: the edges come as one offset at a time did)
+            ka, kb = a[k0:k0 + per, None], b[k0:k0 + per, None]  # (K, 1)
+            ti, tj = bi[None] + ka, bj[None] + kb  # (K, B)
+            inside = (ti >= 0) & (ti < nx) & (tj >= 0) & (tj < ny)
+            ti, tj = np.where(inside, ti, 0), np.where(inside, tj, 0)
+            clear = inside.copy()
             for t in np.linspace(0.2, 0.8, 4):  # the line between crosses void or walkable cells only
-                clear &= ~blocked[sl, np.rint(si + t * a).astype(int), np.rint(sj + t * b).astype(int)]
-            for tl in range(walk.shape[0]):
-                ok = clear & border[tl, ti, tj]
-                ok &= np.abs(np.nan_to_num(self.z[tl, ti, tj] - self.z[sl, si, sj], nan=np.inf)) <= step_height
-                out.append((self.ids[sl[ok], si[ok], sj[ok]], self.ids[tl, ti[ok], tj[ok]],
-                            np.full(ok.sum(), np.hypot(a, b) * self.cell)))
-        return out
+                ci = np.clip(np.rint(bi[None] + t * ka).astype(int), 0, nx - 1)
+                cj = np.clip(np.rint(bj[None] + t * kb).astype(int), 0, ny - 1)
+                clear &= ~blocked[bl[None], ci, cj]
+            zs = z[bl, bi, bj]
+            ok = clear[:, None] & border[:, ti, tj].transpose(1, 0, 2)  # (K, L, B)
+            dz = np.abs(z[:, ti, tj].transpose(1, 0, 2) - zs[None, None])
+            ok &= np.where(np.isfinite(dz), dz, np.inf) <= step_height
+            k, tl, m = np.nonzero(ok)  # (by offset, then level, then border cell)
+            out.append((self.ids[bl[m], bi[m], bj[m]], self.ids[tl, ti[k, m], tj[k, m]], length[k0 + k]))
+        return [tuple(np.concatenate(e) for e in zip(*out))]
+
+
+#: (border cell, offset) pairs ``_Grid.bridges`` weighs at a time (memory: about 100 bytes
+#: a pair and level)
+BRIDGE_PAIRS = 200_000
 
 
 def _gap_border(walk: np.ndarray, void: np.ndarray) -> np.ndarray:
