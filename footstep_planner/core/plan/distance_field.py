@@ -433,6 +433,7 @@ class _Grid:
             return out
         per = max(BRIDGE_PAIRS // len(bl), 1)
         z = self.z
+        zs = z[bl, bi, bj]  # (B,) the border cells' heights
         for k0 in range(0, len(a), per):  # (offsets in order: the edges come as one offset at a time did)
             ka, kb = a[k0:k0 + per, None], b[k0:k0 + per, None]  # (K, 1)
             ti, tj = bi[None] + ka, bj[None] + kb  # (K, B)
@@ -443,7 +444,6 @@ class _Grid:
                 ci = np.clip(np.rint(bi[None] + t * ka).astype(int), 0, nx - 1)
                 cj = np.clip(np.rint(bj[None] + t * kb).astype(int), 0, ny - 1)
                 clear &= ~blocked[bl[None], ci, cj]
-            zs = z[bl, bi, bj]
             ok = clear[:, None] & border[:, ti, tj].transpose(1, 0, 2)  # (K, L, B)
             dz = np.abs(z[:, ti, tj].transpose(1, 0, 2) - zs[None, None])
             ok &= np.where(np.isfinite(dz), dz, np.inf) <= step_height

@@ -1,7 +1,7 @@
 """Rigify rigs: detection, the deforming skeleton and its FK controls, and keying the controls
 so that the DEF bones land on planner targets (checked through Blender's depsgraph).
 
-The rig is generated once for the module (Rigify's human metarig, about 4-6 s)."""
+The rig is Rigify's human metarig's, generated once per test run (``conftest.rigify_rig``)."""
 
 from importlib import import_module
 

@@ -175,13 +175,13 @@ def test_the_distance_fields_cells_serve_every_plan_on_the_same_geometry(monkeyp
     pl.plan(start(0, 0), np.array([10.0, 0.0, 0.0]))
     assert len(built) == 1
     other_goal = pl.plan(start(0, 0), np.array([9.0, 3.0, 0.0]))
-    slower = replace(pl, settings=FASTEST.replace(turn_penalty=0.5))  # (replace: the cache is shared)
-    penalised = slower.plan(start(0, 0), np.array([9.0, 3.0, 0.0]))
+    turning_dearer = replace(pl, settings=FASTEST.replace(turn_penalty=0.5))  # (replace: the cache is shared)
+    penalised = turning_dearer.plan(start(0, 0), np.array([9.0, 3.0, 0.0]))
     assert len(built) == 1
     fresh = Planner(g, pl.obstacles, steps(), FWD, settings=FASTEST)
     alone = fresh.plan(start(0, 0), np.array([9.0, 3.0, 0.0]))
     assert [f.position.tolist() for f in other_goal.footprints] == [f.position.tolist() for f in alone.footprints]
-    assert penalised.cost >= other_goal.cost
+    assert penalised.cost >= other_goal.cost  # (the path's cost: its steps' time plus the turn penalty)
     replace(pl, settings=FASTEST.replace(heuristic_weight=1.0)).distance_field(np.array([9.0, 3.0, 0.0]))
     assert len(built) == 3  # (the fresh planner's, and plain A*'s map: a lower bound, built to its own limits)
     pl.cache.update({"floor": ("v2", np.array([-2, -6, 0.0]), np.array([12, 6, 0.0]))})
