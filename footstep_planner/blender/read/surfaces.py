@@ -184,25 +184,28 @@ class BvhGround:
             self.tree = None
 
     def ray_down(self, points, max_dist: float) -> GroundHit:
-        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         n = len(p)
-        z = np.full(n, np.nan)
-        nor = np.full((n, 3), np.nan)
-        owner = np.full(n, -1)
-        face = np.full(n, -1)
+        z = np.empty(n)
+        z.fill(np.nan)
+        nor = np.empty((n, 3))
+        nor.fill(np.nan)
+        face = np.empty(n, np.int64)
+        face.fill(-1)
         if self.tree is not None and n:
             cast, down, dist = self.tree.ray_cast, (0.0, 0.0, -1.0), max_dist + 1e-9
             for s in range(0, n, RAY_CHUNK):  # (see RAY_CHUNK)
                 res = [cast(q, down, dist) for q in p[s:s + RAY_CHUNK].tolist()]  # mathutils takes plain sequences
                 got = [i for i, r in enumerate(res) if r[0] is not None]
                 if got:
-                    at = np.asarray(got) + s
+                    at = np.array(got) + s
                     z[at] = [res[i][0][2] for i in got]
                     nn = np.array([res[i][1][:] for i in got])
-                    nor[at] = nn * np.where(nn[:, 2:3] < 0, -1.0, 1.0)
+                    nn[nn[:, 2] < 0] *= -1.0
+                    nor[at] = nn
                     face[at] = [res[i][2] for i in got]
-                    owner[at] = self.mesh.owner[face[at]]
-        return GroundHit(owner >= 0, z, nor, owner, face)
+        owner = np.where(face >= 0, self.mesh.owner[np.maximum(face, 0)], -1) if self.mesh.n else face.copy()
+        return GroundHit(face >= 0, z, nor, owner, face)
 
     def heights(self, points, max_dist: float) -> np.ndarray:
         """(N,) ``ray_down``'s heights alone (nan where nothing is hit), without its normals
@@ -217,9 +220,11 @@ class BvhGround:
         return z
 
     def nearest(self, points, max_dist: float = np.inf):
-        p = np.atleast_2d(np.asarray(points, dtype=np.float64))
-        out = np.full((len(p), 3), np.nan)
-        dist = np.full(len(p), np.inf)
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        out = np.empty((len(p), 3))
+        out.fill(np.nan)
+        dist = np.empty(len(p))
+        dist.fill(np.inf)
         if self.tree is not None and len(p):
             find = self.tree.find_nearest
             lim = 1e30 if not np.isfinite(max_dist) else float(max_dist)

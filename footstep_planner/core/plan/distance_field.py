@@ -67,7 +67,9 @@ class DistanceField:
         inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
         ii, jj = np.where(inside, i, 0), np.where(inside, j, 0)
         d = self.dist[:, ii, jj].T  # (N, L)
-        if p.shape[1] >= 3 and self.z is not None:
+        if len(self.dist) == 1:  # (one level: it)
+            level = 0
+        elif p.shape[1] >= 3 and self.z is not None:
             dz = np.abs(self.z[:, ii, jj].T - p[:, 2:3])
             level = np.argmin(np.where(np.isfinite(dz), dz, np.inf), axis=1)
         else:

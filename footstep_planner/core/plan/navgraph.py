@@ -92,6 +92,26 @@ RAISE_EVERY = 100
 REROUTE_RADIUS = 3.0
 
 
+def _cheaper(best: dict, keys: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Indices of the successors (fine keys ``keys`` (K,) int64, costs ``cost`` (K,)) that
+    reach their fine footprint more cheaply than any before them (``best``: key -> least
+    cost so far, updated), in order, as a loop over them in turn would keep them: a key
+    met twice keeps its later successor only where it is cheaper still."""
+    ks, gs = keys.tolist(), cost.tolist()
+    before = np.array(list(map(best.get, ks, [np.inf] * len(ks))), float)
+    keep = before > cost
+    if len(set(ks)) < len(ks):  # (a key met twice in this one expansion: in turn)
+        keep = []
+        for j, (g, f) in enumerate(zip(gs, ks)):
+            if best.get(f, np.inf) > g:
+                best[f] = g
+                keep.append(j)
+        return np.array(keep, np.int64)
+    keep = np.flatnonzero(keep)
+    best.update(zip([ks[j] for j in keep.tolist()], cost[keep].tolist()))
+    return keep
+
+
 @dataclass
 class PlanResult:
     """A search's path and everything about it: counts, times (s) and the explored nodes."""
@@ -385,7 +405,8 @@ class Planner(StepRules, Refusals):
             h = np.maximum(d - slack, 0.0) / vmax
             if psi is not None and per_rad > 0:
                 off = np.abs(wrap(np.asarray(psi, float) + yaw - ahead))
-                h = h + per_rad * np.nan_to_num(np.maximum(off - FREE_TURN, 0.0), nan=0.0)
+                over = off - FREE_TURN
+                h = h + per_rad * np.where(over > 0.0, over, 0.0)  # (nan, where no way ahead is known: 0)
             return h
         return heuristic
 
@@ -426,7 +447,8 @@ class Planner(StepRules, Refusals):
         list (the likeliest to leave it next): whether a foot may stand there, within a
         step's height, and the way there is clear (``_supported``, ``_way_clear``). Which
         are checked when changes nothing but the work: a successor's answer is its own."""
-        todo = np.flatnonzero((batch.state == 0) & np.array([k not in search.closed for k in batch.keys]))
+        shut = search.closed.__contains__
+        todo = np.flatnonzero((batch.state == 0) & ~np.fromiter(map(shut, batch.keys), bool, len(batch.keys)))
         if len(todo) > CHECK_CHUNK:
             f = batch.g[todo] + search.weight * batch.h[todo]
             f[todo == j] = -np.inf
@@ -434,14 +456,16 @@ class Planner(StepRules, Refusals):
         node = search.nodes[batch.parent]
         nxt, psi = batch.nxt[todo], batch.psi[todo]
         ok, z = self._supported(node, nxt, psi)
+        to = np.empty((len(todo), 3))
+        to[:, :2], to[:, 2] = nxt, z
         ok &= np.abs(z - node.position[2]) <= self.max_step_height
         ok &= self._within_climb_reach(search, node, batch.sel[todo], nxt, z)
         if ok.any():
-            ok[ok] &= self._way_clear(node, batch.sel[todo][ok], np.c_[nxt[ok], z[ok]],
+            ok[ok] &= self._way_clear(node, batch.sel[todo][ok], to[ok],
                                       fine_keys(nxt[ok], psi[ok], self.fine_cell))
         walk = ok & ~self.steps.jump[batch.sel[todo]]
         if walk.any() and node.parent >= 0:  # the stepping foot swings from the footprint before
-            ok[walk] &= self._no_bump(search.nodes[node.parent].position, np.c_[nxt[walk], z[walk]])
+            ok[walk] &= self._no_bump(search.nodes[node.parent].position, to[walk])
         batch.state[todo] = np.where(ok, 1, 2)
         batch.z[todo] = z
 
@@ -469,16 +493,14 @@ class Planner(StepRules, Refusals):
         st = self.steps
         change = np.where(st.gait[sel] != node.gait, self.settings.gait_change_penalty, 0.0)
         cost = node.cost + (search.base_cost[sel] + change + self._weave(search, node, sel))
-        fine = _pack(1 - node.foot, self._gait_ids[sel], nxt, npsi, self.fine_cell, FINE_HEADING_BINS).tolist()
-        best, keep, inf = search.best_g, [], np.inf
-        for j, (g, f) in enumerate(zip(cost.tolist(), fine)):
-            if best.get(f, inf) > g:
-                best[f] = g
-                keep.append(j)
-        if not keep:
+        fine = _pack(1 - node.foot, self._gait_ids[sel], nxt, npsi, self.fine_cell, FINE_HEADING_BINS)
+        keep = _cheaper(search.best_g, fine, cost)
+        if not len(keep):
             return
-        keep = np.array(keep)
-        h = search.heuristic(np.c_[nxt[keep], np.full(len(keep), node.position[2])], npsi[keep])
+        at = np.empty((len(keep), 3))
+        at[:, :2] = nxt[keep]
+        at[:, 2] = node.position[2]
+        h = search.heuristic(at, npsi[keep])
         search.push_batch(_Batch(idx, sel[keep], nxt[keep], npsi[keep], cost[keep], [keys[j] for j in keep],
                                  np.zeros(len(keep), np.int8), np.zeros(len(keep)), h))
 
@@ -500,17 +522,13 @@ class Planner(StepRules, Refusals):
         jump follows a jump, a jump is entered running, and the first step from a start
         (standing: ``_start_gaits``) keeps its gait and does not jump."""
         st = self.steps
-        sel = np.flatnonzero(st.foot == node.foot)
-        if node.step >= 0 and st.jump[node.step]:
-            sel = sel[~st.jump[sel]]
-        if node.parent < 0:  # (from standing, or a walk's footprint: the first step walks, and never jumps)
-            sel = sel[~st.jump[sel] & (st.gait[sel] == node.gait)]
-        elif node.gait == "walk":
-            sel = sel[~st.jump[sel]]
+        sel = self._steps_from(node)
         ang = node.heading + np.arctan2(self.forward[1], self.forward[0])
-        f_ = np.array([np.cos(ang), np.sin(ang)])
-        l_ = np.array([-f_[1], f_[0]])
-        nxt = node.position[:2] + st.fwd[sel, None] * f_ + st.left[sel, None] * l_
+        c, s_ = np.cos(ang), np.sin(ang)
+        fwd, left = st.fwd[sel], st.left[sel]
+        nxt = np.empty((len(sel), 2))
+        nxt[:, 0] = node.position[0] + fwd * c - left * s_
+        nxt[:, 1] = node.position[1] + fwd * s_ + left * c
         npsi = wrap(node.heading + st.turn[sel])
         if len(self.treads) and len(sel):  # (on a stair's tread: square to it, wholly on it)
             yaw0 = ang - node.heading
@@ -524,9 +542,34 @@ class Planner(StepRules, Refusals):
         if len(self.patches) and len(sel):  # (partly on a stepping stone: wholly on it)
             nxt = self._onto_patches(node, sel, nxt, npsi)
         keys = self._keys(1 - node.foot, self._gait_ids[sel], nxt, npsi)
-        closed = search.closed
-        todo = [j for j, k in enumerate(keys) if k not in closed]
+        shut = search.closed.__contains__
+        todo = [j for j, k in enumerate(keys) if not shut(k)]
+        if len(todo) == len(keys):
+            return sel, nxt, npsi, keys
         return sel[todo], nxt[todo], npsi[todo], [keys[j] for j in todo]
+
+    def _steps_from(self, node: SearchNode) -> np.ndarray:
+        """(K,) the indices of the steps that may follow ``node`` (``_successors``' rules),
+        kept per kind of node: its foot, whether a jump reached it, whether it is a start
+        and its gait."""
+        st = self.steps
+        jumped = bool(node.step >= 0 and st.jump[node.step])
+        kind = (node.foot, jumped, node.parent < 0, node.gait)
+        table = self.__dict__.setdefault("_steps_from_cache", {})
+        sel = table.get(kind) if table.get("n") == st.n else None
+        if sel is None:
+            if table.get("n") != st.n:
+                table.clear()
+                table["n"] = st.n
+            sel = np.flatnonzero(st.foot == node.foot)
+            if jumped:
+                sel = sel[~st.jump[sel]]
+            if node.parent < 0:  # (from standing, or a walk's footprint: the first step walks, and never jumps)
+                sel = sel[~st.jump[sel] & (st.gait[sel] == node.gait)]
+            elif node.gait == "walk":
+                sel = sel[~st.jump[sel]]
+            table[kind] = sel
+        return sel
 
     def _onto_patches(self, node: SearchNode, sel: np.ndarray, nxt: np.ndarray, npsi: np.ndarray) -> np.ndarray:
         """(K, 2) where steps ``sel`` from ``node`` land (``nxt`` (K, 2), turned ``npsi``),
@@ -577,7 +620,10 @@ class Planner(StepRules, Refusals):
         fine = fine_keys(nxt, npsi, self.fine_cell)
         ask = [j for j, k in enumerate(fine) if k not in table]
         if ask:
-            sup = self._support(np.c_[nxt[ask], np.full(len(ask), node.position[2])], npsi[ask])
+            at = np.empty((len(ask), 3))
+            at[:, :2] = nxt[ask]
+            at[:, 2] = node.position[2]
+            sup = self._support(at, npsi[ask])
             for j, o, zz in zip(ask, sup.ok, sup.z):
                 table[fine[j]] = (bool(o), float(zz))
         answers = np.array([table[k] for k in fine], dtype=float).reshape(-1, 2)

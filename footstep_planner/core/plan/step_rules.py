@@ -15,7 +15,6 @@ from ..clips.steps import StepSet
 from ..footprint import PIVOT, STAND_LABEL, START_LABEL, PathFootprint
 from .islands import Islands
 from .search_state import SearchNode, _Search
-from ..base.angles import wrap
 
 
 #: m: a step's curvature (``Settings.curvature_penalty``) is its veer over its clip's
@@ -182,7 +181,7 @@ class StepRules:
     def _under_bump(self, a: np.ndarray, b: np.ndarray, z: np.ndarray) -> np.ndarray:
         """(N,) whether the ground ``z`` (N, 3) between each ``a`` and ``b`` (N, 3) stays
         within MAX_BUMP of the higher end."""
-        return np.nan_to_num(z, nan=-np.inf).max(axis=1) <= np.maximum(a[:, 2], b[:, 2]) + self._len(MAX_BUMP)
+        return np.where(np.isnan(z), -np.inf, z).max(axis=1) <= np.maximum(a[:, 2], b[:, 2]) + self._len(MAX_BUMP)
 
     def _no_bump(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(K,) whether the ground from ``a`` (3,) to each of ``b`` (K, 3) (a foot's swing,

@@ -256,10 +256,17 @@ class FootShape:
         corners and the reference point (``corners``), the rectangle's sides level with
         the reference point, and TIP_ROOM ahead of the toe tip (ahead of the reference,
         at ``tip`` or ``front``)."""
-        return self._placed(np.r_[self._corners_local(), [[0.0, -self.half_width], [0.0, self.half_width],
-                                                          [max(self.tip, self.front) + TIP_ROOM * self.scale,
-                                                           0.0]]],
-                            pos, heading, forward)
+        return self._placed(self._probes_local(), pos, heading, forward)
+
+    def _probes_local(self) -> np.ndarray:
+        """(8, 2) ``probes``' points in the foot's frame (made once per shape: the search
+        asks for them at every check)."""
+        got = _PROBES.get(self)
+        if got is None:
+            got = _PROBES[self] = np.concatenate([self._corners_local(), [
+                [0.0, -self.half_width], [0.0, self.half_width],
+                [max(self.tip, self.front) + TIP_ROOM * self.scale, 0.0]]])
+        return got
 
     def corners(self, pos: np.ndarray, heading: np.ndarray, forward: np.ndarray) -> np.ndarray:
         """(N, 5, 2) ground points of each footprint: the four corners, then the
@@ -276,10 +283,17 @@ class FootShape:
         """(N, K, 2) the points ``local`` (K, 2) of the foot's frame on the ground at each
         footprint (``pos`` (N, >=2), ``heading`` (N,), heading 0 along ``forward``)."""
         ang = np.asarray(heading) + np.arctan2(forward[1], forward[0])
-        f = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
-        left = np.stack([-f[..., 1], f[..., 0]], axis=-1)
-        return (np.asarray(pos)[..., None, :2] + local[:, 0, None] * f[..., None, :]
-                + local[:, 1, None] * left[..., None, :])
+        c, s = np.cos(ang)[..., None], np.sin(ang)[..., None]  # (..., 1): the heading's (cos, sin)
+        u, v = local[:, 0], local[:, 1]  # along the heading, to the left (-sin, cos)
+        pos = np.asarray(pos)
+        out = np.empty(pos.shape[:-1] + (len(local), 2))
+        out[..., 0] = pos[..., None, 0] + u * c - v * s
+        out[..., 1] = pos[..., None, 1] + u * s + v * c
+        return out
+
+
+#: ``FootShape.probes``' points in the foot's frame, by shape (a handful per process).
+_PROBES: dict = {}
 
 
 #: m: the ground steps (up or down) by more than this between two samples EDGE_SPACING m
@@ -408,10 +422,12 @@ def footprint_support(ground: Ground, obstacles: Ground | None, pos: np.ndarray,
     # the toe tip: never inside higher ground (looked for from above the foot's own height)
     look = np.flatnonzero(all_hit & ~uneven)
     if len(look):
-        tip = ground.ray_down(np.c_[pts[look, 7], z[look, 4] + step_height], 2 * step_height)
+        tip = ground.ray_down(np.concatenate([pts[look, 7], z[look, 4, None] + step_height], axis=1),
+                              2 * step_height)
         plane = _plane_height(coef[look], pts[look, 7:8])[:, 0]
         uneven[look] |= tip.hit & (tip.z - plane > unevenness)
-    steep = all_hit & ~uneven & (np.arccos(np.clip(np.nan_to_num(plane_n[:, 2], nan=1.0), -1, 1)) > max_slope)
+    # (the plane's normal faces up: steeper than max_slope where its z is under the cosine)
+    steep = all_hit & ~uneven & (plane_n[:, 2] < np.cos(max_slope))
     reason = _reasons(all_hit, uneven, steep)
     zc = z[:, 4]
     ok = all_hit & ~uneven & ~steep
@@ -429,7 +445,9 @@ def _drop_onto(ground: Ground, pos: np.ndarray, pts: np.ndarray, step_height: fl
     (N, K, 2) dropped onto ``ground`` from ``step_height`` above the footprints' heights
     ``pos[:, 2]``, looking down twice that far (nan where nothing is hit)."""
     n, k = pts.shape[:2]
-    top = np.concatenate([pts, np.broadcast_to(pos[:, None, 2:3] + step_height, (n, k, 1))], axis=2)
+    top = np.empty((n, k, 3))
+    top[..., :2] = pts
+    top[..., 2] = pos[:, None, 2] + step_height
     hit = ground.ray_down(top.reshape(-1, 3), 2 * step_height)
     return hit.hit.reshape(n, k), hit.z.reshape(n, k), hit.normal.reshape(n, k, 3)
 
@@ -455,15 +473,30 @@ def _foot_plane(pts: np.ndarray, z: np.ndarray, nor: np.ndarray, all_hit: np.nda
     uneven = np.zeros(n, bool)
     if all_hit.any():
         i = np.flatnonzero(all_hit)
-        a = np.concatenate([np.ones((len(i), k, 1)), pts[i]], axis=2)  # z = c0 + c1 x + c2 y
-        c = np.linalg.solve(a.transpose(0, 2, 1) @ a, (a.transpose(0, 2, 1) @ z[i, :, None]))[..., 0]
-        resid = np.abs((a @ c[:, :, None])[..., 0] - z[i]).max(axis=1)
-        pn = np.c_[-c[:, 1], -c[:, 2], np.ones(len(i))]
-        plane_n[i] = pn / np.linalg.norm(pn, axis=1, keepdims=True)
-        coef[i] = c
-        agree = np.einsum("nkc,nc->nk", nor[i], plane_n[i]).min(axis=1) > np.cos(np.radians(15))
+        # (the least-squares plane in closed form, about the points' centroid: the 2 x 2
+        # normal equations of the slopes, then the height)
+        x, y, zz = pts[i, :, 0], pts[i, :, 1], z[i]
+        xm, ym, zm = x.mean(axis=1), y.mean(axis=1), zz.mean(axis=1)
+        dx, dy, dz = x - xm[:, None], y - ym[:, None], zz - zm[:, None]
+        sxx, syy, sxy = (dx * dx).sum(axis=1), (dy * dy).sum(axis=1), (dx * dy).sum(axis=1)
+        sxz, syz = (dx * dz).sum(axis=1), (dy * dz).sum(axis=1)
+        det = sxx * syy - sxy * sxy
+        c1 = (syy * sxz - sxy * syz) / det
+        c2 = (sxx * syz - sxy * sxz) / det
+        c0 = zm - c1 * xm - c2 * ym
+        resid = np.abs(c1[:, None] * dx + c2[:, None] * dy - dz).max(axis=1)
+        norm = np.sqrt(c1 * c1 + c2 * c2 + 1.0)
+        pn = np.empty((len(i), 3))
+        pn[:, 0], pn[:, 1], pn[:, 2] = -c1 / norm, -c2 / norm, 1.0 / norm
+        plane_n[i] = pn
+        coef[i, 0], coef[i, 1], coef[i, 2] = c0, c1, c2
+        agree = np.einsum("nkc,nc->nk", nor[i], pn).min(axis=1) > _AGREE
         uneven[i] = (resid > unevenness) | ~agree
     return plane_n, uneven, coef
+
+
+#: cos 15 degrees: the most a surface normal under a foot may lean from the foot's plane.
+_AGREE = float(np.cos(np.radians(15)))
 
 
 def _reasons(all_hit: np.ndarray, uneven: np.ndarray, steep: np.ndarray) -> np.ndarray:
@@ -485,17 +518,20 @@ def _blocked(obstacles: Ground, pos: np.ndarray, pts: np.ndarray, zc: np.ndarray
     or inside one (an obstacle surface between the foot and the head), or the foot's
     ground points, 0.02 m up (times ``scale``), within that of one."""
     m = len(pos)
-    levels = np.r_[np.array([0.1, 0.5, 0.9, 1.3]) * scale, body_height]
-    probe = np.repeat(np.c_[pos[:, :2], zc], len(levels), axis=0)
-    probe[:, 2] += np.tile(levels, m)
-    _, d = obstacles.nearest(probe, max_dist=clearance)
+    levels = np.array([0.1 * scale, 0.5 * scale, 0.9 * scale, 1.3 * scale, body_height])
+    probe = np.empty((m, len(levels), 3))
+    probe[..., :2] = pos[:, None, :2]
+    probe[..., 2] = zc[:, None] + levels
+    _, d = obstacles.nearest(probe.reshape(-1, 3), max_dist=clearance)
     blocked = (d < clearance).reshape(m, len(levels)).any(axis=1)
     # inside or under an obstacle (a thick wall's inside is far from all its faces)
-    head = np.c_[pos[:, :2], zc + body_height]
+    head = probe[:, -1]
     blocked |= obstacles.ray_down(head, body_height - 0.05 * scale).hit
     # the foot itself must not stand in an obstacle either
     near = 0.02 * scale
-    foot_pts = np.concatenate([pts, zc[:, None, None] + np.zeros((m, 5, 1)) + near], axis=2)
+    foot_pts = np.empty((m, 5, 3))
+    foot_pts[..., :2] = pts
+    foot_pts[..., 2] = zc[:, None] + near
     _, df = obstacles.nearest(foot_pts.reshape(-1, 3), max_dist=near)
     blocked |= (df < near).reshape(m, 5).any(axis=1)
     return blocked
