@@ -84,6 +84,8 @@ class _Search:
     reroutes: int = 0  # times the heuristic was rebuilt without jumps where the search stalled
     field_seconds: float = 0.0
     climb_reach: np.ndarray | None = None  # (S,) m, ``climb_reach`` of the steps, once per search
+    # (cost, batch, successor) of the cheapest checked successor that ends the path, or None
+    arrival: tuple | None = None
 
     batches: list = field(default_factory=list)  # unchecked successors, one _Batch per expansion
     weight: float = 1.0  # the heuristic's weight now (``Planner._weigh``)

@@ -54,6 +54,23 @@ def test_a_stalled_search_builds_its_cells_once_and_leaves_the_jump_that_strande
     assert result.footprints[-1].position[2] > 1.0  # up on the bridge
 
 
+@needs_cmu
+@pytest.mark.parametrize("name", ["ramp1", "clutter15"])
+def test_the_search_ends_at_its_arrival_without_flooding_the_goal(bench_character, name, monkeypatch):
+    """The footprints a step short of the goal are many, each nearly as cheap as the path
+    that arrives: the weighted search keeps its cheapest checked arrival and ends once
+    nothing open is ``ARRIVE_SLACK`` cheaper, where it expanded them all before (ramp1:
+    about ninety within a metre of the goal)."""
+    goal = np.asarray(SCENES[name].goal, float)
+    near = lambda r: sum(np.hypot(*(n.position[:2] - goal[:2])) < 1.0 for n in r.explored)  # noqa: E731
+    _, now = plan_scene(SCENES[name], bench_character)
+    monkeypatch.setattr(navgraph.Planner, "_offer_arrivals", lambda self, search, batch: None)
+    _, before = plan_scene(SCENES[name], bench_character)
+    assert near(now) * 3 <= near(before) and now.expanded < before.expanded
+    assert now.cost <= before.cost * (1.0 + navgraph.ARRIVE_SLACK)
+    assert np.hypot(*(now.footprints[-1].position[:2] - goal[:2])) <= Settings().goal_radius
+
+
 _PLAIN: dict = {}
 
 
