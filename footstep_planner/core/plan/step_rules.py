@@ -222,13 +222,21 @@ class StepRules:
         """(S,) s: each step's cost, its duration plus the turn, jump and run penalties
         (a gait change is added per successor)."""
         st, cfg = self.steps, self.settings
+        key = (id(st), st.n, cfg.stride_penalty, cfg.turn_penalty, cfg.curvature_penalty, cfg.jump_penalty,
+               cfg.run_penalty, self._len(MIN_STEP))
+        got = self.__dict__.get("_base_costs_cache")
+        if got is not None and got[0] == key:  # (priced once per planner: the distance field asks four times)
+            return got[1]
         veer = np.abs(st.veer())
         length = np.maximum(np.hypot(st.fwd / st.stride, st.left), self._len(MIN_STEP))  # (shortened: its clip's)
         kappa = (veer + np.abs(st.sidestep()) / length) / length  # 1/m: the way's heading change and a crab's
-        return (st.time_cost(cfg.stride_penalty) + cfg.turn_penalty * veer
+        cost = (st.time_cost(cfg.stride_penalty) + cfg.turn_penalty * veer
                 + cfg.curvature_penalty * kappa
                 + np.where(st.jump, cfg.jump_penalty, 0.0)
                 + np.where(st.gait == "run", cfg.run_penalty, 0.0))
+        cost.setflags(write=False)
+        self.__dict__["_base_costs_cache"] = (key, cost)
+        return cost
 
     def _step_costs(self) -> tuple[np.ndarray, np.ndarray]:
         """(length (S,) m, least cost (S,) s) of each step, its turn penalty aside."""
