@@ -59,7 +59,7 @@ class _Batch(NamedTuple):
 
 #: Footprints expanded without the heuristic falling before the search suspects the
 #: jumps near where it is stuck (``Planner._reroute``), and how often it may.
-STALL = 120
+STALL = 60
 MAX_REROUTES = 4
 
 
