@@ -13,6 +13,8 @@ from typing import Callable
 
 import numpy as np
 
+from .surface import ground_heights
+
 
 @dataclass(frozen=True)
 class FieldLimits:
@@ -268,15 +270,13 @@ class _Grid:
         xx, yy = np.meshgrid(cx, cy, indexing="ij")
         xy = np.c_[xx.ravel(), yy.ravel()]
         z = np.full((LAYERS, xy.shape[0]), np.nan)
-        hit = ground.ray_down(np.c_[xy, np.full(len(xy), hi[2] + step_height)], hi[2] - zlo + 2 * step_height)
-        z[0] = hit.z
+        z[0] = ground_heights(ground, np.c_[xy, np.full(len(xy), hi[2] + step_height)], hi[2] - zlo + 2 * step_height)
         for k in range(1, LAYERS):  # the levels below, where there is room for one
             top = z[k - 1] - HEADROOM * scale
             ask = np.flatnonzero(np.isfinite(top) & (top > zlo - 1e-6))
             if not len(ask):
                 break
-            below = ground.ray_down(np.c_[xy[ask], top[ask]], float(top[ask].max() - zlo) + 1e-3)
-            z[k, ask] = below.z
+            z[k, ask] = ground_heights(ground, np.c_[xy[ask], top[ask]], float(top[ask].max() - zlo) + 1e-3)
         used = max(1, int(np.isfinite(z).any(axis=1).sum()))
         z = z[:used].reshape(used, nx, ny)
         return _Grid(lo, cell, int(nx), int(ny), np.arange(z.size).reshape(z.shape), z, xy, scale)

@@ -15,6 +15,7 @@ from ..clips.steps import StepSet
 from ..footprint import PIVOT, STAND_LABEL, START_LABEL, PathFootprint
 from .islands import Islands
 from .search_state import SearchNode, _Search
+from .surface import ground_heights
 
 
 #: m: a step's curvature (``Settings.curvature_penalty``) is its veer over its clip's
@@ -175,8 +176,8 @@ class StepRules:
         pts = a[:, None] + (b - a)[:, None] * t[None, :, None]
         top = pts.copy()
         top[..., 2] = np.maximum(a[:, None, 2], b[:, None, 2]) + self.max_step_height
-        hit = self.ground.ray_down(top.reshape(-1, 3), 2 * self.max_step_height + self._len(0.2))
-        return pts, np.where(hit.hit, hit.z, np.nan).reshape(len(a), 3)
+        z = ground_heights(self.ground, top.reshape(-1, 3), 2 * self.max_step_height + self._len(0.2))
+        return pts, z.reshape(len(a), 3)
 
     def _under_bump(self, a: np.ndarray, b: np.ndarray, z: np.ndarray) -> np.ndarray:
         """(N,) whether the ground ``z`` (N, 3) between each ``a`` and ``b`` (N, 3) stays

@@ -519,19 +519,19 @@ def _blocked(obstacles: Ground, pos: np.ndarray, pts: np.ndarray, zc: np.ndarray
     ground points, 0.02 m up (times ``scale``), within that of one."""
     m = len(pos)
     levels = np.array([0.1 * scale, 0.5 * scale, 0.9 * scale, 1.3 * scale, body_height])
-    probe = np.empty((m, len(levels), 3))
-    probe[..., :2] = pos[:, None, :2]
-    probe[..., 2] = zc[:, None] + levels
-    _, d = obstacles.nearest(probe.reshape(-1, 3), max_dist=clearance)
-    blocked = (d < clearance).reshape(m, len(levels)).any(axis=1)
-    # inside or under an obstacle (a thick wall's inside is far from all its faces)
-    head = probe[:, -1]
-    blocked |= obstacles.ray_down(head, body_height - 0.05 * scale).hit
-    # the foot itself must not stand in an obstacle either
     near = 0.02 * scale
-    foot_pts = np.empty((m, 5, 3))
-    foot_pts[..., :2] = pts
-    foot_pts[..., 2] = zc[:, None] + near
-    _, df = obstacles.nearest(foot_pts.reshape(-1, 3), max_dist=near)
-    blocked |= (df < near).reshape(m, 5).any(axis=1)
+    # the body's points over each footprint, then the foot's own, 2 cm up: one query for both
+    probe = np.empty((m, len(levels) + 5, 3))
+    probe[:, :len(levels), :2] = pos[:, None, :2]
+    probe[:, :len(levels), 2] = zc[:, None] + levels
+    probe[:, len(levels):, :2] = pts
+    probe[:, len(levels):, 2] = zc[:, None] + near
+    _, d = obstacles.nearest(probe.reshape(-1, 3), max_dist=max(clearance, near))
+    d = d.reshape(m, -1)
+    blocked = (d[:, :len(levels)] < clearance).any(axis=1)
+    # the foot itself must not stand in an obstacle either
+    blocked |= (d[:, len(levels):] < near).any(axis=1)
+    # inside or under an obstacle (a thick wall's inside is far from all its faces)
+    head = probe[:, len(levels) - 1]
+    blocked |= obstacles.ray_down(head, body_height - 0.05 * scale).hit
     return blocked
