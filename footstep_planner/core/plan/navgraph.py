@@ -527,6 +527,9 @@ class Planner(StepRules, Refusals):
         when it leaves the open list after every footprint near the goal cheaper than it
         (each a step short of it) was expanded."""
         goal, cfg = search.goal, self.settings
+        parent = search.nodes[batch.parent].position
+        if np.hypot(parent[0] - goal[0], parent[1] - goal[1]) > cfg.goal_radius + self._reach():
+            return
         near = np.hypot(batch.nxt[:, 0] - goal[0], batch.nxt[:, 1] - goal[1]) <= cfg.goal_radius
         if search.goal_heading is not None:
             near &= np.abs(wrap(batch.psi - search.goal_heading)) <= cfg.goal_heading_tolerance
@@ -540,6 +543,16 @@ class Planner(StepRules, Refusals):
             if batch.state[j] == 1:
                 search.arrival = (float(batch.g[j]), len(search.batches) - 1, j)
                 break
+
+    def _reach(self) -> float:
+        """m: farther than any successor lands from its footprint: the library's longest
+        step (a jump's too), and a metre for a step set square on a tread or wholly on a
+        stone."""
+        got = self.__dict__.get("_reach_cache")
+        if got is None or got[0] != self.steps.n:
+            got = self.__dict__["_reach_cache"] = (self.steps.n, float(np.max(self._gait_reach(), initial=0.0))
+                                                  + self._len(1.0))
+        return got[1]
 
     def _arrive(self, search: _Search) -> int:
         """The node of the search's arrival (``_offer_arrivals``), added to its nodes."""

@@ -1,8 +1,8 @@
 """The clips people download, baked: the CC0 Quaternius game character imported from its FBX
 as it is (11 one-cycle takes at 24 fps, its feet parented to its root bone, 4.85 m tall,
 set to a human's size by its object's scale, as its README says a user does) plans and
-bakes the sample scenes from standing to standing with its idle, the Jumps scene with its
-running jump; and with every library, as Blender plays the bake, no heel, ball or toe tip
+bakes the sample scenes from standing to standing with its idle, the Jumps scene's gaps
+crossed by its running steps (2 m and more: they span them) or its running jump; and with every library, as Blender plays the bake, no heel, ball or toe tip
 goes more than 1 cm into the floor (the toe tip: its toe bone's end, or for a foot with no
 toe bone, like the Quaternius one, its skinned mesh's)."""
 
@@ -36,6 +36,24 @@ def _bake(fp, scene, ob):
     return planning.run(scene, ob, goal, heading, start, name="feet", frame_start=1)
 
 
+def _gap_crossings(fp, scene, footprints):
+    """The footprints of the path whose step from the one before crosses missing ground
+    (no traversable surface within 0.5 m under a point a quarter, half or three quarters
+    of the way)."""
+    import bpy
+
+    surfaces = import_module(fp.__name__ + ".blender.read.surfaces")
+    ground, _ = surfaces.scene_surfaces(scene, bpy.context.evaluated_depsgraph_get())
+    out = []
+    for a, b in zip(footprints[:-1], footprints[1:]):
+        pa, pb = np.asarray(a["position"], float), np.asarray(b["position"], float)
+        pts = pa + np.array([0.25, 0.5, 0.75])[:, None] * (pb - pa)
+        pts[:, 2] = max(pa[2], pb[2]) + 0.25
+        if not ground.ray_down(pts, 0.5).hit.all():
+            out.append(b)
+    return out
+
+
 def _quaternius(fp, scene):
     clips = import_module(fp.__name__ + ".blender.read.clips")
     scene_mod = import_module(fp.__name__ + ".blender.read.scene")
@@ -63,8 +81,10 @@ def test_the_quaternius_character_as_downloaded_bakes_the_sample_scenes(fp, name
     clips = doc["synthesis"]["clips"]
     assert "Man_Idle" in clips  # (it stands at either end in its own idle, not its clapping)
     assert not any(c in clips for c in ("Man_Death", "Man_Sitting", "Man_Clapping", "Man_SwordSlash"))
-    if name == "jumps":  # (the gaps are crossed with its running jump)
-        assert any(f.get("jump") for f in doc["footprints"]) and "Man_RunningJump" in clips
+    if name == "jumps":  # (its running steps are 2 m or more: each gap crossed by a run or its jump)
+        crossing = _gap_crossings(fp, scene, doc["footprints"])
+        assert crossing and all(f["gait"] == "run" or f["jump"] for f in crossing), crossing
+        assert not any(f["jump"] for f in doc["footprints"]) or "Man_RunningJump" in clips
     body = np.asarray(doc["synthesis"]["body"]["position"])
     v = np.linalg.norm(np.diff(body[:, :2], axis=0), axis=1) * doc["synthesis"]["fps"]
     assert v[0] < 0.02 and v[-1] < 0.02  # (from standing to standing)
