@@ -215,8 +215,8 @@ class BvhGround:
         if self.tree is not None and len(p):
             cast, down, dist, nan = self.tree.ray_cast, (0.0, 0.0, -1.0), max_dist + 1e-9, float("nan")
             for s in range(0, len(p), RAY_CHUNK):  # (see RAY_CHUNK)
-                z[s:s + RAY_CHUNK] = [nan if r[0] is None else r[0][2]
-                                      for r in (cast(q, down, dist) for q in p[s:s + RAY_CHUNK].tolist())]
+                res = [cast(q, down, dist) for q in p[s:s + RAY_CHUNK].tolist()]
+                z[s:s + RAY_CHUNK] = [nan if r[0] is None else r[0][2] for r in res]
         return z
 
     def nearest(self, points, max_dist: float = np.inf):

@@ -476,7 +476,7 @@ def _foot_plane(pts: np.ndarray, z: np.ndarray, nor: np.ndarray, all_hit: np.nda
         # (the least-squares plane in closed form, about the points' centroid: the 2 x 2
         # normal equations of the slopes, then the height)
         x, y, zz = pts[i, :, 0], pts[i, :, 1], z[i]
-        xm, ym, zm = x.mean(axis=1), y.mean(axis=1), zz.mean(axis=1)
+        xm, ym, zm = x.sum(axis=1) / k, y.sum(axis=1) / k, zz.sum(axis=1) / k
         dx, dy, dz = x - xm[:, None], y - ym[:, None], zz - zm[:, None]
         sxx, syy, sxy = (dx * dx).sum(axis=1), (dy * dy).sum(axis=1), (dx * dy).sum(axis=1)
         sxz, syz = (dx * dz).sum(axis=1), (dy * dz).sum(axis=1)
