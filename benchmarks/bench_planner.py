@@ -6,7 +6,7 @@ of plain A* (heuristic_weight 1, a large expansion budget), and the result or th
 failure message. Prints the table with medians and worsts; writes nothing.
 
     .venv/bin/python benchmarks/bench_planner.py [--only NAME,...] [--no-reference] [--seed 15]
-        [--library cmu|sample] [--held-out] [--repeat N]
+        [--library cmu|sample] [--held-out] [--repeat N] [--vs CHECKOUT]
 
 The reference searches take tens of CPU minutes in all (plain A* expands up to hundreds
 of thousands of footprints per scene; ``--reference-budget``, default REFERENCE_BUDGET);
@@ -16,7 +16,10 @@ planner's weighted-search tuning). Each reference carries the fingerprint of the
 set it was searched with; a reference of another library (the clips' analysis changed
 since) is left out, saying so. ``--character FILE.npz`` freezes the library: read from
 the file when it exists, else analysed and written there, so runs compare on the same
-steps while the analysis changes.
+steps while the analysis changes. ``--vs CHECKOUT`` (a reference commit's worktree) plans
+each scene in this checkout and that one in turn, in two long-lived processes, and prints
+both trees' least CPU times over ``--repeat`` rounds: this machine's speed swings by half
+within a minute, and whole runs one after the other do not compare.
 """
 
 import argparse
@@ -182,6 +185,78 @@ def print_table(rows, scenes, repeat: int = 1) -> None:
           f"machine: {os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}")
 
 
+#: A process that plans scenes of the checkout at ``argv[1]`` one at a time as their names
+#: come on its standard input, printing each one's CPU ms and result (``--vs``): only the
+#: benchmark helpers every checkout since issue 15 has (``scene_generator``,
+#: ``load_character``), so a reference commit needs nothing of today's.
+_WORKER = """
+import json, sys, time
+root, library, seed, held, cross = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4] == "1", sys.argv[5] == "1"
+sys.path[:0] = [root + "/benchmarks", root]
+from scene_generator import benchmark_scenes, held_out_scenes, make_planner
+import bench_planner as bp
+from footstep_planner.core.base.settings import Settings
+from footstep_planner.core.plan.navgraph import PlanError
+character = bp.load_character("", library)
+scenes = {s.name: s for s in benchmark_scenes(seed) + (held_out_scenes() if held else [])}
+print(json.dumps(list(scenes)), flush=True)
+for line in sys.stdin:
+    pl, start, goal = make_planner(scenes[line.strip()], character, Settings(cross_gaps=cross))
+    t = time.process_time()
+    try:
+        r = pl.plan(start, goal)
+        got = [r.expanded, round(r.cost, 6)]
+    except PlanError as e:
+        got = [e.expanded, None]
+    print(json.dumps([(time.process_time() - t) * 1e3, got]), flush=True)
+"""
+
+
+def side_by_side(other: str, args, names) -> None:
+    """Plan each scene in this checkout and in ``other``, in two long-lived processes (the
+    library analysed once in each), scene by scene in turn for ``args.repeat`` rounds (the
+    order of the two swapped each round), and print each scene's least CPU ms for both,
+    their medians and worsts and the ratio: a comparison that holds while the machine's
+    speed drifts, which whole runs one after the other do not."""
+    import statistics
+    import subprocess
+
+    def start(root):
+        cmd = [sys.executable, "-c", _WORKER, root, args.library, str(args.seed), "1" if args.held_out else "0",
+               "0" if args.no_cross_gaps else "1"]
+        p = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        return p, json.loads(p.stdout.readline())
+
+    today, ref = start(os.path.dirname(HERE)), start(os.path.abspath(other))
+    ms = {n: ([], []) for n in names}
+    same = {}
+    for r in range(max(1, args.repeat)):
+        for n in names:
+            order = ((today, 0), (ref, 1)) if r % 2 == 0 else ((ref, 1), (today, 0))
+            got = {}
+            for (p, _), k in order:
+                p.stdin.write(n + "\n")
+                p.stdin.flush()
+                t, got[k] = json.loads(p.stdout.readline())
+                ms[n][k].append(t)
+            same[n] = got[0] == got[1]
+    for p, _ in (today, ref):
+        p.stdin.close()
+        p.wait()
+    print(f"{'scene':20s} {'today ms':>9s} {'other ms':>9s} {'ratio':>6s}  same path")
+    a, b = [], []
+    for n in names:
+        a.append(min(ms[n][0]))
+        b.append(min(ms[n][1]))
+        print(f"{n:20s} {a[-1]:9.0f} {b[-1]:9.0f} {a[-1] / b[-1]:6.2f}  {'yes' if same[n] else 'no'}")
+    print(f"\nplan cpu ms, each scene's least of {max(1, args.repeat)}, side by side with {other}: today median "
+          f"{statistics.median(a):.0f}, worst {max(a):.0f}; other median {statistics.median(b):.0f}, worst "
+          f"{max(b):.0f}; today's total {sum(a) / sum(b):.2f} of the other's, the median scene's "
+          f"{statistics.median(x / y for x, y in zip(a, b)):.2f}; the same expansions and cost on "
+          f"{sum(same.values())} of {len(names)} scenes; machine: {os.cpu_count()} cores, load "
+          f"{os.getloadavg()[0]:.2f}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--only", default="")
@@ -201,6 +276,9 @@ def main():
                     help="the CMU subject-16 library (default) or the sample character's generated clips")
     ap.add_argument("--no-cross-gaps", action="store_true",
                     help="plan without Settings.cross_gaps (steps keep to the ground; every gap is jumped)")
+    ap.add_argument("--vs", default="", metavar="CHECKOUT",
+                    help="plan side by side with another checkout (a reference commit's worktree), scene by scene "
+                         "in turn, --repeat rounds, and print both trees' times instead of the table")
     ap.add_argument("--held-out", action="store_true",
                     help="also the scenes of kinds the planner was never tuned on (scene_generator.held_out_scenes)")
     args = ap.parse_args()
@@ -210,6 +288,8 @@ def main():
     if args.only:
         keep = args.only.split(",")
         scenes = [s for s in scenes if any(k in s.name for k in keep)]
+    if args.vs:
+        return side_by_side(args.vs, args, [s.name for s in scenes])
     character = load_character(args.character, args.library)
     library = fingerprint(character)
     if args.write_reference:
