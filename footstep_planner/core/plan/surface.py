@@ -12,6 +12,7 @@ questions the same way; a test holds them equal.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Protocol
 
 import numpy as np
@@ -256,17 +257,14 @@ class FootShape:
         corners and the reference point (``corners``), the rectangle's sides level with
         the reference point, and TIP_ROOM ahead of the toe tip (ahead of the reference,
         at ``tip`` or ``front``)."""
-        return self._placed(self._probes_local(), pos, heading, forward)
+        return self._placed(self._probes_local, pos, heading, forward)
 
+    @cached_property
     def _probes_local(self) -> np.ndarray:
         """(8, 2) ``probes``' points in the foot's frame (made once per shape: the search
         asks for them at every check)."""
-        got = _PROBES.get(self)
-        if got is None:
-            got = _PROBES[self] = np.concatenate([self._corners_local(), [
-                [0.0, -self.half_width], [0.0, self.half_width],
-                [max(self.tip, self.front) + TIP_ROOM * self.scale, 0.0]]])
-        return got
+        return np.concatenate([self._corners_local(), [[0.0, -self.half_width], [0.0, self.half_width],
+                                                       [max(self.tip, self.front) + TIP_ROOM * self.scale, 0.0]]])
 
     def corners(self, pos: np.ndarray, heading: np.ndarray, forward: np.ndarray) -> np.ndarray:
         """(N, 5, 2) ground points of each footprint: the four corners, then the
@@ -290,10 +288,6 @@ class FootShape:
         out[..., 0] = pos[..., None, 0] + u * c - v * s
         out[..., 1] = pos[..., None, 1] + u * s + v * c
         return out
-
-
-#: ``FootShape.probes``' points in the foot's frame, by shape (a handful per process).
-_PROBES: dict = {}
 
 
 #: m: the ground steps (up or down) by more than this between two samples EDGE_SPACING m
