@@ -32,6 +32,8 @@ timing and footprints (1, 2) in ``course``, the feet (3) in ``feet``, the body a
 
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
 from dataclasses import replace
 
 import numpy as np
@@ -111,13 +113,47 @@ REF_HIPS = 0.95
 SAME_SIZE = 1e-4
 
 
+#: The clips generated in this process by what they were made from (``_made_from``):
+#: the sample character is made again for each scene, file and test, the same each time.
+_GENERATED: "OrderedDict[tuple, GaitClip]" = OrderedDict()
+#: clips kept at most (the latest; the sample library is 15 clips, a few hundred kB each)
+GENERATED_KEPT = 64
+
+
 def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
     """Generate one clip for ``rig`` at ``fps``: the mannequin, or a rig with the human
     metarig's hips and leg bones (``require_metarig``; spine and arm bones are posed
     where they have the metarig's names too). A rig of other proportions gets the gait
     scaled to its legs: lengths by the ratio of leg lengths (``size``), speeds and times
     by its square root (equal Froude numbers), heights measured down from its hips' rest
-    height. The passes follow the module docstring's steps."""
+    height. The passes follow the module docstring's steps.
+
+    A clip made before from the same rig, spec and rate is given again (its arrays read
+    only): the generation is a function of those alone."""
+    key = _made_from(rig, spec, fps)
+    clip = _GENERATED.get(key)
+    if clip is None:
+        clip = _generate(rig, spec, fps)
+        for a in (clip.basis, clip.hips_drop):
+            a.setflags(write=False)
+        _GENERATED[key] = clip
+        while len(_GENERATED) > GENERATED_KEPT:
+            _GENERATED.popitem(last=False)
+    _GENERATED.move_to_end(key)
+    return clip
+
+
+def _made_from(rig: Rig, spec: ClipSpec, fps: float) -> tuple:
+    """What ``generate`` makes a clip from: the rig's bones, hierarchy, rests, tails and
+    roles, the spec and the rate."""
+    h = hashlib.sha1(repr((rig.names, rig.roles)).encode())
+    for a in (rig.parents, rig.rest, rig.tails):
+        h.update(np.ascontiguousarray(a, np.float64).tobytes())
+    return h.hexdigest(), spec, float(fps)
+
+
+def _generate(rig: Rig, spec: ClipSpec, fps: float) -> GaitClip:
+    """``generate``'s work (its passes numbered as in the module docstring)."""
     require_metarig(rig)
     spec, size, stand_height = _fit_to_legs(rig, spec)
     course = _course(spec, fps, size)  # 1. path and timing

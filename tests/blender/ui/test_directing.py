@@ -4,6 +4,7 @@ Blender plays the scene, identical); paths through waypoints; plans as data thro
 command line."""
 
 import json
+import shutil
 from importlib import import_module
 
 import numpy as np
@@ -174,21 +175,30 @@ def test_the_panels_edit_lock_replan_and_undo(fp, empty_scene):
     assert baked(ob) == action  # nothing baked
 
 
-@pytest.fixture
-def shot(fp, empty_scene, tmp_path):
+@pytest.fixture(scope="module")
+def shot_file(fp, tmp_path_factory):
     """The Turns scene with the sample character saved, and two waypoint empties A and B
-    near the direct path's thirds."""
+    near the direct path's thirds: made once for the module (``shot`` copies it)."""
     import bpy
 
+    bpy.ops.wm.read_homefile(use_empty=True)
     scene, ob, planning, goal, heading = _turns_scene(fp)
     fps = planning.plan(scene, ob, goal, heading, scene.objects["Start"])[0].footprints
     for name, i in (("A", len(fps) // 3), ("B", 2 * len(fps) // 3)):
         e = bpy.data.objects.new(name, None)
         e.location = fps[i].position
         scene.collection.objects.link(e)
-    path = str(tmp_path / "shot.blend")
+    path = str(tmp_path_factory.mktemp("shot") / "shot.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
-    return tmp_path, path
+    return path
+
+
+@pytest.fixture
+def shot(shot_file, empty_scene, tmp_path):
+    """(a folder of the test's own, the shot's file in it): a copy of ``shot_file``."""
+    path = tmp_path / "shot.blend"
+    shutil.copyfile(shot_file, path)
+    return tmp_path, str(path)
 
 
 def test_a_bake_through_waypoints_visits_them_in_order(fp, shot, capsys):

@@ -208,3 +208,20 @@ def test_the_reference_proportions_are_the_mannequins():
 
     assert sum(leg_lengths(RIG, "l")) == pytest.approx(gait.REF_LEG, abs=1e-9)
     assert RIG.rest[RIG.role_index("hips"), 2, 3] == pytest.approx(gait.REF_HIPS, abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["walk", "run_jump"])
+def test_a_clip_generated_again_is_the_one_made_from_its_rig_spec_and_rate(name):
+    """``generate`` gives a clip made before from an equal rig, spec and rate again (read
+    only), the very clip a fresh generation makes; another rig, spec or rate makes its own."""
+    spec = SPECS[name]
+    again = gait.generate(mannequin.rig(), spec, FPS)
+    assert again is gait.generate(RIG, spec, FPS)
+    fresh = gait._generate(RIG, spec, FPS)
+    assert np.array_equal(again.basis, fresh.basis) and np.array_equal(again.hips_drop, fresh.hips_drop)
+    with pytest.raises(ValueError):
+        again.basis[0, 0, 0, 0] = 2.0
+    for other in (gait.generate(_scaled_rig(1.1), spec, FPS), gait.generate(RIG, spec, 24.0),
+                  gait.generate(RIG, SPECS["run"], FPS)):
+        assert other is not again and not (other.basis.shape == again.basis.shape
+                                            and np.array_equal(other.basis, again.basis))
