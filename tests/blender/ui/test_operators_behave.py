@@ -3,6 +3,7 @@ are in a menu (so F3 finds them), Esc during Bake cancels only what was not writ
 says what was kept, the status bar is given back, and nothing of one file's plan (the
 overlay's footprints, the reports) outlives it or is saved into it."""
 
+import shutil
 from importlib import import_module
 from types import SimpleNamespace
 
@@ -16,10 +17,10 @@ def _mod(fp, name):
     return import_module(f"{fp.__name__}.blender.{name}")
 
 
-@pytest.fixture
-def mannequin_scene(fp):
+@pytest.fixture(scope="module")
+def mannequin_file(fp, tmp_path_factory):
     """The Jumps sample scene with the Footstep Mannequin and its generated clips as the
-    planner's character, walking from Start to Goal."""
+    planner's character, walking from Start to Goal, saved once for the module."""
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
@@ -29,7 +30,22 @@ def mannequin_scene(fp):
     fs = scene.footstep
     fs.character, fs.goal, fs.start = ob, scene.objects["Goal"], scene.objects["Start"]
     fs.edit_footprints = False
-    return scene, ob
+    path = str(tmp_path_factory.mktemp("operators") / "jumps.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
+    return path
+
+
+@pytest.fixture
+def mannequin_scene(fp, mannequin_file, tmp_path):
+    """(scene, character): a copy of ``mannequin_file`` opened for the test (nothing it
+    saves reaches the next test)."""
+    import bpy
+
+    path = tmp_path / "jumps.blend"
+    shutil.copyfile(mannequin_file, path)
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene = bpy.context.scene
+    return scene, scene.footstep.character
 
 
 def _footstep_operators():
