@@ -290,8 +290,10 @@ class StepRules:
     def _gap_steps(self) -> list[tuple[float, float]]:
         """(reach m, extra m) of the walk's steps and then the run's (where they reach
         further) over a gap, for the distance field's bridges: the gait's longest step,
-        from footprint to footprint, and a field cell more (a gap's border cells lie up to
-        a cell further apart than the footprints either side), and what the gait's steps
+        from footprint to footprint, less the foot's length (a step across a gap has both
+        its footprints standing, one behind the gap's near edge and one past its far edge:
+        the gap it spans, ``_gap_spanned``), and a field cell more (a gap's border cells lie
+        up to a cell further apart than the gap), and what the gait's steps
         cost beyond their length at the heuristic's speed (the least of them: a walk's
         nothing, a run's its penalty), so the heuristic stays a lower bound."""
         st = self.steps
@@ -302,7 +304,7 @@ class StepRules:
             own = (st.gait == gait) & ~st.jump
             if not own.any():
                 continue
-            reach = float(length[own].max()) + self.field_cell
+            reach = float(length[own].max()) - (self.foot.back + self.foot.front) + self.field_cell
             extra = float(max(np.min(cost[own] - length[own] / v), 0.0) * v)
             if not out or reach > out[-1][0]:
                 out.append((reach, extra if out else 0.0))
