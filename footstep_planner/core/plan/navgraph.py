@@ -250,10 +250,12 @@ class Planner(StepRules, Refusals):
         cells = self.field_cells()
         dist = self.distance_field(goal, cells=cells)
         field_seconds = time.perf_counter() - t_field
-        if not self.steps.jump.any():  # (ground apart and no jump clip: said by the gap no step spans)
+        if self.steps.jump.any():  # (the map's message measures the gap against the step and the jump)
+            self._refuse_unreachable(dist, start, goal)
             self._refuse_apart(start, goal)
-        self._refuse_unreachable(dist, start, goal)
-        self._refuse_apart(start, goal)
+        else:  # (ground apart and no jump clip: said by the gap no step spans)
+            self._refuse_apart(start, goal)
+            self._refuse_unreachable(dist, start, goal)
         search = _Search(goal, goal_heading, self._heuristic(dist, goal), self._base_costs(), self.steps.veer())
         search.cells = cells
         search.field_seconds = field_seconds

@@ -132,14 +132,15 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
     only): the generation is a function of those alone."""
     key = _made_from(rig, spec, fps)
     clip = _GENERATED.get(key)
-    if clip is None:
-        clip = _generate(rig, spec, fps)
-        for a in (clip.basis, clip.hips_drop):
-            a.setflags(write=False)
-        _GENERATED[key] = clip
-        while len(_GENERATED) > GENERATED_KEPT:
-            _GENERATED.popitem(last=False)
-    _GENERATED.move_to_end(key)
+    if clip is not None:
+        _GENERATED.move_to_end(key)
+        return clip
+    clip = _generate(rig, spec, fps)
+    for a in (clip.basis, clip.hips_drop):
+        a.setflags(write=False)
+    _GENERATED[key] = clip
+    while len(_GENERATED) > GENERATED_KEPT:
+        _GENERATED.popitem(last=False)
     return clip
 
 
