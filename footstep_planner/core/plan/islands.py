@@ -231,13 +231,16 @@ class Patches:
         nrm, off = self.normal[p_], self.offset[p_]  # (M, K, 2), (M, K)
         dist = np.einsum("mkc,mjc->mjk", nrm, pts) + off[:, None]  # (M, 5, K) > 0 outside an edge
         partly = (dist.max(axis=2) <= 0).any(axis=1) & (dist[:, :4].max(axis=(1, 2)) > -EDGE_MARGIN * scale)
+        if not partly.any():
+            return xy, moved
+        n_, nrm, off, dist = n_[partly], nrm[partly], off[partly], dist[partly]
         # the moves t that put every corner inside: nrm . t <= r for each edge
-        r = -off - EDGE_MARGIN * scale - np.einsum("mkc,mjc->mjk", nrm, pts[:, :4]).max(axis=1)
+        r = -EDGE_MARGIN * scale - dist[:, :4].max(axis=1)
         real = np.abs(nrm).sum(axis=2) > 0
         r = np.where(real, r, np.inf)
         t = _least_move(nrm, r)  # (M, 2), nan where none
         size = np.linalg.norm(t, axis=1)
-        good = partly & np.isfinite(size) & (size <= most)
+        good = np.isfinite(size) & (size <= most)
         if not good.any():
             return xy, moved
         n_, t, size = n_[good], t[good], size[good]
