@@ -33,7 +33,9 @@ the w bound on the cost approximate; the planner benchmark measures the cost fou
 against plain A*'s.) When the search floods a place without getting nearer (``STALL``
 expansions), it suspects the jumps the map promised there and takes the map without
 them (over the cells built once per search), when the goal can still be reached without
-them, dropping the open footprints that those jumps reached. w = 1 is plain A*. A
+them, dropping the open footprints that those jumps reached; where there is no bridge to
+drop, or the goal needs it, it turns greedier sooner (the weight up by ``STALL_RAISE``
+of its excess). w = 1 is plain A*. A
 refused plan says where the search got to and what blocks the library's steps there
 (``Rejections``: the wall and the clearance, the step's height, the treads' depth
 against the foot, the gap's width against the jump's reach).
@@ -87,6 +89,10 @@ CHECK_CHUNK = 12
 #: adds a quarter of it every RAISE_EVERY footprints expanded (``Planner._weigh``).
 START_WEIGHT = 0.2
 RAISE_EVERY = 100
+#: ... and an eighth where it stalls with no bridge to drop (``Planner._reroute``): the
+#: stepping stones with CMU in 134 expansions (were 218) on a cheaper path, a jump
+#: after a run-up (island_jump) in 113 (were 203).
+STALL_RAISE = 0.125
 
 #: The weighted search ends with the cheapest checked successor that reaches the goal once
 #: nothing open costs less than this fraction below it (``Planner._offer_arrivals``):
@@ -341,12 +347,23 @@ class Planner(StepRules, Refusals):
         footprints by it, dropping those reached through such a jump (they stand where
         the search got stuck; the closed stay closed: the path stays valid)."""
         search.reroutes += 1
-        t = time.perf_counter()
         where = search.best_h[2]
-        dist = self.distance_field(search.goal, (where, self._len(REROUTE_RADIUS)), search.cells)
+        avoid = (where, self._len(REROUTE_RADIUS))
+        edges = search.cells.bridge_edges
+        if not len(edges[0]) or len(search.cells.grid.away(*edges, avoid)[0]) == len(edges[0]):
+            # (no bridge there: the search floods a corner or ground the map prices too
+            # cheaply, and turns greedier sooner, by STALL_RAISE)
+            search.best_h = (search.best_h[0], search.expanded, where)
+            self._raise_weight(search, STALL_RAISE)
+            return
+        t = time.perf_counter()
+        dist = self.distance_field(search.goal, avoid, search.cells)
         search.field_seconds += time.perf_counter() - t
         if not np.isfinite(dist.at_many(np.atleast_2d(where))[0]):
+            # (the goal needs the map's bridges there: the search floods a gap's edge it must
+            # cross by a step the map prices too cheaply, and turns greedier sooner)
             search.best_h = (search.best_h[0], search.expanded, where)
+            self._raise_weight(search, STALL_RAISE)
             return
         search.heuristic = self._heuristic(dist, search.goal)
         self._drop_after_jumps(search, np.asarray(where, float))
@@ -400,9 +417,15 @@ class Planner(StepRules, Refusals):
         """The weight grows from ``START_WEIGHT`` of the user's excess over 1 by a quarter
         of it every ``RAISE_EVERY`` footprints expanded, up to the user's: a short search
         finds a path near the cheapest; a long one turns greedy, still within the weight."""
+        if search.expanded and search.expanded % RAISE_EVERY == 0:
+            self._raise_weight(search)
+
+    def _raise_weight(self, search: _Search, by: float = 0.25) -> None:
+        """The weight up by ``by`` of the user's excess over 1 (at most the user's), the
+        open list re-ranked by it."""
         w = self.settings.heuristic_weight
-        if search.weight < w and search.expanded and search.expanded % RAISE_EVERY == 0:
-            search.weight = min(w, search.weight + 0.25 * (w - 1.0))
+        if search.weight < w:
+            search.weight = min(w, search.weight + by * (w - 1.0))
             self._rerank(search)
 
     def _heuristic(self, dist: "DistanceField", goal: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
@@ -412,6 +435,7 @@ class Planner(StepRules, Refusals):
         vmax, slack = self._cost_speed()
         radius = self.settings.goal_radius
         per_rad = AHEAD_TURN_COST if self.settings.heuristic_weight > 1.0 else 0.0
+        smooth = self.settings.heuristic_weight > 1.0  # (plain A*'s stays the cells' own)
         yaw = float(np.arctan2(self.forward[1], self.forward[0]))
 
         def heuristic(p, psi=None):
