@@ -191,7 +191,7 @@ class FieldCells:
         walk = has_ground & ~blocked
         if support is not None:
             walk = grid.foot_room(support, walk)
-        edges = grid.neighbour_edges(walk, step_height, grid.edge_cells(walk), edge_cost)
+        edges = grid.neighbour_edges(walk, step_height, grid.edge_cells(walk, has_ground), edge_cost)
         walk_edges = tuple(np.concatenate(e) for e in zip(*edges))
         gap = grid.gaps(has_ground, step_height)
         bridges, shortest = [], 1.5 * cell  # (beyond the 8 neighbours)
@@ -335,12 +335,29 @@ class _Grid:
                 blocked.ravel()[idx[d < clearance * 0.9]] = True
         return has_ground, blocked
 
-    def edge_cells(self, walk: np.ndarray) -> np.ndarray:
+    def edge_cells(self, walk: np.ndarray, has_ground: np.ndarray | None = None) -> np.ndarray:
         """(L, nx, ny) walkable cell levels beside an unwalkable cell (no ground, or an
-        obstacle too near): a footprint there has little room."""
-        pw = np.pad(walk.any(axis=0), 1)
-        inner = pw[2:, 1:-1] & pw[:-2, 1:-1] & pw[1:-1, 2:] & pw[1:-1, :-2]
-        return walk & ~inner[None]
+        obstacle too near): a footprint there has little room. With ``has_ground`` (L,
+        nx, ny), one beside an obstacle alone counts only where an inner cell (walkable
+        on its four sides) is among its eight neighbours: between walls two cells apart
+        (a corridor a metre wide) the way has to go along them, and counting it dearer
+        told the search that each metre there costs more than it does (CMU ran the
+        length of a 1 m corridor, its long running steps seeming the cheaper by the
+        map). An edge of the ground (a platform's, a stepping stone's) counts always."""
+        any_walk = walk.any(axis=0)
+        pw = np.pad(any_walk, 1)
+        inner = any_walk & pw[2:, 1:-1] & pw[:-2, 1:-1] & pw[1:-1, 2:] & pw[1:-1, :-2]
+        edge = walk & ~inner[None]
+        if has_ground is None:
+            return edge
+        pg = np.pad(has_ground.any(axis=0), 1, constant_values=False)
+        void = ~(pg[2:, 1:-1] & pg[:-2, 1:-1] & pg[1:-1, 2:] & pg[1:-1, :-2])
+        pi = np.pad(inner, 1)
+        room = np.zeros_like(inner)
+        for di in (0, 1, 2):
+            for dj in (0, 1, 2):
+                room |= pi[di:di + inner.shape[0], dj:dj + inner.shape[1]]
+        return edge & (room | void)[None]
 
     def flight_cells(self, walk: np.ndarray, step_height: float) -> np.ndarray:
         """(L, nx, ny) walkable cell levels with a step up or down (more than CLIMB_STEP,
