@@ -532,12 +532,16 @@ class Planner(StepRules, Refusals):
         leaves the open list), but for the ones already pushed as cheaply to the same
         fine footprint."""
         node = search.nodes[idx]
-        sel, nxt, npsi, keys = self._successors(search, node)
+        sel, nxt, npsi, keys, tread = self._successors(search, node)
         if not len(sel):
             return
         st = self.steps
         change = np.where(st.gait[sel] != node.gait, self.settings.gait_change_penalty, 0.0)
-        cost = node.cost + (search.base_cost[sel] + change + self._weave(search, node, sel))
+        step_cost = search.base_cost[sel] + self._weave(search, node, sel)
+        if tread.any():  # (set square on a stair's tread: priced as placed, ``_tread_costs``)
+            step_cost = np.where(tread, self._tread_costs()[sel]
+                                 + self.settings.turn_penalty * np.abs(wrap(npsi - node.heading)), step_cost)
+        cost = node.cost + (step_cost + change)
         fine = _pack(1 - node.foot, self._gait_ids[sel], nxt, npsi, self.fine_cell, FINE_HEADING_BINS)
         keep = _cheaper(search.best_g, fine, cost)
         if not len(keep):
@@ -595,7 +599,8 @@ class Planner(StepRules, Refusals):
 
     def _successors(self, search: _Search, node: SearchNode):
         """The steps that may follow ``node`` (indices (K,)), where they land (K, 2) and
-        turned how (K,), with their merge keys; merged-away (closed) ones dropped. No
+        turned how (K,), with their merge keys and whether each was set square on a
+        stair's tread (K,); merged-away (closed) ones dropped. No
         jump follows a jump, a jump is entered running, and the first step from a start
         (standing: ``_start_gaits``) keeps its gait and does not jump."""
         st = self.steps
@@ -607,6 +612,7 @@ class Planner(StepRules, Refusals):
         nxt[:, 0] = node.position[0] + fwd * c - left * s_
         nxt[:, 1] = node.position[1] + fwd * s_ + left * c
         npsi = wrap(node.heading + st.turn[sel])
+        tread = np.zeros(len(sel), bool)
         if len(self.treads) and len(sel):  # (on a stair's tread: square to it, wholly on it)
             yaw0 = ang - node.heading
             side = 1.0 if node.foot == 1 else -1.0  # (a left foot follows a right one)
@@ -615,15 +621,15 @@ class Planner(StepRules, Refusals):
                                                self.foot, self.max_step_height,
                                                beside=(node.position, self.steps.stance_width(), side))
             keep = state >= 0  # (no foot askew on a flight)
-            sel, nxt, npsi = sel[keep], nxt[keep], wrap(a[keep] - yaw0)
+            sel, nxt, npsi, tread = sel[keep], nxt[keep], wrap(a[keep] - yaw0), state[keep] == 1
         if len(self.patches) and len(sel):  # (partly on a stepping stone: wholly on it)
             nxt = self._onto_patches(node, sel, nxt, npsi)
         keys = self._keys(1 - node.foot, self._gait_ids[sel], nxt, npsi)
         shut = search.closed.__contains__
         todo = [j for j, k in enumerate(keys) if not shut(k)]
         if len(todo) == len(keys):
-            return sel, nxt, npsi, keys
-        return sel[todo], nxt[todo], npsi[todo], [keys[j] for j in todo]
+            return sel, nxt, npsi, keys, tread
+        return sel[todo], nxt[todo], npsi[todo], [keys[j] for j in todo], tread[todo]
 
     def _steps_from(self, node: SearchNode) -> np.ndarray:
         """(K,) the indices of the steps that may follow ``node`` (``_successors``' rules),

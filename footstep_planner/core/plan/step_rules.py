@@ -239,6 +239,25 @@ class StepRules:
         self.__dict__["_base_costs_cache"] = (key, cost)
         return cost
 
+    def _tread_costs(self) -> np.ndarray:
+        """(S,) s: each step's cost where it is set square on a stair's tread (``Treads``):
+        its duration, without the stride penalty (every step on a flight is shortened to
+        its treads, and the penalty, meant to keep a level way to the clips' own strides,
+        made each tread cost up to three times a walk's step: the search flooded the
+        landings before it took the stairs) and, the way being set straight, without the
+        clip's own turn (the turn as placed is priced per successor), with the run and
+        jump penalties."""
+        st, cfg = self.steps, self.settings
+        key = (id(st), st.n, cfg.jump_penalty, cfg.run_penalty)
+        got = self.__dict__.get("_tread_costs_cache")
+        if got is None or got[0] != key:
+            cost = (st.time_cost(0.0) + np.where(st.jump, cfg.jump_penalty, 0.0)
+                    + np.where(st.gait == "run", cfg.run_penalty, 0.0))
+            cost.setflags(write=False)
+            got = (key, cost)
+            self.__dict__["_tread_costs_cache"] = got
+        return got[1]
+
     def _step_costs(self) -> tuple[np.ndarray, np.ndarray]:
         """(length (S,) m, least cost (S,) s) of each step, its turn penalty aside."""
         return np.hypot(self.steps.fwd, self.steps.left), self._base_costs()
