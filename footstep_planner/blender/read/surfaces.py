@@ -227,10 +227,6 @@ class BvhGround:
         owner = np.where(hit, self.mesh.owner[np.maximum(face, 0)], -1) if self.mesh.n else face.copy()
         return GroundHit(hit, z, nor, owner, face)
 
-    def heights(self, points, max_dist: float) -> np.ndarray:
-        """(N,) ``ray_down``'s heights alone (nan where nothing is hit)."""
-        return self.ray_down(points, max_dist).z
-
     def nearest(self, points, max_dist: float = np.inf):
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         out = np.empty((len(p), 3))

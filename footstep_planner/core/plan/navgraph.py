@@ -435,7 +435,6 @@ class Planner(StepRules, Refusals):
         vmax, slack = self._cost_speed()
         radius = self.settings.goal_radius
         per_rad = AHEAD_TURN_COST if self.settings.heuristic_weight > 1.0 else 0.0
-        smooth = self.settings.heuristic_weight > 1.0  # (plain A*'s stays the cells' own)
         yaw = float(np.arctan2(self.forward[1], self.forward[0]))
 
         def heuristic(p, psi=None):
@@ -583,7 +582,11 @@ class Planner(StepRules, Refusals):
         """m: farther than any successor lands from its footprint: the library's longest
         step (a jump's too), and a metre for a step set square on a tread or wholly on a
         stone."""
-        return float(np.max(self._gait_reach(), initial=0.0)) + self._len(1.0)
+        got = self.__dict__.get("_reach_cache")
+        if got is None or got[0] != self.steps.n:  # (asked at every expansion: once per planner)
+            got = (self.steps.n, float(np.max(self._gait_reach(), initial=0.0)) + self._len(1.0))
+            self.__dict__["_reach_cache"] = got
+        return got[1]
 
     def _weave(self, search: _Search, node: SearchNode, sel: np.ndarray) -> np.ndarray | float:
         """(K,) s: the weave penalty of steps ``sel`` after the step that reached ``node``:

@@ -187,8 +187,15 @@ class StepRules:
     def _no_bump(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(K,) whether the ground from ``a`` (3,) to each of ``b`` (K, 3) (a foot's swing,
         from its last footprint to its next) stays within MAX_BUMP of the higher end:
-        a foot swings over a tread between two, not over a landing's corner."""
+        a foot swings over a tread between two, not over a landing's corner. (None of the
+        ground is that high: every swing passes, unasked.)"""
         a = np.broadcast_to(np.asarray(a, float), b.shape)
+        top = self.__dict__.get("_ground_top")
+        if top is None:
+            verts = self.ground.mesh.verts
+            top = self.__dict__["_ground_top"] = float(verts[:, 2].max()) if len(verts) else -np.inf
+        if top <= float(np.maximum(a[:, 2], b[:, 2]).min()) + self._len(MAX_BUMP):
+            return np.ones(len(b), bool)
         return self._under_bump(a, b, self._ground_between(a, b)[1])
 
     def _clear_along(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -115,11 +115,7 @@ class Ground(Protocol):
 
 def ground_heights(ground: Ground, points: np.ndarray, max_dist: float) -> np.ndarray:
     """(N,) the height of the first surface below each point (N, 3), looking down at most
-    ``max_dist`` (nan where there is none): ``ray_down``'s heights, by the ground's own
-    ``heights`` where it has one (the Blender layer's skips the normals and owners)."""
-    own = getattr(ground, "heights", None)
-    if own is not None:
-        return own(points, max_dist)
+    ``max_dist`` (nan where there is none): ``ray_down``'s heights."""
     hit = ground.ray_down(points, max_dist)
     return np.where(hit.hit, hit.z, np.nan)
 
