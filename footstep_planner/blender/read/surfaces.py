@@ -169,22 +169,16 @@ def mesh_of(objects, depsgraph, placed=()) -> TriMesh:
 RAY_CHUNK = 512
 
 
-#: A triangle whose normal's z is under this is too steep for its plane to give the height
-#: a vertical ray hits it at (``BvhGround.ray_down`` reads the tree's own point there).
-STEEP_NZ = 1e-3
-
-
 @dataclass
 class BvhGround:
     """Ground queries (core.plan.surface.Ground) on a mathutils BVH tree: one C call a point.
-    A ray's hit is read by its triangle alone: the height from the triangle's plane and its
-    normal (facing up) from a table made once, not from the tree's vectors point by point
-    (a third of a query's time was reading them)."""
+    A ray's normal (facing up) is read from a table of the triangles' made once, by the
+    triangle hit, not from the tree's vector point by point."""
 
     mesh: TriMesh
     tree: BVHTree = field(init=False, repr=False)
     _up: np.ndarray = field(init=False, repr=False)
-    _plane: np.ndarray = field(init=False, repr=False)  # (T, 4): the unit normal facing up, and n . v0
+    _normal: np.ndarray = field(init=False, repr=False)  # (T, 3): each triangle's unit normal, facing up
 
     def __post_init__(self):
         if self.mesh.n:
@@ -195,10 +189,10 @@ class BvhGround:
             length = np.linalg.norm(nrm, axis=1, keepdims=True)
             nrm = np.where(length > 0, nrm / np.where(length > 0, length, 1.0), np.array([0.0, 0.0, 1.0]))
             nrm[nrm[:, 2] < 0] *= -1.0
-            self._plane = np.c_[nrm, np.einsum("tc,tc->t", nrm, v[:, 0])]
+            self._normal = nrm
         else:
             self.tree = None
-            self._plane = np.zeros((0, 4))
+            self._normal = np.zeros((0, 3))
 
     def ray_down(self, points, max_dist: float) -> GroundHit:
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
@@ -211,19 +205,12 @@ class BvhGround:
                 res = list(map(cast, p[s:s + RAY_CHUNK].tolist(), down, dist))  # mathutils takes plain sequences
                 got = [i for i, r in enumerate(res) if r[2] is not None]
                 if got:
-                    face[np.array(got) + s] = [res[i][2] for i in got]
-            hit = face >= 0
-            pl = self._plane[face[hit]]
-            q = p[hit]
-            steep = pl[:, 2] < STEEP_NZ
-            zz = (pl[:, 3] - pl[:, 0] * q[:, 0] - pl[:, 1] * q[:, 1]) / np.where(steep, 1.0, pl[:, 2])
-            if steep.any():  # (near-vertical: the tree's own point)
-                at = np.flatnonzero(hit)[steep]
-                zz[steep] = [cast(tuple(p[i]), (0.0, 0.0, -1.0), max_dist + 1e-9)[0][2] for i in at.tolist()]
-            z[hit] = zz
+                    at = np.array(got) + s
+                    face[at] = [res[i][2] for i in got]
+                    z[at] = [res[i][0][2] for i in got]
         nor = np.full((n, 3), np.nan)
         hit = face >= 0
-        nor[hit] = self._plane[face[hit], :3]
+        nor[hit] = self._normal[face[hit]]
         owner = np.where(hit, self.mesh.owner[np.maximum(face, 0)], -1) if self.mesh.n else face.copy()
         return GroundHit(hit, z, nor, owner, face)
 
