@@ -63,9 +63,6 @@ class _Batch(NamedTuple):
 #: nothing else of the planner benchmark's 36 scenes changes with CMU, the sample
 #: character's bridge_up2 costs 2.7% more.)
 STALL = 40
-#: s: the heuristic must fall by this much to count as progress (not a stall): a search
-#: edging round a corner lowers it by millimetres' worth at a time.
-PROGRESS = 0.1
 MAX_REROUTES = 4
 
 
@@ -159,10 +156,9 @@ class _Search:
 
     def stalled(self, idx: int) -> bool:
         """Whether the search has expanded ``STALL`` footprints since the heuristic of
-        the footprints it pops last fell by ``PROGRESS`` (it is flooding round a local
-        minimum)."""
+        the footprints it pops last fell (it is flooding round a local minimum)."""
         h = self.h[idx]
-        if h < self.best_h[0] - PROGRESS:
+        if h < self.best_h[0] - 1e-9:
             self.best_h = (h, self.expanded, self.nodes[idx].position)
             return False
         return self.expanded - self.best_h[1] > STALL and self.reroutes < MAX_REROUTES
