@@ -221,10 +221,9 @@ class BvhGround:
         dist = np.empty(len(p))
         dist.fill(np.inf)
         if self.tree is not None and len(p):
-            find = self.tree.find_nearest
             lim = 1e30 if not np.isfinite(max_dist) else float(max_dist)
-            res = [find(q, lim) for q in p.tolist()]
-            got = [i for i, r in enumerate(res) if r[0] is not None]
+            res = list(map(self.tree.find_nearest, p.tolist(), repeat(lim)))
+            got = [i for i, r in enumerate(res) if r[3] is not None]
             if got:
                 out[got] = [res[i][0][:] for i in got]
                 dist[got] = [res[i][3] for i in got]
