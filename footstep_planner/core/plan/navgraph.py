@@ -12,7 +12,9 @@ are cached per fine grid key, so the cache serves later plans on the same geomet
 
 Cost is time (each step's duration), plus ``turn_penalty`` seconds per radian of
 heading change, ``jump_penalty`` seconds per jump and ``run_penalty`` seconds per
-running step (so the path walks unless it must run). A walking or running step crosses
+running step (so the path walks unless it must run); a step set square on a stair's
+tread costs its time as placed there (``_tread_costs``: every step on a flight is
+shortened, and no stride penalty is charged for it). A walking or running step crosses
 any gap its swing clears when both its footprints stand (stepping stones, the gap between
 two slabs, a gutter); jump steps are taken only across a gap no such step spans (a
 stretch without ground wider than the longest step less the foot's length), never on
