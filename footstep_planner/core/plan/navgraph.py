@@ -91,10 +91,13 @@ CHECK_CHUNK = 12
 #: adds a quarter of it every RAISE_EVERY footprints expanded (``Planner._weigh``).
 START_WEIGHT = 0.2
 RAISE_EVERY = 100
-#: ... and an eighth where it stalls with no bridge to drop (``Planner._reroute``): the
-#: stepping stones with CMU in 134 expansions (were 218) on a cheaper path, a jump
-#: after a run-up (island_jump) in 113 (were 203).
-STALL_RAISE = 0.125
+#: ... and a sixteenth where it stalls with no bridge to drop (``Planner._reroute``): the
+#: stepping stones with CMU in 169 expansions (were 218) on a cheaper path, a jump after
+#: a run-up (island_jump) in 136 (were 203). (An eighth took 134 and 113, but the sample
+#: character's Jumps, from where it stands, then ran one step out of its second landing
+#: where it had walked, and the blend's quick run to walk turned its forearm 2.5 degrees
+#: a frame faster than its clips do.)
+STALL_RAISE = 0.0625
 
 #: The weighted search ends with the cheapest checked successor that reaches the goal once
 #: nothing open costs less than this fraction below it (``Planner._offer_arrivals``):
