@@ -177,7 +177,6 @@ class BvhGround:
 
     mesh: TriMesh
     tree: BVHTree = field(init=False, repr=False)
-    _up: np.ndarray = field(init=False, repr=False)
     _normal: np.ndarray = field(init=False, repr=False)  # (T, 3): each triangle's unit normal, facing up
 
     def __post_init__(self):

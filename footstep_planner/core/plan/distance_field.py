@@ -335,29 +335,26 @@ class _Grid:
                 blocked.ravel()[idx[d < clearance * 0.9]] = True
         return has_ground, blocked
 
-    def edge_cells(self, walk: np.ndarray, has_ground: np.ndarray | None = None) -> np.ndarray:
+    def edge_cells(self, walk: np.ndarray, has_ground: np.ndarray) -> np.ndarray:
         """(L, nx, ny) walkable cell levels beside an unwalkable cell (no ground, or an
-        obstacle too near): a footprint there has little room. With ``has_ground`` (L,
-        nx, ny), one beside an obstacle alone counts only where an inner cell (walkable
-        on its four sides) is among its eight neighbours: between walls two cells apart
-        (a corridor a metre wide) the way has to go along them, and counting it dearer
-        told the search that each metre there costs more than it does (CMU ran the
-        length of a 1 m corridor, its long running steps seeming the cheaper by the
-        map). An edge of the ground (a platform's, a stepping stone's) counts always."""
+        obstacle too near): a footprint there has little room. One beside an obstacle
+        alone (``has_ground`` (L, nx, ny) on its four sides) counts only where an inner
+        cell (walkable on its four sides) is among its eight neighbours: between walls two
+        cells apart (a corridor a metre wide) the way has to go along them, and counting it
+        dearer told the search that each metre there costs more than it does (CMU ran the
+        length of a 1 m corridor, its long running steps seeming the cheaper by the map).
+        An edge of the ground (a platform's, a stepping stone's) counts always."""
+        from scipy.ndimage import binary_dilation
+
+        def on_four_sides(m: np.ndarray) -> np.ndarray:
+            pm = np.pad(m, 1)
+            return pm[2:, 1:-1] & pm[:-2, 1:-1] & pm[1:-1, 2:] & pm[1:-1, :-2]
+
         any_walk = walk.any(axis=0)
-        pw = np.pad(any_walk, 1)
-        inner = any_walk & pw[2:, 1:-1] & pw[:-2, 1:-1] & pw[1:-1, 2:] & pw[1:-1, :-2]
-        edge = walk & ~inner[None]
-        if has_ground is None:
-            return edge
-        pg = np.pad(has_ground.any(axis=0), 1, constant_values=False)
-        void = ~(pg[2:, 1:-1] & pg[:-2, 1:-1] & pg[1:-1, 2:] & pg[1:-1, :-2])
-        pi = np.pad(inner, 1)
-        room = np.zeros_like(inner)
-        for di in (0, 1, 2):
-            for dj in (0, 1, 2):
-                room |= pi[di:di + inner.shape[0], dj:dj + inner.shape[1]]
-        return edge & (room | void)[None]
+        inner = any_walk & on_four_sides(any_walk)
+        room = binary_dilation(inner, np.ones((3, 3), bool))
+        void = ~on_four_sides(has_ground.any(axis=0))
+        return walk & ~inner[None] & (room | void)[None]
 
     def flight_cells(self, walk: np.ndarray, step_height: float) -> np.ndarray:
         """(L, nx, ny) walkable cell levels with a step up or down (more than CLIMB_STEP,

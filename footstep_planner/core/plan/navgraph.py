@@ -355,18 +355,14 @@ class Planner(StepRules, Refusals):
         where = search.best_h[2]
         avoid = (where, self._len(REROUTE_RADIUS))
         edges = search.cells.bridge_edges
-        if not len(edges[0]) or len(search.cells.grid.away(*edges, avoid)[0]) == len(edges[0]):
-            # (no bridge there: the search floods a corner or ground the map prices too
-            # cheaply, and turns greedier sooner, by STALL_RAISE)
-            search.best_h = (search.best_h[0], search.expanded, where)
-            self._raise_weight(search, STALL_RAISE)
-            return
-        t = time.perf_counter()
-        dist = self.distance_field(search.goal, avoid, search.cells)
-        search.field_seconds += time.perf_counter() - t
-        if not np.isfinite(dist.at_many(np.atleast_2d(where))[0]):
-            # (the goal needs the map's bridges there: the search floods a gap's edge it must
-            # cross by a step the map prices too cheaply, and turns greedier sooner)
+        dist = None
+        if len(edges[0]) and len(search.cells.grid.away(*edges, avoid)[0]) < len(edges[0]):
+            t = time.perf_counter()
+            dist = self.distance_field(search.goal, avoid, search.cells)
+            search.field_seconds += time.perf_counter() - t
+        if dist is None or not np.isfinite(dist.at_many(np.atleast_2d(where))[0]):
+            # (no bridge there, or the goal needs it: the search floods a corner, or a gap's
+            # edge it must cross by a step the map prices too cheaply, and turns greedier)
             search.best_h = (search.best_h[0], search.expanded, where)
             self._raise_weight(search, STALL_RAISE)
             return

@@ -239,12 +239,16 @@ class StepRules:
         length = np.maximum(np.hypot(st.fwd / st.stride, st.left), self._len(MIN_STEP))  # (shortened: its clip's)
         kappa = (veer + np.abs(st.sidestep()) / length) / length  # 1/m: the way's heading change and a crab's
         cost = (st.time_cost(cfg.stride_penalty) + cfg.turn_penalty * veer
-                + cfg.curvature_penalty * kappa
-                + np.where(st.jump, cfg.jump_penalty, 0.0)
-                + np.where(st.gait == "run", cfg.run_penalty, 0.0))
+                + cfg.curvature_penalty * kappa + self._gait_penalties())
         cost.setflags(write=False)
         self.__dict__["_base_costs_cache"] = (key, cost)
         return cost
+
+    def _gait_penalties(self) -> np.ndarray:
+        """(S,) s: each step's jump and run penalties (``Settings.jump_penalty``,
+        ``run_penalty``)."""
+        st, cfg = self.steps, self.settings
+        return np.where(st.jump, cfg.jump_penalty, 0.0) + np.where(st.gait == "run", cfg.run_penalty, 0.0)
 
     def _tread_costs(self) -> np.ndarray:
         """(S,) s: each step's cost where it is set square on a stair's tread (``Treads``):
@@ -258,8 +262,7 @@ class StepRules:
         key = (id(st), st.n, cfg.jump_penalty, cfg.run_penalty)
         got = self.__dict__.get("_tread_costs_cache")
         if got is None or got[0] != key:
-            cost = (st.time_cost(0.0) + np.where(st.jump, cfg.jump_penalty, 0.0)
-                    + np.where(st.gait == "run", cfg.run_penalty, 0.0))
+            cost = st.time_cost(0.0) + self._gait_penalties()
             cost.setflags(write=False)
             got = (key, cost)
             self.__dict__["_tread_costs_cache"] = got
