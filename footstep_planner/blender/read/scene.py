@@ -6,9 +6,12 @@ Nothing here changes the user's data: sampling an action poses the armature thro
 
 from __future__ import annotations
 
+import hashlib
+
 import bpy
 import numpy as np
 
+from ...core.base.memo import Memo
 from ...core.clips.body import scaled_bases, scaled_rig
 from ...core.clips.clip import ClipMotion, clip_motion
 from ...core.clips.rig import Rig, RigError, planner_basis
@@ -295,33 +298,61 @@ def clip_from_action(ob, action, rig: Rig | None = None, fps: float | None = Non
                        source_fps=float(src) if src else None, frame_rate=sfps)
 
 
-#: (armature, action, frames digest, keys digest) -> bases: Rigify clips are read through
-#: the depsgraph (milliseconds a frame), so each is read once while its keys are unchanged.
-_RIGIFY_CLIPS: dict = {}
+#: Rigify clips read through the depsgraph (milliseconds a frame), by the armature, the
+#: action's keys (``action_digest``) and the frames: each is read once while its keys are
+#: unchanged (the latest kept).
+_RIGIFY_CLIPS = Memo(kept=32, max_bytes=256 << 20)
+
+#: The keyframe fields a curve's value at a time depends on, read with ``foreach_get``
+#: (name, values per key): where each key is, its handles, its interpolation and easing,
+#: and the Back and Elastic interpolations' shapes.
+_KEY_FIELDS = (("co", 2), ("handle_left", 2), ("handle_right", 2), ("interpolation", 1), ("easing", 1),
+               ("back", 1), ("amplitude", 1), ("period", 1))
+
+
+def action_digest(action) -> str | None:
+    """A digest of what ``action``'s pose at any time is made of: its frame range, and each
+    of its curves' path, index, muting, extrapolation and keys (``_KEY_FIELDS``); None for
+    an action whose pose its keys alone do not tell (curve modifiers, several slots,
+    layers or strips), which is then read again each time."""
+    if len(action.slots) > 1 or len(action.layers) > 1 or any(len(ly.strips) > 1 for ly in action.layers):
+        return None
+    h = hashlib.sha1(repr((action.name, action.use_frame_range, tuple(action.frame_range), action.use_cyclic,
+                           action.get(SOURCE_FPS_PROP))).encode())
+    for layer in action.layers:
+        for strip in layer.strips:
+            for cb in strip.channelbags:
+                for fc in cb.fcurves:
+                    if len(fc.modifiers):
+                        return None
+                    group_mute = fc.group is not None and fc.group.mute
+                    h.update(repr((fc.data_path, fc.array_index, fc.mute, group_mute, fc.extrapolation,
+                                   len(fc.keyframe_points))).encode())
+                    n = len(fc.keyframe_points)
+                    for attr, k in _KEY_FIELDS:
+                        buf = np.empty(n * k, np.float32)
+                        fc.keyframe_points.foreach_get(attr, buf)
+                        h.update(buf.tobytes())
+    return h.hexdigest()
 
 
 def _rigify_basis(ob, action, rig: Rig, frames: np.ndarray) -> np.ndarray:
     """Pose bases (N, B, 4, 4) of the rig's skeleton (a Rigify rig's DEF bones) when
     ``action`` plays on the rig, from their armature-space matrices read through the
     depsgraph (``rigify.sample_deform``)."""
-    import hashlib
-
     from .. import rigify
 
-    h = hashlib.sha1(np.asarray(frames, np.float64).tobytes())
-    for layer in action.layers:
-        for strip in layer.strips:
-            for cb in strip.channelbags:
-                for fc in cb.fcurves:
-                    co = np.empty(2 * len(fc.keyframe_points), np.float32)
-                    fc.keyframe_points.foreach_get("co", co)
-                    h.update(fc.data_path.encode() + bytes([fc.array_index]) + co.tobytes())
-    key = (ob.name, ob.data.name, action.name, h.hexdigest())
-    if key not in _RIGIFY_CLIPS:
+    digest = action_digest(action)
+    key = None if digest is None else (ob.name, ob.data.name, digest, np.asarray(frames, np.float64).tobytes(),
+                                       tuple(rig.names), object_scale(ob))
+    basis = None if key is None else _RIGIFY_CLIPS.get(key)
+    if basis is None:
         pose = rigify.sample_deform(ob, action, frames, names=list(rig.names))
         pose[..., :3, 3] *= object_scale(ob)  # (world units, as the rig is read)
-        _RIGIFY_CLIPS[key] = pose_to_basis(rig, pose)
-    return _RIGIFY_CLIPS[key].copy()
+        basis = pose_to_basis(rig, pose)
+        if key is not None:
+            _RIGIFY_CLIPS.put(key, basis)
+    return basis.copy()
 
 
 def pose_to_basis(rig: Rig, pose: np.ndarray) -> np.ndarray:

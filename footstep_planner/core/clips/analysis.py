@@ -24,7 +24,8 @@ flights, jumps, rest, kind and gaits they make in ``gaits``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import hashlib
+from dataclasses import dataclass, field, fields, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -33,6 +34,7 @@ from . import inplace, loops
 from .clip import FOOT_NAMES, ClipMotion
 from .gaits import _flights_and_jumps, _gaits, _jump_mask, _kind, _locomotion_kind, _loop_jumps, _rest_at_ends
 from .stances import Footprint, Stance, _Dense, _Foot, _foot_stances, _r, _resample
+from ..base.memo import Memo
 from ..base.settings import Settings
 from ..base.errors import FootstepError
 
@@ -190,6 +192,46 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
     A body of another size than a human's is read with the settings' lengths and speeds
     scaled to its size (``Settings.for_body``, the clip's ``body_scale``)."""
     s = (settings or Settings()).for_body(motion.body_scale)
+    key = (motion_digest(motion), s)
+    kept = _ANALYSED.get(key)
+    if kept is None:
+        try:
+            made = _analyze_clip(motion, s)
+        except AnalysisError as ex:
+            made = ex
+        # (a travelling clip's analysis holds the very motion it was given: each caller's own)
+        own = isinstance(made, ClipAnalysis) and made.motion is motion
+        kept = _ANALYSED.put(key, (replace(made, motion=None) if own else made, own))
+    made, own = kept
+    if isinstance(made, AnalysisError):
+        raise AnalysisError(str(made))
+    return replace(made, motion=motion) if own else made
+
+
+#: Clips analysed in this process, by their samples (``motion_digest``) and the settings:
+#: a re-plan, a re-bake or the next job of a batch of one character is given the same
+#: analyses (their arrays read only; a travelling clip's with the caller's own motion) or
+#: the same refusal. At most this many, and this
+#: many bytes of their arrays (a 1,000-sample clip of a 30-bone rig is about 2.5 MB).
+_ANALYSED = Memo(kept=128, max_bytes=512 << 20)
+
+
+def motion_digest(motion: ClipMotion) -> str:
+    """A digest of everything of ``motion`` that its analysis reads: its name, rates and
+    sizes, and every array's values, shape and type."""
+    h = hashlib.sha1()
+    for f in fields(motion):
+        v = getattr(motion, f.name)
+        if isinstance(v, np.ndarray):
+            h.update(repr((f.name, v.shape, v.dtype.str)).encode())
+            h.update(np.ascontiguousarray(v).tobytes())
+        else:
+            h.update(repr((f.name, v)).encode())
+    return h.hexdigest()
+
+
+def _analyze_clip(motion: ClipMotion, s: Settings) -> ClipAnalysis:
+    """``analyze_clip``'s work, on settings already made for the body."""
     _check_analysable(motion)
     loop = loops.find_loop(motion)
     if loop is None:

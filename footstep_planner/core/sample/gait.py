@@ -33,12 +33,12 @@ timing and footprints (1, 2) in ``course``, the feet (3) in ``feet``, the body a
 from __future__ import annotations
 
 import hashlib
-from collections import OrderedDict
 from dataclasses import replace
 
 import numpy as np
 
 from ..base.errors import FootstepError
+from ..base.memo import Memo
 from ..solve.legs import leg_lengths
 from ..clips.rig import Rig
 from .body import (_body_frame, _hips_bases, _hips_height, _idle_sway, _jump_flight, _leg_forward, _legs,
@@ -115,9 +115,8 @@ SAME_SIZE = 1e-4
 
 #: The clips generated in this process by what they were made from (``_made_from``):
 #: the sample character is made again for each scene, file and test, the same each time.
-_GENERATED: "OrderedDict[tuple, GaitClip]" = OrderedDict()
-#: clips kept at most (the latest; the sample library is 15 clips, a few hundred kB each)
-GENERATED_KEPT = 64
+#: At most 64, the latest (the sample library is 15 clips, a few hundred kB each).
+_GENERATED = Memo(kept=64)
 
 
 def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
@@ -132,16 +131,7 @@ def generate(rig: Rig, spec: ClipSpec, fps: float = 30.0) -> GaitClip:
     only): the generation is a function of those alone."""
     key = _made_from(rig, spec, fps)
     clip = _GENERATED.get(key)
-    if clip is not None:
-        _GENERATED.move_to_end(key)
-        return clip
-    clip = _generate(rig, spec, fps)
-    for a in (clip.basis, clip.hips_drop):
-        a.setflags(write=False)
-    _GENERATED[key] = clip
-    while len(_GENERATED) > GENERATED_KEPT:
-        _GENERATED.popitem(last=False)
-    return clip
+    return clip if clip is not None else _GENERATED.put(key, _generate(rig, spec, fps))
 
 
 def _made_from(rig: Rig, spec: ClipSpec, fps: float) -> tuple:
