@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..base.angles import wrap
 from ..footprint import PathFootprint
 from ..plan.navgraph import PlanError, PlanResult, Planner
 from .turn_in_place import beside, hairpin_turn, start_turn
@@ -56,7 +57,7 @@ def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypo
     arrivals, counts, cost = [], [0, 0], 0.0
     origin, here = start, "the start"
     for i, wp in enumerate(waypoints):
-        heading = _passing_heading(planner, waypoints, i)
+        heading = _passing_heading(planner, waypoints, i, origin)
         try:
             leg = _leg(planner, origin, wp, heading)
         except PlanError as ex:
@@ -108,15 +109,26 @@ def _leg(planner: Planner, origin, wp: Waypoint, heading) -> PlanResult:
     return planner.plan(origin, goal, None)
 
 
-def _passing_heading(planner: Planner, waypoints: list[Waypoint], i: int) -> float | None:
+def _passing_heading(planner: Planner, waypoints: list[Waypoint], i: int, origin) -> float | None:
     """The heading to pass waypoint ``i`` with: its own, else (but at the last) facing the
-    next waypoint, as a person on the way there would; None at the last without one."""
+    next waypoint, as a person on the way there would; None at the last without one, and
+    at a waypoint the path stops at whose way on turns from the way there (from ``origin``,
+    the footprints the leg leaves from) by more than turning in place takes: the path
+    arrives as it comes and turns on the spot there (``plan_via``), where a heading to
+    arrive with would have the leg walk a loop round the waypoint to face back."""
     wp = waypoints[i]
     if wp.heading is not None or i + 1 == len(waypoints):
         return wp.heading
-    d = np.asarray(waypoints[i + 1].position, float)[:2] - np.asarray(wp.position, float)[:2]
+    here = np.asarray(wp.position, float)[:2]
+    d = np.asarray(waypoints[i + 1].position, float)[:2] - here
     if np.hypot(*d) < 1e-6:
         return None
+    cfg = planner.settings
+    if wp.stops and cfg.turn_in_place_angle > 0:
+        came = here - np.mean([f.position[:2] for f in origin], axis=0)
+        if np.hypot(*came) > 1e-6 and abs(wrap(np.arctan2(d[1], d[0]) - np.arctan2(came[1], came[0]))) \
+                > cfg.turn_in_place_angle:
+            return None
     return float(np.arctan2(d[1], d[0]) - np.arctan2(planner.forward[1], planner.forward[0]))
 
 

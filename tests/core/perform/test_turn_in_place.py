@@ -220,3 +220,35 @@ def test_a_hairpin_is_a_sharp_turn_back(radius, turn, found):
     if got:
         i, j = got
         assert 3 <= i and j > i
+
+
+@needs_cmu
+@pytest.mark.parametrize("back", [(1.5, 0.0), (3.0, 2.5)])
+def test_a_stop_where_the_way_turns_back_arrives_as_it_comes_and_turns_there(bench_character, back):
+    """A pause at waypoint A with the next one behind (or well beside) the way there: the
+    leg to A is not asked to arrive facing the next one (a loop round A to face back, which
+    flooded a quarter of the expansion budget first), it arrives as it comes and turns on
+    the spot at A; a pause with the next one ahead still passes facing it."""
+    from footstep_planner.core.perform.waypoints import Waypoint, plan_via
+    from footstep_planner.core.plan.navgraph import Planner
+    from footstep_planner.core.plan.surface import MeshGround
+    from conftest import plane, standing
+
+    forward = bench_character.forward
+    pl = Planner(MeshGround(plane(-4, 12, -6, 6)), None, bench_character.steps, forward, foot=bench_character.foot)
+    north = -float(np.arctan2(forward[1], forward[0]))  # (the start facing +x)
+    start = standing(0.0, 0.0, north, forward)
+    for ahead, nxt in ((False, back), (True, (9.0, 0.0))):
+        wps = [Waypoint("A", np.array([5.0, 0.0, 0.0]), pause=0.5), Waypoint("B", np.array([*nxt, 0.0]))]
+        route = plan_via(pl, start, wps)
+        fs, a = route.result.footprints, route.arrivals[0]
+        assert route.result.expanded < 1000  # (was 5,026 for the way back: a quarter of the budget, then the path)
+        assert np.hypot(*(fs[a].position[:2] - [5.0, 0.0])) <= pl.settings.goal_radius
+        assert all(f.position[0] < 5.0 + pl.settings.goal_radius for f in fs[:a + 1])  # (no loop past A)
+        turns = tip.turns_of(fs)
+        if ahead:
+            assert turns == []
+        else:  # (on the spot at A, as far round as the way on: 150 and 101 degrees)
+            assert len(turns) == 1 and abs(turns[0].degrees) >= 90 and a < turns[0].first <= a + 4
+            at = fs[turns[0].first:turns[0].last + 1]
+            assert max(np.hypot(*(f.position[:2] - fs[a].position[:2])) for f in at) < 0.5
