@@ -175,15 +175,17 @@ def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTimi
     (its ``planted`` when the bake's timing is not the synthesis's: a re-bake's splice),
     measured by ``core.report.document.measure_bake`` against ``goal`` and the plan's goal
     heading; the body as keyed (``body_on``) stands for the body. With ``played`` (a dict),
-    its ``"body"`` is set to the body's positions (F, 3) as played."""
+    its ``"body"`` is set to the body's positions (F, 3) as played and its ``"world"`` to
+    the rig's world bone matrices (F, B, 4, 4) as played (one evaluation for the caller's
+    own checks too)."""
     setup, syn, rig = planned.setup, planned.synthesis, planned.setup.rig
     frames, fps = timing.frames, timing.fps
     root = None
     if body_on == "ROOT":  # (a Rigify rig's torso carries the body: its hips stand for it)
         root = rig.role_index("hips") if rigify.is_rigify(ob) else baking.root_bone(ob, rig)
     world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, rig, timing.frame_start, frames, root)
-    if played is not None:  # (for the caller: the body as played)
-        played["body"] = body_pos
+    if played is not None:  # (for the caller: the body and the bones as played)
+        played["body"], played["world"] = body_pos, world
     sched = syn.final.schedule
     walk = walk_motion(setup.analyses)
     stances = report.planted_stances(sched.feet, syn.planted() if timing.planted is None else timing.planted,
