@@ -67,12 +67,12 @@ def _bake(fp, walk, ik_feet: bool):
     act, _ = bake.bake(rig, scene, r, solved.ik, solved.spin,
                        bake.BakeOptions("ik" if ik_feet else "fk", 1, rigify_ik_feet=ik_feet),
                        planned.result.footprints, planned.synthesis.planted())
-    world = bake.evaluate_played(scene, rig, r, 1, solved.ik.frames)[0]
     fk, body = _mod(fp, "core.clips.rig").forward_kinematics, _mod(fp, "core.solve.ik").body_frames
     want = body(solved.ik.body_pos, solved.spin + solved.ik.body_heading)[:, None] @ fk(r, solved.ik.basis)
     timing = _mod(fp, "core.report.document").BakeTiming(1, solved.ik.frames, 30.0)
-    q = planning.measure(scene, rig, planned, solved, timing, planning.goal_of(scene, "Goal")[0])
-    return act, world, want, q
+    played = {}  # (one evaluation through the depsgraph for the report and the caller's checks)
+    q = planning.measure(scene, rig, planned, solved, timing, planning.goal_of(scene, "Goal")[0], played=played)
+    return act, played["world"], want, q
 
 
 def _fcurves(act):
