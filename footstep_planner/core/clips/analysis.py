@@ -216,6 +216,12 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
 _ANALYSED = Memo(kept=128, max_bytes=512 << 20)
 
 
+def forget_analyses() -> None:
+    """Forget every analysis kept (``analyze_clip`` then analyses each clip afresh): for a
+    benchmark that times the analysis itself."""
+    _ANALYSED.clear()
+
+
 def motion_digest(motion: ClipMotion) -> str:
     """A digest of everything of ``motion`` that its analysis reads: its name, rates and
     sizes, and every array's values, shape and type."""
