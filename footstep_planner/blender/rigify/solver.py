@@ -42,7 +42,10 @@ def _swing(a, b):
     w = 1.0 + np.einsum("...i,...i->...", a, b)
     v = np.cross(a, b)
     q = np.concatenate([w[..., None], v], axis=-1)
-    bad = w < 1e-9  # opposite vectors: half turn about any axis perpendicular to a
+    # opposite vectors (no axis of their own: w and v both vanish): half turn about any axis
+    # perpendicular to a. Nearly opposite ones keep their own axis, v: a half turn about
+    # another would miss b by their angle off opposite (1e-5 for b 1e-5 off -a).
+    bad = (w < 1e-9) & (np.linalg.norm(v, axis=-1) < 1e-9)
     if np.any(bad):
         perp = np.cross(a[bad], np.array([1.0, 0.0, 0.0]))
         weak = np.linalg.norm(perp, axis=-1) < 1e-6
