@@ -325,10 +325,9 @@ def action_digest(action) -> str | None:
                 for fc in cb.fcurves:
                     if len(fc.modifiers):
                         return None
-                    group_mute = fc.group is not None and fc.group.mute
-                    h.update(repr((fc.data_path, fc.array_index, fc.mute, group_mute, fc.extrapolation,
-                                   len(fc.keyframe_points))).encode())
                     n = len(fc.keyframe_points)
+                    group_mute = fc.group is not None and fc.group.mute
+                    h.update(repr((fc.data_path, fc.array_index, fc.mute, group_mute, fc.extrapolation, n)).encode())
                     for attr, k in _KEY_FIELDS:
                         buf = np.empty(n * k, np.float32)
                         fc.keyframe_points.foreach_get(attr, buf)
@@ -342,13 +341,13 @@ def _rigify_basis(ob, action, rig: Rig, frames: np.ndarray) -> np.ndarray:
     depsgraph (``rigify.sample_deform``)."""
     from .. import rigify
 
-    digest = action_digest(action)
+    digest, scale = action_digest(action), object_scale(ob)
     key = None if digest is None else (ob.name, ob.data.name, digest, np.asarray(frames, np.float64).tobytes(),
-                                       tuple(rig.names), object_scale(ob))
+                                       tuple(rig.names), scale)
     basis = None if key is None else _RIGIFY_CLIPS.get(key)
     if basis is None:
         pose = rigify.sample_deform(ob, action, frames, names=list(rig.names))
-        pose[..., :3, 3] *= object_scale(ob)  # (world units, as the rig is read)
+        pose[..., :3, 3] *= scale  # (world units, as the rig is read)
         basis = pose_to_basis(rig, pose)
         if key is not None:
             _RIGIFY_CLIPS.put(key, basis)

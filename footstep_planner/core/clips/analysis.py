@@ -211,8 +211,8 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
 #: Clips analysed in this process, by their samples (``motion_digest``) and the settings:
 #: a re-plan, a re-bake or the next job of a batch of one character is given the same
 #: analyses (their arrays read only; a travelling clip's with the caller's own motion) or
-#: the same refusal. At most this many, and this
-#: many bytes of their arrays (a 1,000-sample clip of a 30-bone rig is about 2.5 MB).
+#: the same refusal. At most this many, and this many bytes of their arrays (a 1,000-sample
+#: clip of a 30-bone rig is about 2.5 MB).
 _ANALYSED = Memo(kept=128, max_bytes=512 << 20)
 
 

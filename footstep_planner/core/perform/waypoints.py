@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..base.angles import wrap
+from ..base.angles import wrap, yaw
 from ..footprint import PathFootprint
 from ..plan.navgraph import PlanError, PlanResult, Planner
 from .turn_in_place import beside, hairpin_turn, start_turn
@@ -123,13 +123,12 @@ def _passing_heading(planner: Planner, waypoints: list[Waypoint], i: int, origin
     d = np.asarray(waypoints[i + 1].position, float)[:2] - here
     if np.hypot(*d) < 1e-6:
         return None
-    cfg = planner.settings
-    if wp.stops and cfg.turn_in_place_angle > 0:
+    turn_angle = planner.settings.turn_in_place_angle
+    if wp.stops and turn_angle > 0:
         came = here - np.mean([f.position[:2] for f in origin], axis=0)
-        if np.hypot(*came) > 1e-6 and abs(wrap(np.arctan2(d[1], d[0]) - np.arctan2(came[1], came[0]))) \
-                > cfg.turn_in_place_angle:
+        if np.hypot(*came) > 1e-6 and abs(wrap(yaw(d) - yaw(came))) > turn_angle:
             return None
-    return float(np.arctan2(d[1], d[0]) - np.arctan2(planner.forward[1], planner.forward[0]))
+    return yaw(d) - yaw(planner.forward)
 
 
 __all__ = ["Route", "Waypoint", "plan_via"]

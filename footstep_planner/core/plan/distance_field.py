@@ -12,6 +12,9 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from scipy.ndimage import binary_dilation
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
 
 from .surface import ground_heights
 
@@ -102,8 +105,6 @@ class DistanceField:
     def nearest_reachable(self, start, goal) -> np.ndarray:
         """The centre (x, y, level height) of the cell reachable from ``start`` nearest
         the goal."""
-        from scipy.sparse.csgraph import dijkstra
-
         ids, _ = self._nodes(np.atleast_2d(np.asarray(start, float)))
         nx, ny = self.shape
         if ids[0] < 0:
@@ -136,9 +137,6 @@ class DistanceField:
         """The field to ``goal`` over cells built before (``FieldCells``), without the
         bridges with an end within ``avoid`` = (point, radius): only the graph and
         Dijkstra, so a search that drops jumps where it is stuck builds its cells once."""
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import dijkstra
-
         goal = np.asarray(goal, float)
         grid = cells.grid
         edges = [cells.walk_edges] + ([grid.away(*cells.bridge_edges, avoid)] if len(cells.bridge_edges[0]) else [])
@@ -344,8 +342,6 @@ class _Grid:
         dearer told the search that each metre there costs more than it does (CMU ran the
         length of a 1 m corridor, its long running steps seeming the cheaper by the map).
         An edge of the ground (a platform's, a stepping stone's) counts always."""
-        from scipy.ndimage import binary_dilation
-
         def on_four_sides(m: np.ndarray) -> np.ndarray:
             pm = np.pad(m, 1)
             return pm[2:, 1:-1] & pm[:-2, 1:-1] & pm[1:-1, 2:] & pm[1:-1, :-2]
