@@ -236,7 +236,7 @@ def _draw_footprints(scene, doc, foot: FootShape) -> None:
     cu.bevel_depth = 0.03
     sp = cu.splines.new("POLY")
     sp.points.add(len(body) - 1)
-    sp.points.foreach_set("co", np.c_[body, np.ones(len(body))].ravel())
+    sp.points.foreach_set("co", np.c_[body, np.ones(len(body))].astype(np.float32).ravel())
     cu.materials.append(mats["B"])
     bob = bpy.data.objects.new("body_trajectory", cu)
     bob.color = geo.BODY

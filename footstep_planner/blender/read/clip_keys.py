@@ -25,7 +25,7 @@ def _key_frames(act) -> np.ndarray:
     for _, curves in _fcurves(act):
         for fc in curves:
             points = fc.keyframe_points if len(fc.keyframe_points) else fc.sampled_points
-            co = np.empty(len(points) * 2)
+            co = np.empty(len(points) * 2, np.float32)  # (as Blender holds them: read at once)
             points.foreach_get("co", co)
             frames.update(np.round(co[0::2], 6).tolist())
     return np.array(sorted(frames))
@@ -50,9 +50,9 @@ def _map_keys(fc, fn) -> None:
     if not n:
         return
     for attr in ("co", "handle_left", "handle_right"):
-        xy = np.empty(2 * n)
+        xy = np.empty(2 * n, np.float32)  # (single precision, as Blender holds keys: read and written at once)
         fc.keyframe_points.foreach_get(attr, xy)
-        x, y = fn(xy[0::2], xy[1::2])
+        x, y = fn(xy[0::2].astype(np.float64), xy[1::2].astype(np.float64))
         xy[0::2], xy[1::2] = x, y
         fc.keyframe_points.foreach_set(attr, xy)
     fc.update()

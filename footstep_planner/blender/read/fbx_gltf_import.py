@@ -309,10 +309,10 @@ def check_fbx_data(ob, actions, path: str) -> None:
     if not np.isfinite(np.array(ob.matrix_world)).all():
         raise ClipImportError(f"{path}: the armature {ob.name!r} has a transform that is not finite")
     bones = ob.data.bones
-    ends = np.empty((2, len(bones) * 3))
+    ends = np.empty((2, len(bones) * 3), np.float32)
     bones.foreach_get("head_local", ends[0])
     bones.foreach_get("tail_local", ends[1])
-    ends = ends.reshape(2, -1, 3)
+    ends = ends.astype(np.float64).reshape(2, -1, 3)
     length = np.linalg.norm(ends[1] - ends[0], axis=1)
     for i in np.flatnonzero(~np.isfinite(ends).all(axis=(0, 2)) | ~(length > 1e-9)):
         what = "is not finite" if not np.isfinite(ends[:, i]).all() else "has no length"
@@ -320,7 +320,7 @@ def check_fbx_data(ob, actions, path: str) -> None:
     for act in actions:
         for _, curves in _fcurves(act):
             for fc in curves:
-                co = np.empty(2 * len(fc.keyframe_points))
+                co = np.empty(2 * len(fc.keyframe_points), np.float32)
                 fc.keyframe_points.foreach_get("co", co)
                 bad = np.flatnonzero(~np.isfinite(co.reshape(-1, 2)).all(axis=1))
                 if len(bad):

@@ -151,15 +151,17 @@ def mesh_of(objects, depsgraph, placed=()) -> TriMesh:
         try:
             me.calc_loop_triangles()
             nv, nt = len(me.vertices), len(me.loop_triangles)
-            co = np.empty(nv * 3)
+            # (in the types Blender holds them in, read at once; other types are converted
+            # one value at a time)
+            co = np.empty(nv * 3, np.float32)
             me.vertices.foreach_get("co", co)
-            tri = np.empty(nt * 3, dtype=np.int64)
+            tri = np.empty(nt * 3, dtype=np.int32)
             me.loop_triangles.foreach_get("vertices", tri)
         finally:
             ev.to_mesh_clear()
         m = np.array(ev.matrix_world) if matrix is None else matrix
-        co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-        parts.append(TriMesh(co, tri.reshape(-1, 3), np.zeros(nt, np.int64), (name,)))
+        co = co.astype(np.float64).reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+        parts.append(TriMesh(co, tri.astype(np.int64).reshape(-1, 3), np.zeros(nt, np.int64), (name,)))
     return TriMesh.concat(parts)
 
 
