@@ -74,18 +74,25 @@ class ClipMotion:
         nearest sample for bone rotations (only used for pose comparisons)."""
         t_new = np.arange(0.0, self.duration + 0.5 / fps, 1.0 / fps)
         t_new = t_new[t_new <= self.duration + 1e-9]
-        spline = lambda a, axis=0: CubicSpline(self.times, a, axis=axis)(t_new)  # noqa: E731
+        n, m = self.n, len(t_new)
+        # (one spline through every column at once: each column's is the one it would have
+        # alone, to the bit, at a quarter of the cost of four)
+        cols = np.concatenate([self.root_pos, self.root_heading[:, None],
+                               np.moveaxis(self.heel, 1, 0).reshape(n, 6), np.moveaxis(self.toe, 1, 0).reshape(n, 6)],
+                              axis=1)
+        out = CubicSpline(self.times, cols, axis=0)(t_new)
+        feet = lambda a: np.ascontiguousarray(np.moveaxis(a.reshape(m, 2, 3), 0, 1))  # noqa: E731
         nearest = np.clip(np.rint(t_new * self.fps).astype(int), 0, self.n - 1)
         return replace(
             self,
             fps=float(fps),
             times=t_new,
-            root_pos=spline(self.root_pos),
-            root_heading=spline(self.root_heading),
+            root_pos=out[:, :3].copy(),
+            root_heading=out[:, 3].copy(),
             hips_in_root=self.hips_in_root[nearest],
             local_rot=self.local_rot[nearest],
-            heel=spline(self.heel, axis=1),
-            toe=spline(self.toe, axis=1),
+            heel=feet(out[:, 4:10]),
+            toe=feet(out[:, 10:16]),
         )
 
 

@@ -16,12 +16,14 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from ..base.memo import freeze
 from ..base.settings import Settings
 from ..base.timing import collection_paused
 from ..footprint import PIVOT, Leg
 from ..plan.navgraph import PlanResult
 from ..plan.setup import PlanSetup
 from ..solve.frames import Solved, solve
+from ..synth.labels import clip_tracks
 from ..synth.pipeline import Synthesis, standing_body, surface_snap
 from ..synth.pipeline import synthesize as synthesize_leg
 from . import turn_in_place
@@ -52,12 +54,16 @@ def legs(setup: PlanSetup, settings: Settings, fps: float) -> SynthFn:
     snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
     body = standing_body(setup.library, setup.analyses)
+    tracks = {}  # (every clip's track, made at the first leg for them all: a turn's tries and waypoints' legs)
 
     def leg(path, other, goal, heading, lead, hold, pace):
         if other is None:
             other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
         ends = Leg(goal=goal, goal_heading=heading, standing=True, start_other=other, pace=pace, lead=lead, hold=hold)
-        return synthesize_leg(path, setup.library, setup.analyses, ends, settings, fps=fps, forward=setup.forward,
+        if not tracks:
+            tracks.update(clip_tracks(setup.library, setup.analyses))
+            freeze(tracks)  # (shared by every leg: read only)
+        return synthesize_leg(path, setup.library, tracks, ends, settings, fps=fps, forward=setup.forward,
                               snap=snap)
 
     def turning(path, other, goal, heading, lead, hold, pace):

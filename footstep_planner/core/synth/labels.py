@@ -1,6 +1,6 @@
 """A plan read against the clip library: the cyclic clips (``cyclic_clips``), a plan
 label's weights, gait and curvature, the plan's steps (``plan_steps``), each step's pace
-(``_step_pace``, ``_climb_pace``) and the clips' tracks (``_tracks_of``, ``_LazyTracks``).
+(``_step_pace``, ``_climb_pace``) and the clips' tracks (``clip_tracks``, ``_LazyTracks``).
 """
 
 from __future__ import annotations
@@ -102,9 +102,10 @@ def _step_pace(pace, n: int) -> np.ndarray | None:
     return None if np.allclose(rate, 1.0) else rate
 
 
-def _tracks_of(library: Library, analyses) -> dict[str, ClipTrack]:
+def clip_tracks(library: Library, analyses) -> dict[str, ClipTrack]:
     """Clip name -> ClipTrack of every clip of the library (``analyses`` may already be
-    the tracks)."""
+    the tracks: a copy of that dict). ``synthesize`` takes the result in place of the
+    analyses, so a run of many legs makes them once."""
     if isinstance(analyses, dict):
         return dict(analyses)
     by = {a.name: a for a in analyses}

@@ -30,7 +30,7 @@ from ..plan.surface import (EDGE_STEP, FootShape, Ground, SupportLimits, footpri
                             largest_step_along)
 from .blending import Playback
 from .ends import _end_fixed, _standing, _standing_planted, end_stretch, standing_ends, turn_in_place_path
-from .labels import _LazyTracks, _climb_pace, _step_pace, _tracks_of, cyclic_clips, plan_steps
+from .labels import _LazyTracks, _climb_pace, _step_pace, clip_tracks, cyclic_clips, plan_steps
 from .passes import (Pass, PassContext, SnapFn, _blend_group_schedule, _final_pass, _LocoWeights, _one_pass,
                      _smooth, _tau_curves, _TauCurves, speed_pins)
 from .schedule import PlanStep, Schedule, build_schedule
@@ -289,7 +289,7 @@ def synthesize(path, library: Library, analyses: list[ClipAnalysis] | dict[str, 
     timer = StageTimer()
     with timer("total"):
         with timer("tracks"):
-            tracks = _tracks_of(library, analyses)
+            tracks = clip_tracks(library, analyses)
         cyc = cyclic_clips(library)
         shown, path = turn_in_place_path(path, library, cyc, leg.start_other) if standing and cyc else (None, path)
         if shown is not None:  # (every footprint kept: no goal to ease the path's end onto)

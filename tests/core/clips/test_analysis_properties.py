@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.interpolate import CubicSpline
 
 from footstep_planner.core.clips.analysis import AnalysisError, analyze_clip
 from footstep_planner.core.base.settings import Settings
@@ -422,3 +423,21 @@ def test_noise_robustness(seed, curvature):
     assert abs(a.tau - curvature) <= 0.05 * abs(curvature) + 0.02
     match_stances(a, truth)
     check_event_order(a)
+
+
+# ------------------------------------------------------------- resampling: one spline for all
+
+@settings(max_examples=25, **HYP)
+@given(fps=st.sampled_from(FPS_CHOICES), to=st.sampled_from((24.0, 60.0, 120.0, 97.0)),
+       curvature=st.floats(-0.8, 0.8), cycles=st.floats(0.3, 2.0), noise=st.floats(0.0, 0.01))
+def test_a_resampled_clip_has_each_channels_own_spline_to_the_bit(fps, to, curvature, cycles, noise):
+    """``ClipMotion.resample`` fits one spline through every channel at once; each channel
+    is the spline it would have alone, exactly (a plan reads them; a last bit changes one)."""
+    from scipy.interpolate import CubicSpline
+
+    m, _ = synthetic_gait(fps=fps, curvature=curvature, cycles=cycles, noise=noise)
+    r = m.resample(to)
+    alone = lambda a, axis=0: CubicSpline(m.times, a, axis=axis)(r.times)  # noqa: E731
+    assert np.array_equal(r.root_pos, alone(m.root_pos)) and np.array_equal(r.root_heading, alone(m.root_heading))
+    assert np.array_equal(r.heel, alone(m.heel, 1)) and np.array_equal(r.toe, alone(m.toe, 1))
+    assert r.heel.shape == (2, r.n, 3) and r.root_pos.shape == (r.n, 3) and r.fps == to
