@@ -17,7 +17,10 @@ import math
 import bpy
 import numpy as np
 
+from scipy.spatial.transform import Rotation
+
 from ...core.sample.mannequin import HEIGHT, NAME, bone_table  # noqa: F401 (HEIGHT re-exported)
+from ..read.clip_keys import _curve, _write_rotation
 from ..ui.operators import _Stepped
 
 #: Custom property on the clips the generator wrote: the armature (data) they were made
@@ -270,18 +273,18 @@ def _write_clip(act, slot, ob, bone_names, hips: str, basis: np.ndarray, frames:
     from ``basis`` (F, B, 4, 4) pose-basis matrices in ``bone_names`` order, at scene
     ``frames`` (F,), in the pose bone's rotation mode; bones that never turn are
     skipped, and bone ``hips`` also gets its location (metres, its rest axes)."""
-    from scipy.spatial.transform import Rotation
-
-    from ..read.clip_keys import _curve, _write_rotation
-
     cbag = act.layers.new("Layer").strips.new(type="KEYFRAME").channelbag(slot, ensure=True)
-    for b, bname in enumerate(bone_names):
+    rot = basis[:, :, :3, :3]
+    turns = [b for b, bname in enumerate(bone_names)
+             if bname == hips or not np.allclose(rot[:, b], np.eye(3), atol=1e-7)]
+    # (every turning bone's rotations read in one call)
+    quats = Rotation.from_matrix(rot[:, turns].transpose(1, 0, 2, 3).reshape(-1, 3, 3)).as_quat()
+    quats = quats.reshape(len(turns), -1, 4)
+    for k, b in enumerate(turns):
+        bname = bone_names[b]
         pb = ob.pose.bones[bname]
         base = f'pose.bones["{bpy.utils.escape_identifier(bname)}"]'
-        rot = basis[:, b, :3, :3]
-        if bname != hips and np.allclose(rot, np.eye(3), atol=1e-7):
-            continue
-        _write_rotation(cbag, base, bname, pb.rotation_mode, Rotation.from_matrix(rot), frames)
+        _write_rotation(cbag, base, bname, pb.rotation_mode, Rotation.from_quat(quats[k]), frames)
         if bname == hips:
             for i in range(3):
                 _curve(cbag, f"{base}.location", i, bname, frames, basis[:, b, i, 3])
