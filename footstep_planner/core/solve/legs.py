@@ -149,9 +149,9 @@ def chain_bases(rig: Rig, chain: list, parent_rot: np.ndarray, arm: dict, basis:
             p = int(rig.parents[p])
         rot = known.get(p, parent_rot)
         for q in reversed(between):  # their armature rotation, following the chain
-            rot = np.einsum("fij,jk,fkl->fil", rot, rig.rest_rel[q, :3, :3], basis[:, q, :3, :3])
+            rot = rot @ rig.rest_rel[q, :3, :3] @ basis[:, q, :3, :3]
         rr = rig.rest_rel[b, :3, :3]
-        basis[:, b, :3, :3] = np.einsum("ji,fjk->fik", rr, np.einsum("fji,fjk->fik", rot, arm[b]))
+        basis[:, b, :3, :3] = rr.T @ (np.swapaxes(rot, -1, -2) @ arm[b])  # (matmul: a third of einsum's time)
         known[b] = arm[b]
 
 
