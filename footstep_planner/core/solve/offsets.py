@@ -206,15 +206,17 @@ def body_offsets(p: np.ndarray, psi: np.ndarray, p_loc: np.ndarray, p_ik: np.nda
         # these frames have count 2: the division below gives the joint result back
         sum_p[idx] += 2 * (fp - p[idx])
         sum_psi[idx] += 2 * (fpsi - psi[idx])
-    for foot in range(2):
-        idx = np.flatnonzero(runs[foot])
-        if idx.size == 0:
-            continue
-        fp, fpsi = p[idx], psi[idx]
-        for _ in range(iterations):
-            fp, fpsi = torque_step(fp, fpsi, p_loc[foot, idx], p_ik[foot, idx], alpha, beta, turn)
-        sum_p[idx] += fp - p[idx]
-        sum_psi[idx] += fpsi - psi[idx]
+    # each foot's frames run on their own; the two feet's rows side by side in one array
+    # (a step reads each row alone)
+    foot, idx = np.nonzero(runs)
+    fp, fpsi = p[idx], psi[idx]
+    loc, target = p_loc[foot, idx], p_ik[foot, idx]
+    for _ in range(iterations):
+        fp, fpsi = torque_step(fp, fpsi, loc, target, alpha, beta, turn)
+    for k in range(2):
+        at = foot == k
+        sum_p[idx[at]] += fp[at] - p[idx[at]]
+        sum_psi[idx[at]] += fpsi[at] - psi[idx[at]]
     with np.errstate(invalid="ignore", divide="ignore"):
         dp = np.where(count[:, None] > 0, sum_p / count[:, None], np.nan)
         dpsi = np.where(count > 0, sum_psi / count, np.nan)
@@ -227,8 +229,12 @@ def bspline_weights(u: np.ndarray) -> np.ndarray:
     """Uniform cubic B-spline basis ``B_0..B_3`` at u in [0, 1]: (..., 4), summing to 1."""
     u = np.asarray(u, float)
     v = 1.0 - u
-    return np.stack([v ** 3, 3 * u ** 3 - 6 * u ** 2 + 4, -3 * u ** 3 + 3 * u ** 2 + 3 * u + 1,
-                     u ** 3], axis=-1) / 6.0
+    u2 = u * u
+    u3 = u2 * u  # (products: a power of 3 costs six times as much)
+    w = np.empty(u.shape + (4,))
+    w[..., 0], w[..., 1], w[..., 2], w[..., 3] = v * v * v, 3 * u3 - 6 * u2 + 4, -3 * u3 + 3 * u2 + 3 * u + 1, u3
+    w /= 6.0
+    return w
 
 
 def level_spacings(coarse: float, fine: float) -> np.ndarray:
@@ -268,33 +274,41 @@ def _locate(t0: float, h: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 def _evaluate(t0: float, h: float, c: np.ndarray, t: np.ndarray) -> np.ndarray:
     i, u = _locate(t0, h, t)
-    j = i[:, None] + np.arange(4)  # (F, 4)
-    w = bspline_weights(u)
-    inside = (j >= 0) & (j < len(c))
-    w = np.where(inside, w, 0.0)
-    return np.einsum("fk,fkd->fd", w, c[np.clip(j, 0, len(c) - 1)])
+    return _evaluate_at(i, bspline_weights(u), c)
 
 
-def _fit_level(t0: float, h: float, m: int, t: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """BA of the data d (M, D) at times t on the lattice of m intervals from t0: control
-    points (m + 3, D)."""
+_FOUR = np.arange(4)
+
+
+def _evaluate_at(i: np.ndarray, w: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """The level of control points c (K, D) at points in intervals i (M,) with basis
+    weights w (M, 4) (``_locate``, ``bspline_weights``): (M, D)."""
+    j = i[:, None] + _FOUR  # (M, 4)
+    w = np.where((j >= 0) & (j < len(c)), w, 0.0)
+    # (np.take: a fancy index of these shapes costs eight times as much)
+    return np.einsum("fk,fkd->fd", w, np.take(c, np.clip(j, 0, len(c) - 1), axis=0))
+
+
+def _fit_at(i: np.ndarray, u: np.ndarray, w: np.ndarray, m: int, d: np.ndarray) -> np.ndarray:
+    """BA of the data d (M, D) at points located in intervals i (M,) at u (``_locate``),
+    with their basis weights w (M, 4), on a lattice of m intervals: control points
+    (m + 3, D)."""
     k_count = m + 3
-    dim = d.shape[1]
-    i, u = _locate(t0, h, t)
     # a point on the last knot belongs to the last interval (u = 1): same value, in range
     last = i >= m
-    u = np.where(last, u + (i - (m - 1)), u)
-    i = np.where(last, m - 1, i)
-    w = bspline_weights(u)  # (M, 4)
-    j = i[:, None] + np.arange(4)  # (M, 4)
+    if last.any():
+        u = np.where(last, u + (i - (m - 1)), u)
+        i = np.where(last, m - 1, i)
+        w = np.where(last[:, None], bspline_weights(u), w)
+    j = (i[:, None] + _FOUR).ravel()  # (M * 4,)
     w2 = w * w
-    phi = (w / w2.sum(axis=1, keepdims=True))[:, :, None] * d[:, None, :]  # (M, 4, D)
-    den = np.bincount(j.ravel(), weights=w2.ravel(), minlength=k_count)
-    flat = (j[:, :, None] * dim + np.arange(dim)).ravel()
-    num = np.bincount(flat, weights=(w2[:, :, None] * phi).ravel(),
-                      minlength=k_count * dim).reshape(k_count, dim)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(den[:, None] > 0, num / den[:, None], 0.0)
+    # each point's share of each of its control points: w2 * phi, phi = w d / sum(w2)
+    share = (w2 * w / (w2 @ np.ones(4))[:, None]).ravel()
+    den = np.bincount(j, weights=w2.ravel(), minlength=k_count)
+    num = np.stack([np.bincount(j, weights=share * np.repeat(d[:, k], 4), minlength=k_count)
+                    for k in range(d.shape[1])], axis=1)
+    out = np.zeros_like(num)
+    return np.divide(num, den[:, None], out=out, where=den[:, None] > 0)
 
 
 def fit_multilevel(t_data: np.ndarray, values: np.ndarray, coarse: float = 1.0,
@@ -317,17 +331,40 @@ def fit_multilevel(t_data: np.ndarray, values: np.ndarray, coarse: float = 1.0,
     dim = values.shape[1]
     if len(t_data) == 0:
         return MultilevelBSpline([], dim)
+    levels, _ = _fit_levels(t_data, values, spacings, t_range)
+    return MultilevelBSpline(levels, dim)
+
+
+def _fit_levels(t_data: np.ndarray, values: np.ndarray, spacings: np.ndarray,
+                t_range: tuple[float, float] | None, t_all: np.ndarray | None = None,
+                data_at: np.ndarray | None = None) -> tuple[list, np.ndarray | None]:
+    """MBA's levels (``fit_multilevel``) of values (M, D) at t_data (M,); with ``t_all``
+    (F,) of which the data's times are ``t_all[data_at]``, also the spline at every
+    ``t_all`` (F, D), each level's basis found once for the fit and the values."""
     lo, hi = float(t_data.min()), float(t_data.max())
     if t_range is not None:
         lo, hi = min(lo, float(t_range[0])), max(hi, float(t_range[1]))
     residual = values.copy()
     levels = []
+    out = None if t_all is None else np.zeros((len(t_all), values.shape[1]))
     for h in spacings:
         m = max(1, int(np.ceil((hi - lo) / h - 1e-9)))
-        c = _fit_level(lo, h, m, t_data, residual)
+        if t_all is None:
+            i, u = _locate(lo, h, t_data)
+            w = bspline_weights(u)
+        else:
+            i_all, u_all = _locate(lo, h, t_all)
+            w_all = bspline_weights(u_all)
+            i, u, w = i_all[data_at], u_all[data_at], w_all[data_at]
+        c = _fit_at(i, u, w, m, residual)
         levels.append((lo, float(h), c))
-        residual -= _evaluate(lo, h, c, t_data)
-    return MultilevelBSpline(levels, dim)
+        if t_all is None:
+            residual -= _evaluate_at(i, w, c)
+        else:
+            value = _evaluate_at(i_all, w_all, c)
+            residual -= value[data_at]
+            out += value
+    return levels, out
 
 
 def smooth_offsets(t: np.ndarray, dp: np.ndarray, dpsi: np.ndarray, coarse: float = 1.0,
@@ -350,10 +387,11 @@ def smooth_offsets(t: np.ndarray, dp: np.ndarray, dpsi: np.ndarray, coarse: floa
     if fine is None:
         step = float(np.median(np.diff(t))) if n > 1 else coarse
         fine = 2.0 * step if step > 0 else coarse
-    known = np.isfinite(dp).all(axis=1) & np.isfinite(dpsi)
-    spline = fit_multilevel(t[known], np.c_[dp[known], dpsi[known]], coarse, fine,
-                            t_range=(float(t.min()), float(t.max())))
-    if not spline.levels:
+    known = np.flatnonzero(np.isfinite(dp).all(axis=1) & np.isfinite(dpsi))
+    if not len(known):
         return np.zeros((n, 3)), np.zeros(n)
-    out = spline(t)
+    if not np.isfinite(t[known]).all():
+        raise ValueError("smooth_offsets: the frame times must be finite")
+    # (fit_multilevel's spline, evaluated at every frame as it is fitted)
+    _, out = _fit_levels(t[known], np.c_[dp[known], dpsi[known]], level_spacings(coarse, fine), (float(t.min()), float(t.max())), t, known)
     return out[:, :3], out[:, 3]
