@@ -192,6 +192,15 @@ def armature_kinematics(rig: Rig, basis: np.ndarray, bones=None) -> np.ndarray:
     return _kinematics(rig.armature_parents, rig.armature_rest_rel, rig.armature_order, basis, bones)
 
 
+def left_product(c: np.ndarray, stack: np.ndarray) -> np.ndarray:
+    """``c @ stack`` for one matrix c (N, M) and a stack (..., M, K): a single product of
+    c with the stack's matrices side by side (numpy's stacked product of small matrices
+    costs two or three times as much)."""
+    k = stack.shape[-1]
+    y = c @ np.moveaxis(stack, -2, 0).reshape(c.shape[1], -1)
+    return np.moveaxis(y.reshape((c.shape[0],) + stack.shape[:-2] + (k,)), 0, -2)
+
+
 def _kinematics(parents, rest_rel, order, basis, bones) -> np.ndarray:
     """Armature-space pose matrices (F, B, 4, 4) of pose bases (F, B, 4, 4) under the
     hierarchy ``parents`` (``rest_rel``: rests relative to the parents', ``order``: parents
@@ -206,7 +215,7 @@ def _kinematics(parents, rest_rel, order, basis, bones) -> np.ndarray:
         order = [b for b in order if b in need]
     pose = np.empty_like(basis)  # (one array of the bases' size: no copy of the locals)
     for b in order:
-        local = rest_rel[b] @ basis[:, b]
+        local = left_product(rest_rel[b], basis[:, b])
         p = parents[b]
         pose[:, b] = local if p < 0 else pose[:, p] @ local
     return pose

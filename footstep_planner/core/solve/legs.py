@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..clips.rig import Rig
+from ..clips.rig import Rig, left_product
 
 #: The leg is never stretched past this share of its length (a straight knee pops).
 MAX_REACH = 0.995
@@ -29,6 +29,22 @@ def body_frames(pos: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     m[:, 0, 0], m[:, 0, 1], m[:, 1, 0], m[:, 1, 1] = c, -s, s, c
     m[:, :3, 3] = pos
     return m
+
+
+def turned(yaw: np.ndarray, m: np.ndarray, pos: np.ndarray | None = None) -> np.ndarray:
+    """``body_frames(pos, yaw) @ m`` without the products: matrices ``m`` (F, ..., R, C)
+    (R 3 or 4; rotations, or 4x4s with a bottom row (0, 0, 0, 1)) turned by ``yaw`` (F,)
+    rad about +Z, and a 4x4's translation moved by ``pos`` (F, 3) m. (A stack of small
+    matrix products costs several times these row operations.)"""
+    shape = (-1,) + (1,) * (m.ndim - 2)
+    c, s = np.cos(yaw).reshape(shape), np.sin(yaw).reshape(shape)
+    out = np.array(m, float, copy=True)
+    x, y = m[..., 0, :], m[..., 1, :]
+    out[..., 0, :] = c * x - s * y
+    out[..., 1, :] = s * x + c * y
+    if pos is not None:
+        out[..., :3, 3] += np.asarray(pos, float).reshape((len(pos),) + (1,) * (m.ndim - 3) + (3,))
+    return out
 
 
 def min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -89,7 +105,7 @@ def _legs_in_world(pose: np.ndarray, legs: _Legs, pos: np.ndarray, yaw: np.ndarr
     larger than it needs) from their armature-space matrices ``pose`` (F, B, 4, 4), the
     armature object at ``pos`` (F, 3) m turned by ``yaw`` (F,) rad about +Z."""
     w = np.empty((len(pose), max(legs.chain) + 1, 4, 4))
-    w[:, legs.chain] = body_frames(pos, yaw)[:, None] @ pose[:, legs.chain]
+    w[:, legs.chain] = turned(yaw, pose[:, legs.chain], pos)
     return w
 
 
@@ -101,12 +117,13 @@ def reach_need(hip: np.ndarray, ankle: np.ndarray, reach: float) -> np.ndarray:
     return -v[:, 2] - np.sqrt(np.maximum(reach * reach - horiz * horiz, 0.0))
 
 
-def two_bone(H: np.ndarray, K0: np.ndarray, A0: np.ndarray, A: np.ndarray, L1: float, L2: float,
+def two_bone(H: np.ndarray, K0: np.ndarray, A0: np.ndarray, A: np.ndarray, L1, L2,
              forward: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A leg in closed form (thesis 3.8.2), vectorized over frames.
 
     ``H``, ``K0``, ``A0`` (F, 3): hip, knee and ankle of the leg as posed now; ``A`` (F, 3)
-    the ankle's target (kept within ``MAX_REACH`` of the leg's length); ``forward`` (F, 3)
+    the ankle's target (kept within ``MAX_REACH`` of the leg's length), ``L1`` and ``L2`` the
+    thigh's and the shin's lengths (m; each a number, or (F,) a frame); ``forward`` (F, 3)
     the character's forward. The knee stays in the plane of the posed knee (the swivel
     closest to it), or bends forward as the posed leg straightens (a straight knee gives no
     side). Returns (r1, r2) (F, 3, 3): the least world rotation of the thigh, and the one
@@ -151,7 +168,7 @@ def chain_bases(rig: Rig, chain: list, parent_rot: np.ndarray, arm: dict, basis:
         for q in reversed(between):  # their armature rotation, following the chain
             rot = rot @ rig.rest_rel[q, :3, :3] @ basis[:, q, :3, :3]
         rr = rig.rest_rel[b, :3, :3]
-        basis[:, b, :3, :3] = rr.T @ (np.swapaxes(rot, -1, -2) @ arm[b])  # (matmul: a third of einsum's time)
+        basis[:, b, :3, :3] = left_product(rr.T, np.swapaxes(rot, -1, -2) @ arm[b])  # (matmul: a third of einsum's)
         known[b] = arm[b]
 
 
@@ -178,22 +195,26 @@ def _solve_legs(rig: Rig, basis: np.ndarray, pose: np.ndarray, world: np.ndarray
     bent up by that much more than its clip bends it, about the foot's lateral axis."""
     F = len(yaw)
     basis = basis.copy()
-    inv_yaw = body_frames(np.zeros((F, 3)), -yaw)[:, :3, :3]
-    fwd = np.einsum("fij,j->fi", body_frames(np.zeros((F, 3)), yaw)[:, :3, :3], rig.forward_axis())
+    fwd = turned(yaw, np.broadcast_to(rig.forward_axis()[:, None], (F, 3, 1)))[..., 0]
+    # both legs at once, the left's frames then the right's (each step reads a row alone)
+    Wt, Ws, Wf = (np.concatenate([world[:, b] for b in bones]) for bones in (legs.thigh, legs.shin, legs.foot))
+    A = np.concatenate([ankle_t[0], ankle_t[1]])
+    A[:, 2] += np.concatenate(lift)
+    r1, r2 = two_bone(Wt[:, :3, 3], Ws[:, :3, 3], Wf[:, :3, 3], A, np.repeat(legs.thigh_len, F),
+                      np.repeat(legs.shin_len, F), np.concatenate([fwd, fwd]))
+    back = -np.concatenate([yaw, yaw])
+    thighs, shins = turned(back, r1 @ Wt[:, :3, :3]), turned(back, r2 @ r1 @ Ws[:, :3, :3])
+    feet = turned(back, np.concatenate([rot_t[0], rot_t[1]]))
     for k in range(2):
         thigh, shin, foot = legs.thigh[k], legs.shin[k], legs.foot[k]
-        Wt, Ws, Wf = world[:, thigh], world[:, shin], world[:, foot]
-        A = ankle_t[k].copy()
-        A[:, 2] += lift[k]
-        r1, r2 = two_bone(Wt[:, :3, 3], Ws[:, :3, 3], Wf[:, :3, 3], A, legs.thigh_len[k], legs.shin_len[k], fwd)
-        arm = {thigh: inv_yaw @ r1 @ Wt[:, :3, :3], shin: inv_yaw @ r2 @ r1 @ Ws[:, :3, :3],
-               foot: inv_yaw @ rot_t[k]}
+        rows = slice(k * F, (k + 1) * F)
+        arm = {thigh: thighs[rows], shin: shins[rows], foot: feet[rows]}
         chain = [thigh, shin, foot]
         toe = rig.foot_chain(SIDES[k])[1]
         if toes is not None and toe is not None and toes[0][k].max() > 0.0:
             axis = rot_t[k] @ _lateral(rot_t[k], toes[1][k], toes[0][k] > 0)  # the foot's, as it bends
             rel = np.swapaxes(pose[:, foot, :3, :3], 1, 2) @ pose[:, toe, :3, :3]  # the clip's toe on its foot (rigid)
-            arm[toe] = inv_yaw @ Rotation.from_rotvec(axis * toes[0][k][:, None]).as_matrix() @ rot_t[k] @ rel
+            arm[toe] = turned(-yaw, Rotation.from_rotvec(axis * toes[0][k][:, None]).as_matrix() @ rot_t[k] @ rel)
             chain.append(toe)
         p = rig.parents[thigh]
         parent_rot = pose[:, p, :3, :3] if p >= 0 else np.eye(3)[None]
