@@ -124,12 +124,13 @@ def test_an_edited_plan_that_turns_in_place_rebakes_with_its_turn(fp, empty_scen
 
 
 def test_an_edit_too_big_to_splice_without_a_slide_is_baked_whole(fp, turns):
-    """Moved 35 cm, the kept footprints' neighbours walk so differently that mixing the
-    two bakes' keys slides the planted foot: the re-bake keys the whole path, says so,
+    """Moved 40 cm, the kept footprints' neighbours walk so differently that mixing the
+    two bakes' keys slides the planted foot (by 56 mm; at 35 cm by 1.0 mm, the threshold's
+    edge; 50 cm is more than a step reaches): the re-bake keys the whole path, says so,
     and no foot slides."""
     scene, ob, doc = turns
     directing = import_module(fp.__name__ + ".blender.ui.directing")
-    _move_middle_footprint(fp, ob, 0.35)
+    _move_middle_footprint(fp, ob, 0.40)
     doc2, route, splice = directing.rebake_handles(scene, ob)
     assert splice.span is None and "the whole path was re-baked" in doc2["rebaked_whole"]
     assert "rebaked_frames" not in doc2 and doc2["quality"]["foot_skate"]["max_mm"] < 1.0
