@@ -4,9 +4,10 @@ Everything is batched over points. Conventions: world space, metres, Z up; a hea
 a yaw in radians relative to the rig's rest forward ``forward`` (a unit (x, y) vector).
 
 The queries are a small interface (``Ground``) with two implementations: ``MeshGround``
-here, pure numpy (exact, for tests and small scenes), and the Blender layer's
-``BvhGround`` on ``mathutils.bvhtree`` (fast, for real scenes). Both answer the same
-questions the same way; a test holds them equal.
+here, pure numpy and brute force (exact, the reference the tests hold the other to), and
+the Blender layer's ``BvhGround`` (fast, for real scenes: its rays on
+``mathutils.bvhtree`` one call a ray, a large batch of rays at once by ``rays.RayGrid``,
+which answers as ``MeshGround`` does to the last bit). A test holds them equal.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """``surface.ground_heights`` (issue 28): the heights ``ray_down`` finds, with the Blender
 layer's BVH ground (its own lean ``heights``) and with the numpy one, on a scene of
-steps, a gap and an overhang, more points than one cast takes at a time."""
+steps, a gap and an overhang, a batch of the tree's size and one of the grid's."""
 
 from importlib import import_module
 
@@ -16,13 +16,13 @@ def _scene() -> TriMesh:
                            box((0.2, -0.2, 0.5), (0.6, 0.2, 0.6), "shelf"), plane(2, 3, -1, 1, 0.17, 0.1)])
 
 
-@pytest.mark.parametrize("kind", ["bvh", "numpy"])
-def test_ground_heights_are_ray_downs(kind, fp):
+@pytest.mark.parametrize("kind, n", [("bvh", 300), ("bvh", 1500), ("numpy", 1500)])
+def test_ground_heights_are_ray_downs(kind, n, fp):
     rng = np.random.default_rng(4)
-    pts = np.c_[rng.uniform(-1.5, 3.5, 1500), rng.uniform(-1.5, 1.5, 1500), rng.uniform(-0.1, 1.0, 1500)]
+    pts = np.c_[rng.uniform(-1.5, 3.5, n), rng.uniform(-1.5, 1.5, n), rng.uniform(-0.1, 1.0, n)]
     if kind == "bvh":
         surfaces = import_module(fp.__name__ + ".blender.read.surfaces")
-        assert len(pts) > 2 * surfaces.RAY_CHUNK
+        assert (n < surfaces.GRID_RAYS) == (n == 300)  # (the tree's rays, then the grid's)
         ground = surfaces.BvhGround(_scene())
     else:
         ground = MeshGround(_scene())

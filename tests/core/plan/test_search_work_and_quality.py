@@ -28,7 +28,10 @@ def test_checking_successors_in_chunks_changes_nothing_but_the_work(bench_charac
     _, whole = plan_scene(SCENES["clutter10"], bench_character)
     assert chunked.cost == whole.cost and chunked.expanded == whole.expanded
     assert [f.label for f in chunked.footprints] == [f.label for f in whole.footprints]
-    assert np.allclose([f.position for f in chunked.footprints], [f.position for f in whole.footprints])
+    # (to the ground's precision: a small batch of rays is cast on Blender's BVH tree, which
+    # holds the vertices in float32, a large one on the exact grid, surfaces.GRID_RAYS)
+    np.testing.assert_allclose([f.position for f in chunked.footprints], [f.position for f in whole.footprints],
+                               rtol=0, atol=1e-6)
 
 
 @needs_cmu
