@@ -11,6 +11,7 @@ as it stands in the world (its armature's rest forward turned by the object's ro
 from __future__ import annotations
 
 import hashlib
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import bpy
@@ -38,8 +39,25 @@ from .write import bake as baking
 from .write import rebake
 from .write.owned import RANGE_PROP
 
-#: Support answers per scene, reused while its tagged geometry is unchanged.
-_CACHES: dict[tuple[str, FootShape, bool], FootprintCache] = {}
+#: Support answers per scene, foot and gap rule, reused while the scene's tagged geometry
+#: is unchanged: the CACHED_SCENES used last (a session that plans in many scenes, or
+#: many feet, keeps the latest, not every one it ever planned).
+_CACHES: OrderedDict[tuple[str, FootShape, bool], FootprintCache] = OrderedDict()
+CACHED_SCENES = 4
+
+
+def _support_cache(key: tuple[str, FootShape, bool], margin: float) -> FootprintCache:
+    cache = _CACHES.pop(key, None) or FootprintCache(margin=margin)
+    _CACHES[key] = cache  # (the latest last)
+    while len(_CACHES) > CACHED_SCENES:
+        _CACHES.popitem(last=False)
+    return cache
+
+
+def forget_support_caches() -> None:
+    """Every scene's kept support answers dropped (a worker between jobs: a job plans as it
+    would in a fresh Blender)."""
+    _CACHES.clear()
 
 
 def world_forward(ob, analyses) -> np.ndarray:
@@ -88,8 +106,8 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
                           straighten=settings.straightens, scale=settings.body_scale)
     forward = world_forward(ob, clips.analyses)
     foot = foot_shape(clips.analyses, clips.rig, settings.body_scale)
-    cache = _CACHES.setdefault((scene.name, foot, settings.cross_gaps),  # (its answers mean what the rules say)
-                               FootprintCache(margin=settings.length(0.6)))  # (a foot's own)
+    cache = _support_cache((scene.name, foot, settings.cross_gaps),  # (its answers mean what the rules say)
+                           margin=settings.length(0.6))  # (a foot's own)
     cache.update(object_geometry(ground, obst))
     planner = Planner(ground, obst, steps, forward, foot=foot,
                       settings=settings, cache=cache)

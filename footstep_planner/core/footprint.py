@@ -1,6 +1,6 @@
 """The footprint vocabulary every stage shares: a planned footprint (``PathFootprint``),
 the labels a path's own footprints carry besides the clips' names (``START_LABEL``,
-``STAND_LABEL``, ``PIVOT``), and the standing pair (``STAND_WIDTH``, ``beside_position``).
+``STAND_LABEL``, ``PIVOT``), and the standing pair (``STAND_HALF_WIDTH``, ``beside_position``).
 
 The bottom of the core beside ``base``: it imports no stage, so the search, the synthesis
 and the performance read one definition. Pure numpy, never bpy.
@@ -22,7 +22,7 @@ STAND_LABEL = "stand"
 PIVOT = "pivot"
 
 #: m: the feet of a standing character lie this far either side of its middle.
-STAND_WIDTH = 0.1
+STAND_HALF_WIDTH = 0.1
 
 
 @dataclass(frozen=True)
@@ -59,7 +59,7 @@ def beside_position(fp, foot: int, forward, width: float, stand=None, at: float 
     return sign * width * left + np.asarray(fp.position, float)
 
 
-__all__ = ["PIVOT", "STAND_LABEL", "STAND_WIDTH", "START_LABEL", "PathFootprint", "beside_position"]
+__all__ = ["PIVOT", "STAND_LABEL", "STAND_HALF_WIDTH", "START_LABEL", "PathFootprint", "beside_position"]
 
 
 @dataclass(frozen=True, eq=False)

@@ -74,7 +74,7 @@ def _forget_scene() -> None:
 
     with contextlib.suppress(Exception):
         bpy.ops.wm.read_homefile(use_empty=True)
-    getattr(planning, "_CACHES", {}).clear()
+    planning.forget_support_caches()
 
 
 __all__ = ["bake_here"]

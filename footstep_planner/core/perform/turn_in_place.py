@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..footprint import PIVOT, STAND_LABEL, STAND_WIDTH, Leg, PathFootprint, beside_position
+from ..footprint import PIVOT, STAND_LABEL, STAND_HALF_WIDTH, Leg, PathFootprint, beside_position
 from ..plan.navgraph import PlanError, PlanResult, Planner
 from ..plan.surface import FootShape
 from .directed import join
@@ -48,9 +48,9 @@ NO_TURN = 1e-6
 
 
 def beside(planner: Planner, fp: PathFootprint) -> PathFootprint:
-    """The other foot standing beside ``fp``, side by side (STAND_WIDTH from the middle),
+    """The other foot standing beside ``fp``, side by side (STAND_HALF_WIDTH from the middle),
     on the ground under it."""
-    p = beside_position(fp, 1 - fp.foot, planner.forward, 2 * planner.settings.length(STAND_WIDTH))
+    p = beside_position(fp, 1 - fp.foot, planner.forward, 2 * planner.settings.length(STAND_HALF_WIDTH))
     hit = planner.ground.ray_down(np.array([[p[0], p[1], p[2] + 0.5]]), 3.0)
     if hit.hit[0]:
         p[2] = hit.z[0]

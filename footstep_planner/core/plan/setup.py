@@ -15,7 +15,7 @@ import numpy as np
 from ..clips.analysis import ClipAnalysis
 from ..clips.library import Library
 from ..clips.rig import Rig
-from ..footprint import START_LABEL, PathFootprint
+from ..footprint import STAND_HALF_WIDTH, START_LABEL, PathFootprint
 from .navgraph import PlanError, Planner
 from .surface import FootShape
 
@@ -57,10 +57,9 @@ def foot_shape(analyses, rig: Rig | None = None, scale: float = 1.0) -> FootShap
     return FootShape(back=half + 0.04 * scale, front=half + room, half_width=0.05 * scale, tip=tip, scale=scale)
 
 
-#: m: the standing feet's distance either side of the body, and with
-#: ``Settings.straightens`` (the default) the least and most of it as the walk's stance
+#: m: with ``Settings.straightens`` (the default) the least and most of the standing feet's
+#: distance either side of the body (``footprint.STAND_HALF_WIDTH``) as the walk's stance
 #: width sets it.
-STAND_HALF_WIDTH = 0.1
 STAND_HALF_WIDTH_RANGE = (0.05, 0.15)
 
 
@@ -114,5 +113,5 @@ def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
     return out
 
 
-__all__ = ["STAND_HALF_WIDTH", "STAND_HALF_WIDTH_RANGE", "TOE_ROOM", "PlanSetup", "check_size", "foot_shape",
+__all__ = ["STAND_HALF_WIDTH_RANGE", "TOE_ROOM", "PlanSetup", "check_size", "foot_shape",
            "standing_footprints"]

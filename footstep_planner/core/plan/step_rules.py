@@ -20,7 +20,7 @@ from .surface import ground_heights
 
 #: m: a step's curvature (``Settings.curvature_penalty``) is its veer over its clip's
 #: step length, or over this for a shorter one.
-MIN_STEP = 0.2
+MIN_STEP_LENGTH = 0.2
 
 #: m: the ground between two footprints may rise this much above the higher of them
 #: (a swinging foot steps over a bump, not up a stair and down again).
@@ -231,12 +231,12 @@ class StepRules:
         (a gait change is added per successor)."""
         st, cfg = self.steps, self.settings
         key = (id(st), st.n, cfg.stride_penalty, cfg.turn_penalty, cfg.curvature_penalty, cfg.jump_penalty,
-               cfg.run_penalty, self._len(MIN_STEP))
+               cfg.run_penalty, self._len(MIN_STEP_LENGTH))
         got = self.__dict__.get("_base_costs_cache")
         if got is not None and got[0] == key:  # (priced once per planner: the distance field asks four times)
             return got[1]
         veer = np.abs(st.veer())
-        length = np.maximum(np.hypot(st.fwd / st.stride, st.left), self._len(MIN_STEP))  # (shortened: its clip's)
+        length = np.maximum(np.hypot(st.fwd / st.stride, st.left), self._len(MIN_STEP_LENGTH))  # (shortened: its clip's)
         kappa = (veer + np.abs(st.sidestep()) / length) / length  # 1/m: the way's heading change and a crab's
         cost = (st.time_cost(cfg.stride_penalty) + cfg.turn_penalty * veer
                 + cfg.curvature_penalty * kappa + self._gait_penalties())

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..clips.clip import root_frames
+from ..footprint import STAND_HALF_WIDTH
 from ..solve.easing import smoothstep
 from .specs import ClipSpec, GaitStance
 
@@ -196,9 +197,8 @@ def _left(h):
     return np.c_[np.cos(h), np.sin(h)]
 
 
-#: Standing feet: each footprint this far from the path (m, mannequin scale) ...
-STAND_WIDTH = 0.1
-#: ... and toes this much out (radians).
+#: Standing feet (each footprint ``footprint.STAND_HALF_WIDTH`` from the path, at the
+#: mannequin's scale): toes this much out (radians).
 STAND_TOE_OUT = np.radians(8)
 
 
@@ -228,7 +228,7 @@ def _place_footprints(course: _Course, spec: ClipSpec, size: float) -> None:
     in place: beside the path where the hips are at mid-stance, the gait's width from it
     and its toes out, moved inward when leaning into a turn (the body is inside its feet
     by leg height x tan(lean)); standing feet (a stance open at a clip's end) side by side
-    (STAND_WIDTH, STAND_TOE_OUT, times ``size``) where the hips are at the clip's start
+    (STAND_HALF_WIDTH, STAND_TOE_OUT, times ``size``) where the hips are at the clip's start
     (or end)."""
     g, t, stances = spec.gait, course.t, course.stances
     dur = t[-1]
@@ -241,7 +241,7 @@ def _place_footprints(course: _Course, spec: ClipSpec, size: float) -> None:
         side = 1.0 if st.foot == 0 else -1.0
         st.heading = h + side * (STAND_TOE_OUT if standing else g.toe_out)
         inward = 0.0 if standing else LEG_HEIGHT * size * np.tan(_lean(spec, spec.v))
-        st.pos = p + (side * (STAND_WIDTH * size if standing else g.width) - inward) * _left(h)[0]
+        st.pos = p + (side * (STAND_HALF_WIDTH * size if standing else g.width) - inward) * _left(h)[0]
 
 
 def _lean(spec: ClipSpec, v):

@@ -16,12 +16,12 @@ import numpy as np
 
 from ..base.settings import Settings
 from ..clips.library import Library
-from ..footprint import PIVOT, STAND_LABEL, STAND_WIDTH, Leg, beside_position
+from ..footprint import PIVOT, STAND_LABEL, STAND_HALF_WIDTH, Leg, beside_position
 from .labels import _clip_gait, _straight, plan_steps
 from .passes import GOAL_STEPS, Pass, SnapFn
 from .schedule import PlanStep, Schedule
 from .standing import Standing, rest_times, standing_track
-from .tracks import MIN_STEP, ClipTrack
+from .tracks import MIN_DURATION, ClipTrack
 
 
 #: The first foot to step leaves its standing footprint when the standing clip's weight
@@ -65,7 +65,7 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
     """The path with both standing feet at its ends: ``other`` (the standing foot the path
     does not hold; default beside its first footprint) before it, and after its last
     footprint the other foot beside it, where the standing clip ``stand`` puts it (a
-    straight walk's step; without one STAND_WIDTH, a human's, times the body's ``scale``); with ``goal_heading`` the last footprints turn to it, the
+    straight walk's step; without one STAND_HALF_WIDTH, a human's, times the body's ``scale``); with ``goal_heading`` the last footprints turn to it, the
     last two all the way, the GOAL_STEPS before them less and less. A path that already
     begins with a standing foot (STAND_LABEL) is returned as it is."""
     if len(path) > 2 and path[0].label == STAND_LABEL:  # already standing at both ends
@@ -75,7 +75,7 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
     label = loco[0] if loco else straight
     if other is None or other.foot == first.foot:
         other = replace(first, foot=1 - first.foot, position=beside_position(first, 1 - first.foot, forward,
-                                                                                   2 * STAND_WIDTH * scale))
+                                                                                   2 * STAND_HALF_WIDTH * scale))
     other = replace(other, label=STAND_LABEL, time=0.0)
     path = [other, replace(first, label=label, gait=_clip_gait(library, label))] + list(path[1:])
     if goal_heading is not None:
@@ -86,7 +86,7 @@ def standing_path(path, library: Library, cyc: list[str], forward, other=None, g
         path = [replace(f, heading=f.heading + x * dh) if x > 0 else f for f, x in zip(path, w)]
     last = path[-1]
     end = replace(last, foot=1 - last.foot,
-                  position=beside_position(last, 1 - last.foot, forward, 2 * STAND_WIDTH * scale, stand),
+                  position=beside_position(last, 1 - last.foot, forward, 2 * STAND_HALF_WIDTH * scale, stand),
                   label=straight, gait=_clip_gait(library, straight), jump=False)
     return path + [end]
 
@@ -184,7 +184,7 @@ def end_windows(track: ClipTrack) -> tuple[int, list[tuple[float, float]]] | Non
         k0 = st[lasts[1 - lead]][1]
         keys = [x[1] for x in rest] + [k0 if lo < k0 < k1 else 0.5 * (lo + k1), k1]
         feet = [x[0] for x in rest] + [1 - lead, lead]
-    if any(a == b for a, b in zip(feet[:-1], feet[1:])) or np.any(np.diff(keys) <= MIN_STEP):
+    if any(a == b for a, b in zip(feet[:-1], feet[1:])) or np.any(np.diff(keys) <= MIN_DURATION):
         return None
     win = list(zip(keys[:-1], keys[1:]))
     span = [(int(round(a * rate)), int(round(b * rate))) for a, b in win]

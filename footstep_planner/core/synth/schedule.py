@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .standing import END_FADE, Standing, _smoothstep, _standing_warp, rest_times
-from .tracks import FRAME_EPS, MIN_RAMP, MIN_STEP, BlendError, ClipTrack
+from .tracks import FRAME_EPS, MIN_RAMP, MIN_DURATION, BlendError, ClipTrack
 
 
 @dataclass(frozen=True)
@@ -201,8 +201,8 @@ def _step_durations(steps: list[PlanStep], tracks: dict[str, ClipTrack], cyc: li
     if step_durations is not None:
         loco = np.array([step.special is None for step in steps])
         dur[loco] = np.asarray(step_durations, float)[loco]
-    if (dur <= MIN_STEP).any():
-        j = int(np.argmax(dur <= MIN_STEP))
+    if (dur <= MIN_DURATION).any():
+        j = int(np.argmax(dur <= MIN_DURATION))
         raise BlendError(f"step {j} has no duration: its clips put both feet down at once")
     return dur, windows
 

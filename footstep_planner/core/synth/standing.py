@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .tracks import FRAME_EPS, MIN_RAMP, MIN_STEP, BlendError, ClipTrack
+from .tracks import FRAME_EPS, MIN_RAMP, MIN_DURATION, BlendError, ClipTrack
 
 
 #: s the feet and body take to settle after the walk stops (the IK's corrections ease in
@@ -116,7 +116,7 @@ def _standing_warp(T: np.ndarray, dur: np.ndarray, fps: float, st: Standing, own
     w1 = float(np.interp(max(len(T) - 1 - st.u_back, 0.5 * (len(T) - 1)), idx, T)) if own_stop is None \
         else own_stop[0]
     span = w1 - w0
-    if span <= MIN_STEP:
+    if span <= MIN_DURATION:
         raise BlendError("the path is too short to start and stop walking on it")
     ramp = min(2.0 * st.ramp_steps * float(np.mean(dur)), span)
     r0 = 0.0 if own_start is not None else ramp

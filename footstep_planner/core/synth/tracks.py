@@ -6,7 +6,7 @@ pose (bone quaternions and the hips) at the clip's own samples. A cyclic clip is
 a left-right-left triple of stances (its phase, ``_phase_times``) and loops round its seam
 (``loop_seam``), the seam's pose mismatch spread over the cycle (``_seam_closing``).
 Also the error and the tolerances the schedule and the playback share (``BlendError``,
-MIN_STEP, FRAME_EPS, MIN_RAMP).
+MIN_DURATION, FRAME_EPS, MIN_RAMP).
 
 Conventions: world is Z up, metres, seconds; a heading is a yaw about +Z in radians,
 positive counter-clockwise, relative to the rig's rest forward (the convention of
@@ -28,8 +28,8 @@ class BlendError(FootstepError):
     """A clip that cannot be played as asked; the message names it."""
 
 
-#: s: a step shorter than this has no duration (both feet down at once).
-MIN_STEP = 1e-6
+#: s: a step or span shorter than this has no duration (both feet down at once).
+MIN_DURATION = 1e-6
 
 
 #: frames: a schedule that ends within this of a frame ends on that frame.
@@ -88,7 +88,7 @@ class ClipTrack:
         if self.seam is None:
             return np.zeros(t.shape)
         s, e = self.seam
-        return np.clip((t - s) / max(e - s, MIN_STEP), 0.0, 1.0) - 0.5
+        return np.clip((t - s) / max(e - s, MIN_DURATION), 0.0, 1.0) - 0.5
 
     def sample_pose(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The pose at clip times ``t`` (F,): (bone quaternions (F, B, 4) scipy order, the

@@ -133,6 +133,24 @@ def test_replanning_after_moving_one_obstacle_keeps_the_other_answers(fp):
     _check(fp, result, s2, goal)  # and the new plan respects the moved pillar
 
 
+def test_the_support_caches_keep_the_latest_scenes_only(fp):
+    """A session that plans in many scenes keeps the answers of the CACHED_SCENES it used
+    last (the one used again moves to the end), and a worker can drop them all."""
+    planning = import_module(fp.__name__ + ".blender.planning")
+    planning.forget_support_caches()
+    keys = [(f"scene {i}", None, True) for i in range(planning.CACHED_SCENES + 2)]
+    first = planning._support_cache(keys[0], 0.6)
+    for k in keys[1:planning.CACHED_SCENES]:
+        planning._support_cache(k, 0.6)
+    assert planning._support_cache(keys[0], 0.6) is first  # (kept, and now the latest)
+    for k in keys[planning.CACHED_SCENES:]:
+        planning._support_cache(k, 0.6)
+    assert len(planning._CACHES) == planning.CACHED_SCENES
+    assert keys[0] in planning._CACHES and keys[1] not in planning._CACHES and keys[2] not in planning._CACHES
+    planning.forget_support_caches()
+    assert not planning._CACHES
+
+
 def test_plan_operator_and_panel(fp):
     import bpy
 
