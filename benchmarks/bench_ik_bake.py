@@ -120,7 +120,7 @@ def main():
     register()
     files = (cmu_files(args.mocap)
              if args.library == "cmu" else [])
-    rows, cmp_rows = [], []
+    rows, cmp_rows, parts = [], [], []
     for name in args.scenes.split(","):
         bpy.ops.wm.read_homefile(use_empty=True)
         scene = build(name)
@@ -174,6 +174,7 @@ def main():
         ours = measure(ik.basis, ik.body_pos, spin + ik.body_heading)
         theirs = measure(cg_basis, cg_pos, cg_yaw)
         cmp_rows.append((name, sched.n, t_ours, n_cg, t_cg, ours, theirs))
+        parts.append((name, sched.n, ik.seconds))
 
     print(f"IK and bake ({args.library} library): stage times (ms), thesis Table 4.1 layout")
     head = (f"{'scene':10s} {'footprints':>10s} {'frames':>7s} {'smooth':>7s} {'refine':>7s} {'body':>7s} "
@@ -207,7 +208,15 @@ def main():
         print(f"{name:10s} {po:13.4f} {pc:12.2f} {pc / po:7.0f} {ours[0]['max_mm']:15.2f} {theirs[0]['max_mm']:13.2f} "
               f"{ours[1]['max_mm']:12.2f} {theirs[1]['max_mm']:10.2f}")
     print(f"(CG IK on the first {args.cg_frames} planted frames of each path; quality over the stances inside them; "
-          f"mm)\nmachine: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
+          "mm)")
+    print("\nour IK's parts (ms a frame): the feet's targets, the body offsets (3.8.1), the hips lowered for reach, "
+          "the legs (3.8.2)")
+    head = f"{'scene':10s} {'targets':>8s} {'offsets':>8s} {'reach':>8s} {'legs':>8s} {'total':>8s}"
+    print(head + "\n" + "-" * len(head))
+    for name, n, sec in parts:
+        print(f"{name:10s} " + " ".join(f"{sec.get(k, 0.0) * 1e3 / n:8.4f}"
+                                        for k in ("targets", "body_offset", "reach", "legs", "total")))
+    print(f"machine: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
     del baking
 
 

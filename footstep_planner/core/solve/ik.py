@@ -44,7 +44,6 @@ solved at a human's.
 from __future__ import annotations
 
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -54,6 +53,7 @@ from ..clips.body import scaled_bases, scaled_points, scaled_rig
 from .offsets import body_offsets, smooth_offsets
 from ..clips.rig import Rig, forward_kinematics
 from ..base.settings import Settings
+from ..base.timing import StageTimer
 from .easing import _frame_rate, planted_either_side
 from .legs import MAX_REACH, SIDES, _Legs, _legs_in_world, _solve_legs, body_frames
 from .lift import _ground_lift, _kept_over_footprints_need, _swing_planes
@@ -75,19 +75,11 @@ class IKResult:
     targets: FootTargets
     hips_drop: np.ndarray  # (F,) m the hips were lowered to keep the legs in reach
     body_offset: tuple[np.ndarray, np.ndarray]  # (dp (F, 3), dpsi (F,)) from 3.8.1
-    seconds: dict = field(default_factory=dict)
+    seconds: dict = field(default_factory=dict)  # s each part took (targets, body_offset, reach, legs, total)
 
     @property
     def frames(self) -> int:
         return len(self.body_heading)
-
-
-@contextmanager
-def _timed(seconds: dict, stage: str):
-    """Add the wall-clock seconds the block takes to ``seconds[stage]``."""
-    t0 = time.perf_counter()
-    yield
-    seconds[stage] = seconds.get(stage, 0.0) + time.perf_counter() - t0
 
 
 def solve_ik(rig: Rig, basis: np.ndarray, body: BodyMotion, points: FootPoints, footprints: Footprints,
@@ -114,31 +106,31 @@ def solve_ik(rig: Rig, basis: np.ndarray, body: BodyMotion, points: FootPoints, 
         return _solved_at_human_size(rig, basis, body, points, footprints, forward, settings, ground_z, still)
     t, body_pos, body_heading, spin = body.t, body.pos, body.heading, body.spin
     heel_local, toe_local = points.heel_local, points.toe_local
-    sec = {}
+    timer = StageTimer()
     t0 = time.perf_counter()
-    with _timed(sec, "targets"):
+    with timer("targets"):
         legs = _Legs.of(rig)
         pose = forward_kinematics(rig, basis, bones=list(legs.foot) + list(legs.toe_bones))
         yaw = spin + np.asarray(body_heading, float)
         tg = foot_targets(rig, points, _legs_in_world(pose, legs, body_pos, yaw), t, footprints, forward,
                           settings.balance_band)
         sole = [sole_points(rig, pose, SIDES[k], heel_local[k, :3], toe_local[k, :3]) for k in range(2)]
-    with _timed(sec, "body_offset"):  # 3.8.1
+    with timer("body_offset"):  # 3.8.1
         body_pos, yaw, offset = _offset_body(pose, legs, tg, t, body_pos, yaw, settings, still)
         world = _legs_in_world(pose, legs, body_pos, yaw)
-    with _timed(sec, "reach"):
+    with timer("reach"):
         budget = _drop_budget(np.asarray(body_pos, float)[:, 2] - offset[0][:, 2], tg, offset[0][:, 2],
                               _frame_rate(t))
         drop = _reach_drop(world, legs, tg, _frame_rate(t), budget, heel_local[:, :3], toe_local[:, :3])
         body_pos = body_pos - drop[:, None] * [0.0, 0.0, 1.0]
         world[:, legs.chain, 2, 3] -= drop[:, None]
-    with _timed(sec, "legs"):  # 3.8.2
+    with timer("legs"):  # 3.8.2
         ankle_t, rot_t, lift, bend = _leg_targets(rig, world, legs, tg, sole, toe_local, footprints, ground_z, still,
                                                   _frame_rate(t))
         basis = _solve_legs(rig, basis, pose, world, legs, ankle_t, rot_t, lift, yaw,
                             (bend, toe_local[:, :3] - heel_local[:, :3]))
-    sec["total"] = time.perf_counter() - t0
-    return IKResult(body_pos, yaw - spin, basis, tg, drop, offset, sec)
+    timer.seconds["total"] = time.perf_counter() - t0
+    return IKResult(body_pos, yaw - spin, basis, tg, drop, offset, timer.seconds)
 
 
 def _leg_targets(rig: Rig, world: np.ndarray, legs: _Legs, tg: FootTargets, sole: list, toe_local: np.ndarray,
