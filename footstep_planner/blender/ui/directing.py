@@ -19,6 +19,7 @@ from ...core.footprint import PIVOT
 from ...core.jobs import MAX_FRAME
 from ...core.plan.plan_edit import Edited, edited_path
 from ...core.plan.plan_file import PlanFile
+from ...core.solve import splice as splicing
 from ...core.perform.waypoints import Waypoint, plan_via
 from ..write import rebake
 
@@ -193,7 +194,7 @@ class Splice:
         ed = self.route.edited
         if ed is None or not ed.spans or len(self.old_planted) != len(self.route.plan.footprints):
             return None
-        return rebake.region(ed.spans, n_new, len(self.old_planted), ed.to_goal)
+        return splicing.region(ed.spans, n_new, len(self.old_planted), ed.to_goal)
 
     def before_ik(self, planned) -> None:
         """Put the footprints outside the region where the old bake put them."""
@@ -215,10 +216,10 @@ class Splice:
             return planted, frames
         a, b_new, b_old = reg
         new = frame_start + np.asarray(planted, float) * fps
-        self.span = rebake.span_map(self.old_planted, new, a, b_new, b_old, self.old_last, int(act.frame_range[1]))
+        self.span = splicing.span_map(self.old_planted, new, a, b_new, b_old, self.old_last, int(act.frame_range[1]))
         rebake.splice_action(act, self.old_keys, self.span)
         rebake.fit_strips(track.id_data, act)
-        timed = (rebake.spliced_planted(self.old_planted, new, a, b_new, b_old, self.span) - frame_start) / fps
+        timed = (splicing.spliced_planted(self.old_planted, new, a, b_new, b_old, self.span) - frame_start) / fps
         return [tuple(row) for row in timed], int(act.frame_range[1]) - int(frame_start) + 1
 
 

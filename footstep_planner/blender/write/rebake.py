@@ -1,5 +1,5 @@
 """Re-baking only the re-planned span: the old bake's keys are read before the new bake
-replaces it, and the new bake's keys are spliced into them (``core.splice``) so that
+replaces it, and the new bake's keys are spliced into them (``core.solve.splice``) so that
 every frame outside the span (and a short blend either side) keeps its old key exactly.
 
 A bake's action records its footprints' final places and the frames each foot strikes,
@@ -104,47 +104,5 @@ def recorded(act) -> tuple[np.ndarray, np.ndarray] | None:
     return np.array(act[PLANTED], float).reshape(-1, 3), np.array(act[FOOTPRINTS], float).reshape(-1, 4)
 
 
-def region(spans: list[tuple[int, int]], n_new: int, n_old: int, to_goal: bool) -> tuple[int, int | None, int | None]:
-    """(a, b_new, b_old): the re-planned region as footprint indices of the new path (a and
-    b_new) and of the old (a, b_old); b is None when the region runs to the goal."""
-    a = min(s[0] for s in spans)
-    if to_goal:
-        return a, None, None
-    b_new = max(s[1] for s in spans)
-    return a, b_new, b_new - (n_new - n_old)
-
-
-def span_map(old: np.ndarray, new: np.ndarray, a: int, b_new: int | None, b_old: int | None, old_last: int,
-             new_last: int) -> SpanMap:
-    """Where the region lies in the old bake's frames and the new's (``old``, ``new``:
-    planted frames (N, 3) strike, stance, liftoff), with the fades where both bakes
-    agree on the planted foot: the kept footprint's foot stands while the other swings."""
-    S, M, L = 0, 1, 2
-    fa, ga = int(round(old[a, M])), int(round(new[a, M]))
-    to_spliced = lambda x: x - ga + fa  # noqa: E731  (new frames onto the spliced bake's)
-    i0 = old[a - 1, L] if a >= 1 else fa
-    i1 = min(old[a + 1, S], to_spliced(new[a + 1, S])) if a + 1 < min(len(old), len(new)) else fa + 2
-    if b_new is None:
-        end = to_spliced(new_last)
-        return SpanMap.fitted(fa, int(old_last), ga, int(new_last), (round(i0), round(i1)), (end + 1, end + 3))
-    fb, gb = int(round(old[b_old, M])), int(round(new[b_new, M]))
-    delta = (gb - ga) - (fb - fa)
-    o0 = max(old[b_old - 1, L] + delta, to_spliced(new[b_new - 1, L]))
-    has_next = b_old + 1 < len(old) and b_new + 1 < len(new)
-    o1 = min(old[b_old + 1, S] + delta, to_spliced(new[b_new + 1, S])) if has_next else to_spliced(gb) + 2
-    return SpanMap.fitted(fa, fb, ga, gb, (round(i0), round(i1)), (round(o0), round(o1)))
-
-
-def spliced_planted(old: np.ndarray, new: np.ndarray, a: int, b_new: int | None, b_old: int | None,
-                    span: SpanMap) -> np.ndarray:
-    """(M, 3) each footprint's strike, stance and liftoff frames in the spliced bake: the
-    old bake's up to the region, the new bake's (shifted onto the old start) inside it,
-    the old bake's shifted by delta after it."""
-    parts = [old[:a + 1], new[a + 1:b_new] - span.ga + span.fa]
-    if b_new is not None:
-        parts.append(old[b_old:] + span.delta)
-    return np.concatenate(parts)
-
-
-__all__ = ["FOOTPRINTS", "PLANTED", "Keys", "channel_keys", "fit_strips", "record", "recorded", "region",
-           "span_map", "splice_action", "spliced_planted"]
+__all__ = ["FOOTPRINTS", "PLANTED", "Keys", "channel_keys", "fit_strips", "record", "recorded",
+           "splice_action"]
