@@ -32,41 +32,56 @@ def swing_targets(planted: np.ndarray, A0: np.ndarray, R0: np.ndarray, ankle: np
     """Ankle positions (F, 3) and foot rotations (F, 3, 3) for every frame of one foot:
     ``ankle``/``rot`` where ``planted``; elsewhere the clip's own (``A0``, ``R0``) plus a
     correction eased (smoothstep) from the last planted frame's to the next one's, held
-    before the first and after the last planted frame."""
-    F = len(planted)
-    idx = np.flatnonzero(planted)
-    if not len(idx):
-        return A0.copy(), R0.copy()
-    off = np.zeros((F, 3))
-    turn = np.zeros((F, 3))
-    off[idx] = ankle[idx] - A0[idx]
+    before the first and after the last planted frame. With ``planted`` (K, F) and the
+    arrays (K, F, ...), K feet at once: each foot's frames read only its own (one set of
+    array operations for all, and one ground query)."""
+    planted = np.asarray(planted, bool)
+    if planted.ndim == 1:
+        A, R = swing_targets(planted[None], A0[None], R0[None], ankle[None], rot[None], ground_z)
+        return A[0], R[0]
+    K, F = planted.shape
+    out_a, out_r = np.array(A0, float, copy=True), np.array(R0, float, copy=True)
+    feet = np.flatnonzero(planted.any(axis=1))  # (a foot never planted keeps its clip's)
+    if not len(feet):
+        return out_a, out_r
+    n = len(feet) * F
+    P = planted[feet].ravel()
+    A0f, R0f = np.asarray(A0, float)[feet].reshape(n, 3), np.asarray(R0, float)[feet].reshape(n, 3, 3)
+    ankle_f, rot_f = np.asarray(ankle, float)[feet].reshape(n, 3), np.asarray(rot, float)[feet].reshape(n, 3, 3)
+    idx = np.flatnonzero(P)
+    off = np.zeros((n, 3))
+    turn = np.zeros((n, 3))
+    off[idx] = ankle_f[idx] - A0f[idx]
     # (rotations of rigid bones: no orthogonalisation, which costs an SVD a frame)
-    turn[idx] = Rotation.from_matrix(rot[idx] @ np.transpose(R0[idx], (0, 2, 1)), assume_valid=True).as_rotvec()
+    turn[idx] = Rotation.from_matrix(rot_f[idx] @ np.transpose(R0f[idx], (0, 2, 1)), assume_valid=True).as_rotvec()
     f = np.arange(F)
-    prev, nxt = planted_either_side(planted)
+    prev, nxt = (np.stack(x) for x in zip(*(planted_either_side(planted[k]) for k in feet)))  # (each foot's own)
     prev_c = np.where(prev < 0, nxt, prev)
     nxt_c = np.where(nxt >= F, prev, nxt)
     span = np.maximum(nxt_c - prev_c, 1)
-    x = (f - prev_c) / span
+    x = ((f - prev_c) / span).ravel()
+    base = (np.arange(len(feet)) * F)[:, None]  # (each foot's frames in the stacked rows)
+    prev_g, nxt_g = (prev_c + base).ravel(), (nxt_c + base).ravel()
     u = smoothstep(x)[:, None]
-    o = (1 - u) * off[prev_c] + u * off[nxt_c]
-    tv = (1 - u) * turn[prev_c] + u * turn[nxt_c]
-    A = A0 + o
-    R = Rotation.from_rotvec(tv).as_matrix() @ R0
+    o = (1 - u) * off[prev_g] + u * off[nxt_g]
+    tv = (1 - u) * turn[prev_g] + u * turn[nxt_g]
+    A = A0f + o
+    R = Rotation.from_rotvec(tv).as_matrix() @ R0f
     # (Easing the foot onto its footprint in world space over the last frames before a
     # strike, and off it after a liftoff, was tried: it holds the foot back while the
     # clip's foot rushes on, then lets it go faster than any clip: more pops, not fewer.)
-    A[idx], R[idx] = ankle[idx], rot[idx]
-    swing = ~planted & (prev >= 0) & (nxt < F)
+    A[idx], R[idx] = ankle_f[idx], rot_f[idx]
+    swing = ~P & ((prev >= 0) & (nxt < F)).ravel()
     if swing.any() and ground_z is not None:
         # (only a swing between footprints more than CLIMB_MIN apart in height is retimed:
         # the others' ground is never asked)
-        edge = np.zeros(F, bool)
-        ask = swing & (np.abs(A[nxt_c, 2] - A[prev_c, 2]) > CLIMB_MIN)
+        edge = np.zeros(n, bool)
+        ask = swing & (np.abs(A[nxt_g, 2] - A[prev_g, 2]) > CLIMB_MIN)
         if ask.any():
-            edge[ask] = _over_edge(A, prev_c[ask], nxt_c[ask], ground_z)
-        A = _stair_swing(A, edge, prev_c, nxt_c, x)
-    return A, R
+            edge[ask] = _over_edge(A, prev_g[ask], nxt_g[ask], ground_z)
+        A = _stair_swing(A, edge, prev_g, nxt_g, x)
+    out_a[feet], out_r[feet] = A.reshape(len(feet), F, 3), R.reshape(len(feet), F, 3, 3)
+    return out_a, out_r
 
 
 def _over_edge(A: np.ndarray, a: np.ndarray, b: np.ndarray, ground_z) -> np.ndarray:
@@ -131,14 +146,8 @@ def _all_frame_targets(world: np.ndarray, legs: _Legs, tg: FootTargets, ground_z
     footprint while planted, the clip's own swing (the foot bones in ``world``) plus a
     correction easing from one footprint's to the next's in between (``swing_targets``;
     ``ground_z`` finds the swings up or down a step)."""
-    F = len(world)
-    ankle_t = np.zeros((2, F, 3))
-    rot_t = np.zeros((2, F, 3, 3))
-    for k in range(2):
-        Wf = world[:, legs.foot[k]]
-        ankle_t[k], rot_t[k] = swing_targets(tg.weight[k] >= 1.0, Wf[:, :3, 3], Wf[:, :3, :3], tg.ankle[k],
-                                             tg.foot_rot[k], ground_z)
-    return ankle_t, rot_t
+    Wf = np.stack([world[:, legs.foot[k]] for k in range(2)])  # (2, F, 4, 4)
+    return swing_targets(tg.weight >= 1.0, Wf[..., :3, 3], Wf[..., :3, :3], tg.ankle, tg.foot_rot, ground_z)
 
 
 def _low_swing(ankle: np.ndarray, planted: np.ndarray, still: np.ndarray) -> np.ndarray:

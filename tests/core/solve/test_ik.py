@@ -96,6 +96,28 @@ def test_swing_targets_hold_the_footprint_and_ease_between():
     np.testing.assert_allclose(off[:5], np.broadcast_to(off[5], (5, 3)))  # held before the first
 
 
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31), step=st.booleans())
+def test_swing_targets_of_both_feet_at_once_are_each_foot_alone(seed, step):
+    """Stacked (K, F), each foot's targets are those of the foot alone: its swings read its
+    own footprints only, whatever the other's, and a foot never planted keeps its clip's."""
+    rng = np.random.default_rng(seed)
+    F = 60
+    planted = rng.random((3, F)) < 0.4
+    planted[2] = False
+    A0 = np.cumsum(rng.normal(0.0, 0.05, (3, F, 3)), axis=1)
+    R0 = Rotation.from_rotvec(rng.normal(0.0, 0.3, (3 * F, 3))).as_matrix().reshape(3, F, 3, 3)
+    ankle = A0 + rng.normal(0.0, 0.05, (3, F, 3)) + (np.arange(3)[:, None, None] * [0.0, 0.0, 0.3] if step else 0.0)
+    rot = Rotation.from_rotvec(rng.normal(0.0, 0.3, (3 * F, 3))).as_matrix().reshape(3, F, 3, 3) @ R0
+    ground = (lambda p: np.where(p[:, 0] > 0.1, 0.2, 0.0)) if step else None
+    A, R = swing_targets(planted, A0, R0, ankle, rot, ground)
+    for k in range(3):
+        a, r = swing_targets(planted[k], A0[k], R0[k], ankle[k], rot[k], ground)
+        np.testing.assert_allclose(A[k], a, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(R[k], r, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(A[2], A0[2])
+
+
 def _step_swing(rise: float, ground):
     """A foot's swing from (0, 0, 0.1) to (0.56, 0, 0.1 + rise) over 20 frames, the clip
     sweeping it along at its own pace; ``ground(points) -> heights``."""
