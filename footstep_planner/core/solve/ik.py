@@ -205,16 +205,15 @@ def _offset_body(pose: np.ndarray, legs: _Legs, tg: FootTargets, t: np.ndarray, 
     dp, dpsi = body_offsets(np.asarray(body_pos, float), yaw, p_loc, tg.pin, planted_mask,
                             alpha=settings.ik_alpha, beta=settings.ik_beta, iterations=settings.ik_iterations)
     if np.isfinite(dpsi).any():
-        raw = dp
-        dp, dpsi = smooth_offsets(t, dp, dpsi)
         # where the feet stand at different heights (stairs, a kerb) the height offset on
         # a coarser finest level: the stances' offsets differ by centimetres, fitted two
         # frames apart the body jolts (elsewhere, a take-off's push needs the fine fit)
         w = _on_steps(tg, _frame_rate(t))
         if w.any():
-            coarse = smooth_offsets(t, raw, np.where(np.isfinite(raw).all(axis=1), 0.0, np.nan),
-                                    fine=BODY_RISE_FINE)[0][:, 2]
-            dp[:, 2] += w * (coarse - dp[:, 2])
+            dp, dpsi, rise = smooth_offsets(t, dp, dpsi, also_fine=BODY_RISE_FINE)
+            dp[:, 2] += w * (rise[:, 2] - dp[:, 2])
+        else:
+            dp, dpsi = smooth_offsets(t, dp, dpsi)
     else:
         dp, dpsi = np.zeros((F, 3)), np.zeros(F)
     if still is not None:  # (held over its place as far as ``still``: up and down only)

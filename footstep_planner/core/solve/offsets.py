@@ -337,17 +337,20 @@ def fit_multilevel(t_data: np.ndarray, values: np.ndarray, coarse: float = 1.0,
 
 def _fit_levels(t_data: np.ndarray, values: np.ndarray, spacings: np.ndarray,
                 t_range: tuple[float, float] | None, t_all: np.ndarray | None = None,
-                data_at: np.ndarray | None = None) -> tuple[list, np.ndarray | None]:
+                data_at: np.ndarray | None = None, keep: tuple[int, ...] = ()) -> tuple[list, np.ndarray | None]:
     """MBA's levels (``fit_multilevel``) of values (M, D) at t_data (M,); with ``t_all``
     (F,) of which the data's times are ``t_all[data_at]``, also the spline at every
-    ``t_all`` (F, D), each level's basis found once for the fit and the values."""
+    ``t_all`` (F, D), each level's basis found once for the fit and the values; with
+    ``keep`` (level counts), instead a list of the sums of the first that many levels
+    there, one for each count."""
     lo, hi = float(t_data.min()), float(t_data.max())
     if t_range is not None:
         lo, hi = min(lo, float(t_range[0])), max(hi, float(t_range[1]))
     residual = values.copy()
     levels = []
     out = None if t_all is None else np.zeros((len(t_all), values.shape[1]))
-    for h in spacings:
+    kept = {}
+    for level, h in enumerate(spacings):
         m = max(1, int(np.ceil((hi - lo) / h - 1e-9)))
         if t_all is None:
             i, u = _locate(lo, h, t_data)
@@ -364,17 +367,24 @@ def _fit_levels(t_data: np.ndarray, values: np.ndarray, spacings: np.ndarray,
             value = _evaluate_at(i_all, w_all, c)
             residual -= value[data_at]
             out += value
-    return levels, out
+            if level + 1 in keep:
+                kept[level + 1] = out.copy()
+    return levels, ([kept[k] for k in keep] if keep else out)
 
 
 def smooth_offsets(t: np.ndarray, dp: np.ndarray, dpsi: np.ndarray, coarse: float = 1.0,
-                   fine: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   fine: float | None = None, also_fine: float | None = None):
     """The offsets of ``body_offsets`` at every frame. t (F,) frame times, seconds,
     increasing; dp (F, 3) metres and dpsi (F,) radians, NaN where unknown. Returns
     (dp (F, 3), dpsi (F,)): the multilevel B-spline of the known offsets evaluated at every
     frame, known frames included (so the result is smooth; it matches the known values to
     the accuracy of the finest level). ``fine`` defaults to two frame steps (the median
-    step). With no known frame the offsets are 0."""
+    step). With no known frame the offsets are 0.
+
+    With ``also_fine`` (s), also the offsets (F, 4: dp's and dpsi's columns) as
+    ``smooth_offsets(t, dp, dpsi, coarse, also_fine)`` would give them, from the same fit
+    (each column is fitted on its own, level by level, and the two fits' levels are one
+    halving series from ``coarse``): returns (dp, dpsi, those offsets)."""
     t = np.asarray(t, float).reshape(-1)
     dp = np.asarray(dp, float)
     dpsi = np.asarray(dpsi, float)
@@ -382,16 +392,20 @@ def smooth_offsets(t: np.ndarray, dp: np.ndarray, dpsi: np.ndarray, coarse: floa
     if dp.shape != (n, 3) or dpsi.shape != (n,):
         raise ValueError(f"smooth_offsets: expected dp (F, 3) and dpsi (F,) for {n} frames; "
                          f"got {dp.shape}, {dpsi.shape}")
-    if n == 0:
-        return np.zeros((0, 3)), np.zeros(0)
     if fine is None:
         step = float(np.median(np.diff(t))) if n > 1 else coarse
         fine = 2.0 * step if step > 0 else coarse
     known = np.flatnonzero(np.isfinite(dp).all(axis=1) & np.isfinite(dpsi))
-    if not len(known):
-        return np.zeros((n, 3)), np.zeros(n)
+    if n == 0 or not len(known):
+        out = np.zeros((n, 4))
+        return (out[:, :3], out[:, 3]) if also_fine is None else (out[:, :3], out[:, 3], out.copy())
     if not np.isfinite(t[known]).all():
         raise ValueError("smooth_offsets: the frame times must be finite")
+    spacings = level_spacings(coarse, fine)
+    other = None if also_fine is None else level_spacings(coarse, also_fine)
+    longest = spacings if other is None or len(other) <= len(spacings) else other
     # (fit_multilevel's spline, evaluated at every frame as it is fitted)
-    _, out = _fit_levels(t[known], np.c_[dp[known], dpsi[known]], level_spacings(coarse, fine), (float(t.min()), float(t.max())), t, known)
-    return out[:, :3], out[:, 3]
+    _, sums = _fit_levels(t[known], np.c_[dp[known], dpsi[known]], longest, (float(t.min()), float(t.max())), t, known,
+                          keep=(len(spacings), len(longest) if other is None else len(other)))
+    out = sums[0]
+    return (out[:, :3], out[:, 3]) if also_fine is None else (out[:, :3], out[:, 3], sums[1])

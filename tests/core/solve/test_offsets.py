@@ -292,3 +292,22 @@ def test_smooth_offsets_without_data_is_zero():
     t = np.arange(10) / 30.0
     sp, spsi = smooth_offsets(t, np.full((10, 3), np.nan), np.full(10, np.nan))
     assert (sp == 0).all() and (spsi == 0).all()
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31), n=st.integers(1, 200), also=st.floats(0.02, 2.0), gaps=st.booleans())
+def test_a_second_finest_level_from_the_same_fit_is_that_fit_alone(seed, n, also, gaps):
+    """``also_fine`` gives, to the last bit, what a fit of its own to that finest level
+    gives, and leaves the first fit's offsets as they are alone."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 30.0
+    dp, dpsi = rng.normal(0.0, 0.05, (n, 3)), rng.normal(0.0, 0.1, n)
+    if gaps:
+        off = rng.random(n) < 0.4
+        dp[off], dpsi[off] = np.nan, np.nan
+    sp, spsi, both = smooth_offsets(t, dp, dpsi, also_fine=also)
+    ap, apsi = smooth_offsets(t, dp, dpsi)
+    bp, bpsi = smooth_offsets(t, dp, dpsi, fine=also)
+    np.testing.assert_array_equal(sp, ap)
+    np.testing.assert_array_equal(spsi, apsi)
+    np.testing.assert_array_equal(both, np.c_[bp, bpsi])
