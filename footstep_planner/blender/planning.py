@@ -47,8 +47,8 @@ CACHED_SCENES = 4
 
 
 def _support_cache(key: tuple[str, FootShape, bool], margin: float) -> FootprintCache:
-    cache = _CACHES.pop(key, None) or FootprintCache(margin=margin)
-    _CACHES[key] = cache  # (the latest last)
+    cache = _CACHES.pop(key, None)
+    _CACHES[key] = cache = FootprintCache(margin=margin) if cache is None else cache  # (the latest last)
     while len(_CACHES) > CACHED_SCENES:
         _CACHES.popitem(last=False)
     return cache

@@ -190,12 +190,7 @@ class BvhGround:
         if self.mesh.n:
             self.tree = BVHTree.FromPolygons(self.mesh.verts.tolist(), self.mesh.tris.tolist(),
                                              all_triangles=True)
-            v = self.mesh.verts[self.mesh.tris]  # (T, 3, 3)
-            nrm = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
-            length = np.linalg.norm(nrm, axis=1, keepdims=True)
-            nrm = np.where(length > 0, nrm / np.where(length > 0, length, 1.0), np.array([0.0, 0.0, 1.0]))
-            nrm[nrm[:, 2] < 0] *= -1.0
-            self._normal = nrm
+            self._normal = self.mesh.up_normals()  # (the grid's own table: one answer either way)
         else:
             self.tree = None
             self._normal = np.zeros((0, 3))

@@ -44,9 +44,7 @@ class RayGrid:
         area = (b[:, 0] - a[:, 0]) * (d[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (d[:, 0] - a[:, 0])
         keep = np.flatnonzero(np.abs(area) > 1e-14)
         self._corners, self._area = c, area
-        n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-        n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-        self._normal = n * np.sign(n[:, 2:3] + (n[:, 2:3] == 0))  # (facing up)
+        self._normal = mesh.up_normals() if mesh.n else np.zeros((0, 3))
         self._build(keep)
 
     def _build(self, keep: np.ndarray) -> None:

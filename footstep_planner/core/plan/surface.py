@@ -62,6 +62,14 @@ class TriMesh:
         """(T, 3, 3) the triangles' corner positions."""
         return self.verts[self.tris]
 
+    def up_normals(self) -> np.ndarray:
+        """(T, 3) each triangle's unit normal, turned to face up (a vertical one's as it is;
+        a degenerate one's zero): what a ray down reports for the triangle it hits."""
+        c = self.corners()
+        n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+        n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        return n * np.sign(n[:, 2:3] + (n[:, 2:3] == 0))
+
     def without_undersides(self, tilt: float = 0.1) -> "TriMesh":
         """The mesh without the downward-facing triangles (normal z under ``-tilt``) of its
         closed solids (objects whose every edge joins exactly two triangles; outward by

@@ -337,12 +337,11 @@ def fit_multilevel(t_data: np.ndarray, values: np.ndarray, coarse: float = 1.0,
 
 def _fit_levels(t_data: np.ndarray, values: np.ndarray, spacings: np.ndarray,
                 t_range: tuple[float, float] | None, t_all: np.ndarray | None = None,
-                data_at: np.ndarray | None = None, keep: tuple[int, ...] = ()) -> tuple[list, np.ndarray | None]:
+                data_at: np.ndarray | None = None, keep: tuple[int, ...] = ()) -> tuple[list, list]:
     """MBA's levels (``fit_multilevel``) of values (M, D) at t_data (M,); with ``t_all``
-    (F,) of which the data's times are ``t_all[data_at]``, also the spline at every
-    ``t_all`` (F, D), each level's basis found once for the fit and the values; with
-    ``keep`` (level counts), instead a list of the sums of the first that many levels
-    there, one for each count."""
+    (F,) of which the data's times are ``t_all[data_at]``, also, for each count in
+    ``keep``, the sum of the first that many levels at every ``t_all`` (F, D), each
+    level's basis found once for the fit and the values."""
     lo, hi = float(t_data.min()), float(t_data.max())
     if t_range is not None:
         lo, hi = min(lo, float(t_range[0])), max(hi, float(t_range[1]))
@@ -369,7 +368,7 @@ def _fit_levels(t_data: np.ndarray, values: np.ndarray, spacings: np.ndarray,
             out += value
             if level + 1 in keep:
                 kept[level + 1] = out.copy()
-    return levels, ([kept[k] for k in keep] if keep else out)
+    return levels, [kept[k] for k in keep]
 
 
 def smooth_offsets(t: np.ndarray, dp: np.ndarray, dpsi: np.ndarray, coarse: float = 1.0,
