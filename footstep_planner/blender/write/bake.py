@@ -503,22 +503,47 @@ def evaluate_played(scene, ob, rig: Rig, frame_start: int, frames: int, root: in
     body yaw (F,) unwrapped, bone rotations relative to rest (F, B, 4) scipy x, y, z, w).
     The body is the object's frame, or with ``root`` that bone's frame with its rest
     put back. The scene's current frame is restored."""
-    B = len(rig.names)
-    pick = [ob.pose.bones.find(n) for n in rig.names]  # (a Rigify rig's skeleton is some of its bones)
-    pose = np.empty((frames, B, 4, 4))
-    obm = np.empty((frames, 4, 4))
-    buf = np.empty(len(ob.pose.bones) * 16, dtype=np.float32)
+    return played_pose(rig, *played_matrices(scene, [(ob, rig)], frame_start, frames)[0], root)
+
+
+def played_matrices(scene, characters, frame_start: int, frames: int) -> list:
+    """Each of ``characters`` ((object, Rig) pairs) as Blender plays the scene at ``frames``
+    frames from ``frame_start``, all read in one pass of ``scene.frame_set`` (one depsgraph
+    evaluation a frame, what playing does): per character (the rig's bones' armature-space
+    matrices (F, B, 4, 4), the object's world matrix (F, 4, 4)). The scene's current frame
+    is restored."""
+    # (a Rigify rig's skeleton is some of its bones)
+    picks = [[ob.pose.bones.find(n) for n in rig.names] for ob, rig in characters]
+    pose = [np.empty((frames, len(rig.names), 4, 4)) for _, rig in characters]
+    obm = [np.empty((frames, 4, 4)) for _ in characters]
+    bufs = [np.empty(len(ob.pose.bones) * 16, dtype=np.float32) for ob, _ in characters]
     saved = scene.frame_current, scene.frame_subframe
     depsgraph = bpy.context.evaluated_depsgraph_get()
     try:
         for i in range(frames):  # (one depsgraph evaluation per frame: what playing does)
             scene.frame_set(int(frame_start) + i)
-            ev = ob.evaluated_get(depsgraph)
-            ev.pose.bones.foreach_get("matrix", buf)
-            pose[i] = buf.reshape(-1, 4, 4)[pick].transpose(0, 2, 1)
-            obm[i] = np.array(ev.matrix_world)
+            for c, (ob, _) in enumerate(characters):
+                ev = ob.evaluated_get(depsgraph)
+                ev.pose.bones.foreach_get("matrix", bufs[c])
+                pose[c][i] = bufs[c].reshape(-1, 4, 4)[picks[c]].transpose(0, 2, 1)
+                obm[c][i] = np.array(ev.matrix_world)
     finally:
         scene.frame_set(saved[0], subframe=saved[1])
+    return list(zip(pose, obm))
+
+
+def played_world(pose: np.ndarray, obm: np.ndarray) -> np.ndarray:
+    """(F, B, 4, 4) the bones' world matrices of one character's ``played_matrices``."""
+    return played_pose(None, pose, obm, rotations=False)[0]
+
+
+def played_pose(rig: Rig | None, pose: np.ndarray, obm: np.ndarray, root: int | None = None,
+                rotations: bool = True):
+    """``evaluate_played``'s figures of one character's ``played_matrices``: (world bone
+    matrices (F, B, 4, 4), body positions (F, 3), body yaw (F,) unwrapped, bone rotations
+    relative to rest (F, B, 4), None without ``rotations``); the body the object's frame,
+    or ``root``'s."""
+    pose = pose.copy()
     # (an evenly scaled object: its scale moved into the bones, as the rig is read in world units)
     scale = np.cbrt(np.abs(np.linalg.det(obm[:, :3, :3])))
     obm = unscaled(obm)
@@ -526,7 +551,7 @@ def evaluate_played(scene, ob, rig: Rig, frame_start: int, frames: int, root: in
     world = obm[:, None] @ pose
     body = obm if root is None else obm @ pose[:, root] @ np.linalg.inv(rig.rest[root])
     yaw = np.unwrap(np.arctan2(body[:, 1, 0], body[:, 0, 0]))
-    return world, body[:, :3, 3].copy(), yaw, local_rotations(rig, pose)
+    return world, body[:, :3, 3].copy(), yaw, local_rotations(rig, pose) if rotations else None
 
 
 def local_rotations(rig: Rig, pose: np.ndarray) -> np.ndarray:
@@ -549,4 +574,4 @@ def local_rotations(rig: Rig, pose: np.ndarray) -> np.ndarray:
 __all__ = ["BODY_ON", "BakeError", "BakeOptions", "EditedBakeError", "STASH_PROP", "bake", "bake_name", "character_state",
            "check_leg_constraints", "check_not_tweaking", "check_overlap", "check_scene", "clear", "discard",
            "evaluate_played", "give_back_state", "local_rotations", "new_track_name", "own_frame", "own_matrix_world",
-           "owned_tracks", "record_keys", "remove_tracks", "root_bone", "settle"]
+           "owned_tracks", "played_matrices", "played_pose", "played_world", "record_keys", "remove_tracks", "root_bone", "settle"]
