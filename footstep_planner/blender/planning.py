@@ -27,12 +27,14 @@ from ..core.perform.run import Planned, perform_plan, synthesize_plan, waypoint_
 from ..core.plan.navgraph import FootprintCache, PlanError, PlanResult, Planner
 from ..core.plan.setup import PlanSetup, check_size, foot_shape, standing_footprints
 from ..core.plan.surface import FootShape
+from ..core.clips.rig import RigError
+from ..core.report import crowd
 from ..core.report import document as report
 from ..core.solve.frames import Solved, solve, toe_tips, walk_motion
 from ..core.synth.pipeline import Synthesis, stage_row, standing_body
 from . import rigify
 from .read.character import analyze_character, library_for
-from .read.scene import facing_rotation, object_scale, rotation_heading, scene_fps
+from .read.scene import facing_rotation, object_scale, rig_from_armature, rotation_heading, scene_fps
 from .read.surfaces import scene_surfaces
 from .ui import overlay
 from .write import bake as baking
@@ -195,13 +197,18 @@ def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTimi
     heading; the body as keyed (``body_on``) stands for the body. With ``played`` (a dict),
     its ``"body"`` is set to the body's positions (F, 3) as played and its ``"world"`` to
     the rig's world bone matrices (F, B, 4, 4) as played (one evaluation for the caller's
-    own checks too)."""
+    own checks too). Where other characters in the scene were baked by the planner
+    (``other_characters``), they play in the same frames, and the quality's ``"others"``
+    gives, for each, how near the two bodies come and how many frames their feet stand on
+    one footprint (``core.report.crowd.pair_figures``)."""
     setup, syn, rig = planned.setup, planned.synthesis, planned.setup.rig
     frames, fps = timing.frames, timing.fps
     root = None
     if body_on == "ROOT":  # (a Rigify rig's torso carries the body: its hips stand for it)
         root = rig.role_index("hips") if rigify.is_rigify(ob) else baking.root_bone(ob, rig)
-    world, body_pos, body_yaw, bone_rot = baking.evaluate_played(scene, ob, rig, timing.frame_start, frames, root)
+    others = other_characters(scene, ob)
+    played_all = baking.played_matrices(scene, [(ob, rig), *others], timing.frame_start, frames)
+    world, body_pos, body_yaw, bone_rot = baking.played_pose(rig, *played_all[0], root)
     if played is not None:  # (for the caller: the body and the bones as played)
         played["body"], played["world"] = body_pos, world
     sched = syn.final.schedule
@@ -212,7 +219,29 @@ def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTimi
     pose = report.PlayedPose(world, bone_rot, body_pos, body_yaw - solved.spin, rig.names,
                              toe_tips(rig, world, walk.heel_local, walk.toe_local))
     feet = report.FootPoints([rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local)
-    return report.measure_bake(pose, feet, setup.planner.ground, stances, goal, planned.goal_heading, allowance)
+    quality = report.measure_bake(pose, feet, setup.planner.ground, stances, goal, planned.goal_heading, allowance)
+    if others:  # (the other characters baked in the scene, played in the same frames)
+        me = crowd.body_of(ob.name, rig, world, fps)
+        quality["others"] = [crowd.pair_figures(me, crowd.body_of(o.name, r, baking.played_world(*m), fps),
+                                                timing.frame_start) for (o, r), m in zip(others, played_all[1:])]
+    return quality
+
+
+def other_characters(scene, ob) -> list:
+    """(object, Rig) of every other character in the view layer that the planner baked
+    (found by its tracks' tag, ``bake.owned_tracks``), in name order; one whose rig has no
+    legs the planner reads is left out."""
+    out = []
+    for o in sorted(bpy.context.view_layer.objects, key=lambda o: o.name):
+        if o.type != "ARMATURE" or o == ob or not baking.owned_tracks(o):
+            continue
+        try:
+            r = rig_from_armature(o)
+            r.require_legs()
+        except RigError:
+            continue
+        out.append((o, r))
+    return out
 
 
 @dataclass

@@ -8,6 +8,8 @@ import math
 
 import numpy as np
 
+from .crowd import pair_line
+
 
 def format_table(title: str, analyses, refused=()) -> str:
     """One row per clip analysis: rate, length, kind, gait, speed, stride, cycle, tau; then
@@ -111,6 +113,7 @@ def format_bake(doc) -> str:
         f"{intro['max_excess_deg']:.1f} deg over" + (f" ({intro['bone']}, frame {intro['frame']})"
                                                      if intro['bone'] else ""),
     ]
+    lines += [pair_line(fig) for fig in q.get("others", [])]
     lines += format_turns(doc.get("turns_in_place", []))
     if doc.get("waypoints"):
         lines.append(format_waypoints(doc["waypoints"]))

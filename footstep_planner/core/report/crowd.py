@@ -1,0 +1,154 @@
+"""Characters sharing a shot, measured as played: how near two bodies come and whether two
+feet stand on one footprint at once (issue 29's figures per pair of characters).
+
+A body is a capsule: the segment from its hips to the top of its head, and a radius (a
+human's half shoulder width, ``BODY_RADIUS``, times the body's size). Two bodies meet
+where their capsules overlap: the least distance between their segments is under the sum
+of their radii. A foot is planted at a frame where it is still (its ankle and ball move
+under ``PLANTED_SPEED``); two planted feet share a footprint where their soles' middles
+(between the ankle and the ball) are nearer than a foot's length (``foot_length``, the
+longer of the two characters').
+
+Everything here is plain arrays of what Blender played (``blender.planning`` reads them
+through the depsgraph): world positions in metres, frames counted from the shot's first.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..clips.body import body_scale
+from ..clips.clip import SIDES
+from ..clips.rig import Rig
+
+#: m: a human's half shoulder width, the radius of a body's capsule (times its size).
+BODY_RADIUS = 0.2
+#: m/s: a foot whose ankle and ball move slower than this (a human's) is planted.
+PLANTED_SPEED = 0.25
+
+
+@dataclass(frozen=True, eq=False)
+class PlayedBody:
+    """One character as played over F frames, for ``pair_figures``:
+
+    - ``name``: the character (its object's name);
+    - ``hips``, ``head`` (F, 3): the ends of its body's segment (the hips, the top of the head);
+    - ``radius``: m, its capsule's radius;
+    - ``soles`` (2, F, 3): the middle of each foot's sole (between ankle and ball), left then right;
+    - ``planted`` (2, F) bool: where each foot stands (``planted_feet``);
+    - ``foot_length``: m, the foot's length (heel to toe)."""
+
+    name: str
+    hips: np.ndarray
+    head: np.ndarray
+    radius: float
+    soles: np.ndarray
+    planted: np.ndarray
+    foot_length: float
+
+
+def segment_distance(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """(F,) the least distance between the segments p0-p1 and q0-q1 (each (F, 3)), frame by
+    frame; a segment may be a point (its ends equal). The closest points are found in
+    closed form on each segment's parameter in [0, 1], clamped, then each again against
+    the other's clamped point (Ericson, Real-Time Collision Detection, 5.1.9)."""
+    p0, p1, q0, q1 = (np.asarray(v, float) for v in (p0, p1, q0, q1))
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a = np.einsum("fi,fi->f", d1, d1)
+    e = np.einsum("fi,fi->f", d2, d2)
+    f = np.einsum("fi,fi->f", d2, r)
+    c = np.einsum("fi,fi->f", d1, r)
+    b = np.einsum("fi,fi->f", d1, d2)
+    tiny = 1e-18
+    denom = a * e - b * b
+    # s on p's segment: from the lines' closest points where they are not parallel, else 0
+    s = np.where((a > tiny) & (e > tiny) & (denom > tiny * np.maximum(a * e, tiny)),
+                 np.clip((b * f - c * e) / np.where(denom > 0, denom, 1.0), 0.0, 1.0), 0.0)
+    s = np.where((a > tiny) & (e <= tiny), np.clip(-c / np.where(a > tiny, a, 1.0), 0.0, 1.0), s)
+    # t on q's segment for that s, clamped; then s again for the clamped t
+    t = np.where(e > tiny, (b * s + f) / np.where(e > tiny, e, 1.0), 0.0)
+    t = np.clip(t, 0.0, 1.0)
+    s = np.where(a > tiny, np.clip((t * b - c) / np.where(a > tiny, a, 1.0), 0.0, 1.0), 0.0)
+    gap = (p0 + s[:, None] * d1) - (q0 + t[:, None] * d2)
+    return np.sqrt(np.einsum("fi,fi->f", gap, gap))
+
+
+def planted_feet(points: np.ndarray, fps: float, scale: float = 1.0) -> np.ndarray:
+    """(2, F) bool: each foot planted at each frame: every one of its points ``points``
+    (2, F, K, 3) (the ankle and the ball, say) still, moving under ``PLANTED_SPEED`` times
+    ``scale`` (by the central difference of its positions, one-sided at the ends; a
+    single frame is still)."""
+    points = np.asarray(points, float)
+    if points.shape[1] < 2:
+        return np.ones(points.shape[:2], bool)
+    speed = np.linalg.norm(np.gradient(points, axis=1), axis=-1) * float(fps)  # (2, F, K)
+    return (speed < PLANTED_SPEED * scale).all(axis=-1)
+
+
+#: A foot is this many times as long as from its ankle to its ball (a human's: 26 cm to 19).
+FOOT_OVER_ANKLE_BALL = 1.35
+
+
+def body_of(name: str, rig: Rig, world: np.ndarray, fps: float) -> PlayedBody:
+    """The ``PlayedBody`` of a character whose ``rig``'s bones played at ``world`` (F, B,
+    4, 4) world matrices (metres) at ``fps``: its body from the hips to the top of the
+    head (the tail of the rig's highest bone at rest, carried by that bone), a human's
+    radius times its size (``core.clips.body.body_scale``), and each foot's ankle (the foot
+    bone's head) and ball (``Rig.ball_local``), still where planted."""
+    world = np.asarray(world, float)
+    scale = body_scale(rig)
+    top = int(np.argmax(rig.tails[:, 2]))
+    tail = np.linalg.inv(rig.rest[top]) @ np.append(rig.tails[top], 1.0)
+    head = (world[:, top] @ tail)[:, :3]
+    hips = world[:, rig.role_index("hips"), :3, 3]
+    feet = np.empty((2, len(world), 2, 3))
+    reach = 0.0
+    for k, side in enumerate(SIDES):
+        foot = rig.foot_chain(side)[0]
+        ball_local = rig.ball_local(side)
+        feet[k, :, 0] = world[:, foot, :3, 3]
+        feet[k, :, 1] = (world[:, foot] @ ball_local)[:, :3]
+        reach = max(reach, float(np.linalg.norm(ball_local[:3])))
+    return PlayedBody(name, hips, head, BODY_RADIUS * scale, feet.mean(axis=2), planted_feet(feet, fps, scale),
+                      FOOT_OVER_ANKLE_BALL * reach)
+
+
+def pair_figures(a: PlayedBody, b: PlayedBody, frame_start: int) -> dict:
+    """What two characters played over the same F frames (from scene frame ``frame_start``)
+    do to each other: the least distance between their bodies (the capsules' surfaces,
+    negative where they overlap) and its scene frame, how many frames the bodies overlap,
+    and how many frames a foot of each stands on one footprint (planted, nearer than a
+    foot's length), with the first of them (None where none)."""
+    between = segment_distance(a.hips, a.head, b.hips, b.head) - (a.radius + b.radius)
+    i = int(np.argmin(between))
+    reach = max(a.foot_length, b.foot_length)
+    shared = np.zeros(len(between), bool)
+    for ka in range(2):
+        for kb in range(2):
+            near = np.linalg.norm(a.soles[ka, :, :2] - b.soles[kb, :, :2], axis=-1) < reach
+            shared |= near & a.planted[ka] & b.planted[kb]
+    on = np.flatnonzero(shared)
+    return {"character": b.name,
+            "least_distance_m": round(float(between[i]), 4),
+            "least_distance_frame": int(frame_start + i),
+            "frames_overlapping": int((between < 0.0).sum()),
+            "frames_on_one_footprint": int(len(on)),
+            "first_frame_on_one_footprint": int(frame_start + on[0]) if len(on) else None}
+
+
+def pair_line(fig: dict) -> str:
+    """One line of the command line's summary for ``pair_figures``."""
+    line = (f"with {fig['character']}: bodies {fig['least_distance_m']:.2f} m apart at the nearest "
+            f"(frame {fig['least_distance_frame']})")
+    if fig["frames_overlapping"]:
+        line += f", overlapping {fig['frames_overlapping']} frames"
+    n = fig["frames_on_one_footprint"]
+    line += (f"; feet on one footprint {n} frames (from frame {fig['first_frame_on_one_footprint']})"
+             if n else "; never a foot on the other's footprint")
+    return line
+
+
+__all__ = ["BODY_RADIUS", "FOOT_OVER_ANKLE_BALL", "PLANTED_SPEED", "PlayedBody", "body_of", "pair_figures", "pair_line",
+           "planted_feet", "segment_distance"]

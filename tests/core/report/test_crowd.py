@@ -1,0 +1,102 @@
+"""Characters sharing a shot (``core.report.crowd``): the distance between two bodies'
+capsules, planted feet and the figures per pair."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from footstep_planner.core.report.crowd import PlayedBody, pair_figures, planted_feet, segment_distance
+
+HYP = dict(deadline=None, database=None)
+coords = arrays(np.float64, (4, 3), elements=st.floats(-5.0, 5.0, allow_nan=False, width=32))
+
+
+def brute_force(p0, p1, q0, q1, n=801):
+    """The least distance from n points along p0-p1 to the segment q0-q1 (each point's
+    nearest on it exactly): at most a step's worth above the true least distance."""
+    s = np.linspace(0.0, 1.0, n)[:, None]
+    p = p0 + s * (p1 - p0)
+    d = q1 - q0
+    dd = float(d @ d)
+    t = np.clip(((p - q0) @ d) / dd, 0.0, 1.0)[:, None] if dd > 0 else np.zeros((n, 1))
+    return float(np.linalg.norm(p - (q0 + t * d), axis=1).min()), float(np.linalg.norm(p1 - p0)) / (n - 1)
+
+
+@settings(max_examples=300, **HYP)
+@given(coords, st.sampled_from(["any", "point_p", "point_q", "parallel", "both_points"]))
+def test_segment_distance_is_the_least_distance(c, kind):
+    p0, p1, q0, q1 = c
+    if kind == "point_p":
+        p1 = p0
+    elif kind == "point_q":
+        q1 = q0
+    elif kind == "parallel":
+        q1 = q0 + 0.7 * (p1 - p0)
+    elif kind == "both_points":
+        p1, q1 = p0, q0
+    got = segment_distance(p0[None], p1[None], q0[None], q1[None])[0]
+    want, step = brute_force(p0, p1, q0, q1)
+    assert got <= want + 1e-9
+    assert got >= want - step - 1e-9
+    # either way round, either end first: the same distance
+    for a, b, c_, d in ((q0, q1, p0, p1), (p1, p0, q1, q0)):
+        assert abs(segment_distance(a[None], b[None], c_[None], d[None])[0] - got) < 1e-9
+
+
+@settings(max_examples=50, **HYP)
+@given(coords, st.floats(-np.pi, np.pi), arrays(np.float64, 3, elements=st.floats(-50, 50, width=32)))
+def test_segment_distance_moves_with_the_segments(c, yaw, shift):
+    """Turned about Z and moved, frame by frame in one call: the same distances."""
+    cz, sz = np.cos(yaw), np.sin(yaw)
+    R = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    moved = c @ R.T + shift
+    both = segment_distance(*(np.stack([c[k], moved[k]]) for k in range(4)))
+    assert abs(both[0] - both[1]) < 1e-7
+
+
+def test_still_feet_are_planted_and_moving_ones_are_not():
+    fps = 30.0
+    F = 60
+    t = np.arange(F) / fps
+    still = np.zeros((F, 2, 3))
+    swing = np.zeros((F, 2, 3))
+    swing[:, :, 0] = 1.2 * t[:, None]  # 1.2 m/s
+    planted = planted_feet(np.stack([still, swing]), fps)
+    assert planted[0].all() and not planted[1].any()
+
+
+def body(name, x, y, planted=True):
+    """A standing body at (x, y) (arrays over the frames), its feet 0.1 m to either side."""
+    F = len(x)
+    hips = np.c_[x, y, np.full(F, 0.95)]
+    head = hips + [0.0, 0.0, 0.8]
+    soles = np.stack([np.c_[x - 0.1, y, np.zeros(F)], np.c_[x + 0.1, y, np.zeros(F)]])
+    return PlayedBody(name, hips, head, 0.2, soles, np.full((2, F), planted), 0.26)
+
+
+def test_two_bodies_passing_and_standing_on_one_spot():
+    F = 101
+    x = np.linspace(-5.0, 5.0, F)
+    a = body("A", x, np.zeros(F))
+    b = body("B", np.zeros(F), np.full(F, 0.2))  # standing 0.2 m off A's way
+    fig = pair_figures(a, b, frame_start=10)
+    assert fig["character"] == "B"
+    assert abs(fig["least_distance_m"] - (0.2 - 0.4)) < 1e-9  # the capsules overlap by 0.2 m
+    assert fig["least_distance_frame"] == 10 + 50  # where A passes B
+    assert fig["frames_overlapping"] == int((np.hypot(x, 0.2) < 0.4).sum())
+    # B's feet are 0.2 m off A's way, under a foot's length: shared while A's pass (planted)
+    near = np.zeros(F, bool)
+    for da in (-0.1, 0.1):  # (either foot of A's on either of B's)
+        for db in (-0.1, 0.1):
+            near |= np.hypot(x + da - db, 0.2) < 0.26
+    assert fig["frames_on_one_footprint"] == int(near.sum())
+    assert fig["first_frame_on_one_footprint"] == 10 + int(np.flatnonzero(near)[0])
+    far = body("C", np.zeros(F), np.full(F, 3.0))
+    fig = pair_figures(a, far, frame_start=10)
+    assert fig["least_distance_m"] > 2.5 and fig["frames_overlapping"] == 0
+    assert fig["frames_on_one_footprint"] == 0 and fig["first_frame_on_one_footprint"] is None
+    # feet in the air never share a footprint
+    assert pair_figures(a, body("D", np.zeros(F), np.full(F, 0.2), planted=False), 0)["frames_on_one_footprint"] == 0
