@@ -233,6 +233,11 @@ def _draw_report(layout, fs):
             ("ground penetration, max", f"{q['penetration']['max_mm']:.1f} mm"),
             ("goal", f"{q['goal']['distance_m'] * 100:.1f} cm"),
             ("pops made by the planner", f"{q['pops']['introduced']['count']}")]
+    for other in q.get("others") or ():  # (the other characters baked in the shot)
+        rows.append((f"nearest {other['character']}", f"{other['least_distance_m']:.2f} m, frame "
+                     f"{other['least_distance_frame']}"))
+        if other["frames_on_one_footprint"]:
+            rows.append((f"on {other['character']}'s footprints", f"{other['frames_on_one_footprint']} frames"))
     for t in doc.get("turns_in_place") or ():
         rows.append((f"turns in place at the {t['where']}",
                      f"{t['degrees']:+.0f} deg, frames {t['frames'][0]:g}-{t['frames'][1]:g}"))

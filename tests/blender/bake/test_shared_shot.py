@@ -52,6 +52,16 @@ def test_two_characters_crossing_are_measured_against_each_other_as_played(fp, t
     assert fig["least_distance_m"] < 0.3, fig
     lines = import_module(fp.__name__ + ".core.report.tables").format_bake(doc_b)
     assert f"with {a.name}: bodies" in lines
+    # the panel's quality box (the report as the Bake operator keeps it) names the other too
+    import json
+
+    from conftest import Recorder
+
+    scene.footstep.plan_json = json.dumps({k: doc_b[k] for k in ("stages", "quality")})
+    stub = Recorder()
+    import_module(fp.__name__ + ".blender.ui.panel")._draw_report(stub, scene.footstep)
+    texts = [kw.get("text") for name, _, kw in stub.log if name == "label"]
+    assert f"nearest {a.name}" in texts and f"on {a.name}'s footprints" in texts
 
     # the saved file, as Blender plays it: the same figures, from the bodies read there
     names = b.name, a.name
