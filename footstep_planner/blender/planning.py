@@ -35,7 +35,7 @@ from ..core.synth.pipeline import Synthesis, stage_row, standing_body
 from . import rigify
 from .read.character import analyze_character, library_for
 from .read.scene import facing_rotation, object_scale, rig_from_armature, rotation_heading, scene_fps
-from .read.surfaces import scene_surfaces
+from .read.surfaces import BvhGround, local_mesh, scene_surfaces, tagged_objects
 from .ui import overlay
 from .write import bake as baking
 from .write import rebake
@@ -189,7 +189,7 @@ SPLICE_SKATE_MM = 1.0
 
 
 def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTiming, goal,
-            body_on: str = "OBJECT", played: dict | None = None) -> dict:
+            body_on: str = "OBJECT", played: dict | None = None, obstacles=()) -> dict:
     """The quality of the scene as Blender plays it (``bake.evaluate_played``: the bake
     with every other track and the active action as they are) over the bake's ``timing``
     (its ``planted`` when the bake's timing is not the synthesis's: a re-bake's splice),
@@ -200,14 +200,18 @@ def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTimi
     own checks too). Where other characters in the scene were baked by the planner
     (``other_characters``), they play in the same frames, and the quality's ``"others"``
     gives, for each, how near the two bodies come and how many frames their feet stand on
-    one footprint (``core.report.crowd.pair_figures``)."""
+    one footprint (``core.report.crowd.pair_figures``); where an obstacle (tagged, or named
+    in ``obstacles`` for this run) moves over the bake (its transform: keys, a parent,
+    constraints, drivers), its ``"moving_obstacles"`` gives how near the body comes to it
+    (``crowd.obstacle_figures``): the planner avoided it where it stood when planning."""
     setup, syn, rig = planned.setup, planned.synthesis, planned.setup.rig
     frames, fps = timing.frames, timing.fps
     root = None
     if body_on == "ROOT":  # (a Rigify rig's torso carries the body: its hips stand for it)
         root = rig.role_index("hips") if rigify.is_rigify(ob) else baking.root_bone(ob, rig)
     others = other_characters(scene, ob)
-    played_all = baking.played_matrices(scene, [(ob, rig), *others], timing.frame_start, frames)
+    obstacles = tagged_objects(scene, (), obstacles)[1]
+    played_all, moved = baking.played_matrices(scene, [(ob, rig), *others], timing.frame_start, frames, obstacles)
     world, body_pos, body_yaw, bone_rot = baking.played_pose(rig, *played_all[0], root)
     if played is not None:  # (for the caller: the body and the bones as played)
         played["body"], played["world"] = body_pos, world
@@ -220,10 +224,17 @@ def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTimi
                              toe_tips(rig, world, walk.heel_local, walk.toe_local))
     feet = report.FootPoints([rig.foot_chain(x)[0] for x in ("l", "r")], walk.heel_local, walk.toe_local)
     quality = report.measure_bake(pose, feet, setup.planner.ground, stances, goal, planned.goal_heading, allowance)
-    if others:  # (the other characters baked in the scene, played in the same frames)
+    movers = [(o, m) for o, m in zip(obstacles, moved) if crowd.moves(m)]
+    if others or movers:
         me = crowd.body_of(ob.name, rig, world, fps)
+    if others:  # (the other characters baked in the scene, played in the same frames)
         quality["others"] = [crowd.pair_figures(me, crowd.body_of(o.name, r, baking.played_world(*m), fps),
                                                 timing.frame_start) for (o, r), m in zip(others, played_all[1:])]
+    if movers:  # (obstacles whose transform changes over the bake: planned where they stood)
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        quality["moving_obstacles"] = [
+            crowd.obstacle_figures(me, o.name, BvhGround(local_mesh(o.name, o.evaluated_get(depsgraph))), m,
+                                   timing.frame_start) for o, m in movers]
     return quality
 
 
@@ -406,7 +417,7 @@ class _Job:
     def _measure(self) -> dict:
         self.played = {}
         return measure(self.scene, self.ob, self.planned, self.solved, self.timing, self.req.goal, self.opts.body_on,
-                       self.played)
+                       self.played, self.req.obstacles)
 
     def measured(self) -> dict:
         """The bake's quality as Blender plays it; a splice that slides a foot is re-baked

@@ -149,22 +149,28 @@ def mesh_of(objects, depsgraph, placed=()) -> TriMesh:
     parts = []
     items = [(ob.name, ob.evaluated_get(depsgraph), None) for ob in objects] + list(placed)
     for name, ev, matrix in items:
-        me = ev.to_mesh()
-        try:
-            me.calc_loop_triangles()
-            nv, nt = len(me.vertices), len(me.loop_triangles)
-            # (in the types Blender holds them in, read at once; other types are converted
-            # one value at a time)
-            co = np.empty(nv * 3, np.float32)
-            me.vertices.foreach_get("co", co)
-            tri = np.empty(nt * 3, dtype=np.int32)
-            me.loop_triangles.foreach_get("vertices", tri)
-        finally:
-            ev.to_mesh_clear()
+        local = local_mesh(name, ev)
         m = np.array(ev.matrix_world) if matrix is None else matrix
-        co = co.astype(np.float64).reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-        parts.append(TriMesh(co, tri.astype(np.int64).reshape(-1, 3), np.zeros(nt, np.int64), (name,)))
+        parts.append(TriMesh(local.verts @ m[:3, :3].T + m[:3, 3], local.tris, local.owner, local.names))
     return TriMesh.concat(parts)
+
+
+def local_mesh(name: str, ev) -> TriMesh:
+    """The triangles of evaluated object ``ev`` (modifiers applied) in its own space."""
+    me = ev.to_mesh()
+    try:
+        me.calc_loop_triangles()
+        nv, nt = len(me.vertices), len(me.loop_triangles)
+        # (in the types Blender holds them in, read at once; other types are converted
+        # one value at a time)
+        co = np.empty(nv * 3, np.float32)
+        me.vertices.foreach_get("co", co)
+        tri = np.empty(nt * 3, dtype=np.int32)
+        me.loop_triangles.foreach_get("vertices", tri)
+    finally:
+        ev.to_mesh_clear()
+    return TriMesh(co.astype(np.float64).reshape(-1, 3), tri.astype(np.int64).reshape(-1, 3),
+                   np.zeros(nt, np.int64), (name,))
 
 
 #: Points from which a batch of rays is cast by ``core.plan.rays.RayGrid`` rather than one

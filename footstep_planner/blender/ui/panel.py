@@ -238,6 +238,10 @@ def _draw_report(layout, fs):
                      f"{other['least_distance_frame']}"))
         if other["frames_on_one_footprint"]:
             rows.append((f"on {other['character']}'s footprints", f"{other['frames_on_one_footprint']} frames"))
+    for mover in q.get("moving_obstacles") or ():
+        if mover["least_distance_m"] is not None:
+            rows.append((f"nearest {mover['obstacle']} (moving)", f"{mover['least_distance_m']:.2f} m, frame "
+                         f"{mover['least_distance_frame']}"))
     for t in doc.get("turns_in_place") or ():
         rows.append((f"turns in place at the {t['where']}",
                      f"{t['degrees']:+.0f} deg, frames {t['frames'][0]:g}-{t['frames'][1]:g}"))

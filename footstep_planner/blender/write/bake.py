@@ -503,20 +503,22 @@ def evaluate_played(scene, ob, rig: Rig, frame_start: int, frames: int, root: in
     body yaw (F,) unwrapped, bone rotations relative to rest (F, B, 4) scipy x, y, z, w).
     The body is the object's frame, or with ``root`` that bone's frame with its rest
     put back. The scene's current frame is restored."""
-    return played_pose(rig, *played_matrices(scene, [(ob, rig)], frame_start, frames)[0], root)
+    return played_pose(rig, *played_matrices(scene, [(ob, rig)], frame_start, frames)[0][0], root)
 
 
-def played_matrices(scene, characters, frame_start: int, frames: int) -> list:
-    """Each of ``characters`` ((object, Rig) pairs) as Blender plays the scene at ``frames``
-    frames from ``frame_start``, all read in one pass of ``scene.frame_set`` (one depsgraph
-    evaluation a frame, what playing does): per character (the rig's bones' armature-space
-    matrices (F, B, 4, 4), the object's world matrix (F, 4, 4)). The scene's current frame
+def played_matrices(scene, characters, frame_start: int, frames: int, objects=()) -> tuple[list, list]:
+    """Each of ``characters`` ((object, Rig) pairs) and ``objects`` as Blender plays the
+    scene at ``frames`` frames from ``frame_start``, all read in one pass of
+    ``scene.frame_set`` (one depsgraph evaluation a frame, what playing does): (per
+    character (the rig's bones' armature-space matrices (F, B, 4, 4), the object's world
+    matrix (F, 4, 4)), per object its world matrix (F, 4, 4)). The scene's current frame
     is restored."""
     # (a Rigify rig's skeleton is some of its bones)
     picks = [[ob.pose.bones.find(n) for n in rig.names] for ob, rig in characters]
     pose = [np.empty((frames, len(rig.names), 4, 4)) for _, rig in characters]
     obm = [np.empty((frames, 4, 4)) for _ in characters]
     bufs = [np.empty(len(ob.pose.bones) * 16, dtype=np.float32) for ob, _ in characters]
+    moved = [np.empty((frames, 4, 4)) for _ in objects]
     saved = scene.frame_current, scene.frame_subframe
     depsgraph = bpy.context.evaluated_depsgraph_get()
     try:
@@ -527,9 +529,11 @@ def played_matrices(scene, characters, frame_start: int, frames: int) -> list:
                 ev.pose.bones.foreach_get("matrix", bufs[c])
                 pose[c][i] = bufs[c].reshape(-1, 4, 4)[picks[c]].transpose(0, 2, 1)
                 obm[c][i] = np.array(ev.matrix_world)
+            for c, ob in enumerate(objects):
+                moved[c][i] = np.array(ob.evaluated_get(depsgraph).matrix_world)
     finally:
         scene.frame_set(saved[0], subframe=saved[1])
-    return list(zip(pose, obm))
+    return list(zip(pose, obm)), moved
 
 
 def played_world(pose: np.ndarray, obm: np.ndarray) -> np.ndarray:

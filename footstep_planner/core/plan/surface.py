@@ -85,17 +85,20 @@ class TriMesh:
         # a solid whose normals all face inwards (its signed volume negative) is turned out
         volume = np.bincount(self.owner, weights=np.einsum("ij,ij->i", c[:, 0], cross), minlength=self.owner.max() + 1)
         nz = nz * np.where(volume[self.owner] < 0, -1.0, 1.0)
-        e = np.sort(self.tris[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        owner = np.repeat(self.owner, 3)
-        keys = np.c_[owner, e]
-        _, inv, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-        open_edge = counts[inv.ravel()] != 2
-        closed = np.ones(len(self.names) or int(self.owner.max()) + 1, bool)
-        closed[np.unique(owner[open_edge])] = False
-        keep = ~(closed[self.owner] & (nz < -tilt))
+        keep = ~(self.closed_owners()[self.owner] & (nz < -tilt))
         if keep.all():
             return self
         return TriMesh(self.verts, self.tris[keep], self.owner[keep], self.names)
+
+    def closed_owners(self) -> np.ndarray:
+        """(O,) bool: whether each object's triangles close a solid (every edge of them
+        joins exactly two of them); an object without triangles counts as closed."""
+        e = np.sort(self.tris[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        owner = np.repeat(self.owner, 3)
+        _, inv, counts = np.unique(np.c_[owner, e], axis=0, return_inverse=True, return_counts=True)
+        closed = np.ones(len(self.names) or int(self.owner.max(initial=-1)) + 1, bool)
+        closed[np.unique(owner[counts[inv.ravel()] != 2])] = False
+        return closed
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         if not len(self.verts):

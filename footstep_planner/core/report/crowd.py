@@ -1,5 +1,6 @@
 """Characters sharing a shot, measured as played: how near two bodies come and whether two
-feet stand on one footprint at once (issue 29's figures per pair of characters).
+feet stand on one footprint at once, and how near a body comes to an obstacle that moves
+(issue 29's figures per pair of characters, and per character and moving obstacle).
 
 A body is a capsule: the segment from its hips to the top of its head, and a radius (a
 human's half shoulder width, ``BODY_RADIUS``, times the body's size). Two bodies meet
@@ -22,6 +23,7 @@ import numpy as np
 from ..clips.body import body_scale
 from ..clips.clip import SIDES
 from ..clips.rig import Rig
+from ..plan.surface import Ground
 
 #: m: a human's half shoulder width, the radius of a body's capsule (times its size).
 BODY_RADIUS = 0.2
@@ -38,7 +40,8 @@ class PlayedBody:
     - ``radius``: m, its capsule's radius;
     - ``soles`` (2, F, 3): the middle of each foot's sole (between ankle and ball), left then right;
     - ``planted`` (2, F) bool: where each foot stands (``planted_feet``);
-    - ``foot_length``: m, the foot's length (heel to toe)."""
+    - ``foot_length``: m, the foot's length (heel to toe);
+    - ``feet`` (2, F, P, 3) or None: each foot's points (its ankle and ball), for obstacles."""
 
     name: str
     hips: np.ndarray
@@ -47,6 +50,7 @@ class PlayedBody:
     soles: np.ndarray
     planted: np.ndarray
     foot_length: float
+    feet: np.ndarray | None = None
 
 
 def segment_distance(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
@@ -112,7 +116,7 @@ def body_of(name: str, rig: Rig, world: np.ndarray, fps: float) -> PlayedBody:
         feet[k, :, 1] = (world[:, foot] @ ball_local)[:, :3]
         reach = max(reach, float(np.linalg.norm(ball_local[:3])))
     return PlayedBody(name, hips, head, BODY_RADIUS * scale, feet.mean(axis=2), planted_feet(feet, fps, scale),
-                      FOOT_OVER_ANKLE_BALL * reach)
+                      FOOT_OVER_ANKLE_BALL * reach, feet)
 
 
 def pair_figures(a: PlayedBody, b: PlayedBody, frame_start: int) -> dict:
@@ -138,6 +142,83 @@ def pair_figures(a: PlayedBody, b: PlayedBody, frame_start: int) -> dict:
             "first_frame_on_one_footprint": int(frame_start + on[0]) if len(on) else None}
 
 
+#: Points along a body's segment, hips to head, tested against a moving obstacle (7 cm
+#: apart on a human: where an obstacle touches the capsule, the distance they give is at
+#: most 3 mm more than the capsule's; more only deep inside it).
+SEGMENT_SAMPLES = 25
+
+
+def moves(matrices: np.ndarray, tol: float = 1e-6) -> bool:
+    """Whether an object whose world matrices over the frames are ``matrices`` (F, 4, 4)
+    moves (any entry changes by more than ``tol``)."""
+    m = np.asarray(matrices, float)
+    return bool(len(m) > 1 and np.abs(m - m[:1]).max() > tol)
+
+
+def obstacle_figures(body: PlayedBody, name: str, local: Ground, matrices: np.ndarray, frame_start: int) -> dict:
+    """How near ``body`` comes to a moving obstacle ``name`` whose surface is ``local`` (a
+    ground query in the obstacle's own space) and whose world matrices over the same F
+    frames are ``matrices`` (F, 4, 4): the least distance from the body's capsule
+    (``SEGMENT_SAMPLES`` points hips to head, less its radius) or either foot's ankle and
+    ball to the obstacle's surface, negative where the capsule reaches into it, its scene
+    frame (from ``frame_start``), and the frames they touch. The nearest surface point
+    is found in the obstacle's space and measured in the world's; a point within a closed
+    obstacle (``inside``) is that far into it."""
+    m = np.asarray(matrices, float)
+    F = len(m)
+    u = np.linspace(0.0, 1.0, SEGMENT_SAMPLES)[None, :, None]
+    seg = body.hips[:, None] + u * (body.head - body.hips)[:, None]  # (F, K, 3)
+    feet = body.feet.reshape(2, F, -1, 3).transpose(1, 0, 2, 3).reshape(F, -1, 3)  # (F, 2 * P, 3)
+    pts = np.concatenate([seg, feet], axis=1)
+    inv = np.linalg.inv(m)
+    here = np.einsum("fij,fkj->fki", inv[:, :3, :3], pts) + inv[:, None, :3, 3]
+    near, _ = local.nearest(here.reshape(-1, 3))
+    back = np.einsum("fij,fkj->fki", m[:, :3, :3], near.reshape(F, -1, 3)) + m[:, None, :3, 3]
+    d = np.linalg.norm(back - pts, axis=-1)  # (F, K + 2P), nan where the obstacle has no surface
+    d = np.where(inside(local, here.reshape(-1, 3)).reshape(d.shape), -d, d)  # (within a solid: how deep)
+    d[:, :SEGMENT_SAMPLES] -= body.radius
+    d = np.where(np.isfinite(d), d, np.inf).min(axis=1)
+    i = int(np.argmin(d))
+    return {"obstacle": name, "least_distance_m": round(float(d[i]), 4) if np.isfinite(d[i]) else None,
+            "least_distance_frame": int(frame_start + i), "frames_touching": int((d < 0.0).sum())}
+
+
+#: A point is inside a solid where a ray down from it crosses its surface an odd number
+#: of times, counted up to this many crossings.
+MAX_CROSSINGS = 16
+
+
+def inside(ground: Ground, points: np.ndarray) -> np.ndarray:
+    """(N,) bool: each point (N, 3) within the solid ``ground``'s surface closes (never,
+    for a surface that closes none: ``TriMesh.closed_owners``), by the parity of the
+    surfaces a ray down from it crosses (each crossing found by a ray down from just below
+    the one before)."""
+    p = np.array(points, float).reshape(-1, 3)
+    count = np.zeros(len(p), np.int64)
+    if not ground.mesh.n or not ground.mesh.closed_owners().all():
+        return count > 0
+    lo, hi = ground.mesh.bounds()
+    reach = float(hi[2] - lo[2]) + 1.0
+    todo = np.flatnonzero(p[:, 2] >= lo[2])
+    for _ in range(MAX_CROSSINGS):
+        if not len(todo):
+            break
+        hit = ground.ray_down(p[todo], reach)
+        count[todo[hit.hit]] += 1
+        p[todo[hit.hit], 2] = hit.z[hit.hit] - 1e-7 * max(reach, 1.0)
+        todo = todo[hit.hit]
+    return count % 2 == 1
+
+
+def obstacle_line(fig: dict) -> str:
+    """One line of the command line's summary for ``obstacle_figures``."""
+    if fig["least_distance_m"] is None:
+        return f"with {fig['obstacle']} (moving): no surface to measure"
+    return (f"with {fig['obstacle']} (moving): {fig['least_distance_m']:.2f} m from the body at the nearest "
+            f"(frame {fig['least_distance_frame']})"
+            + (f", touching {fig['frames_touching']} frames" if fig["frames_touching"] else ""))
+
+
 def pair_line(fig: dict) -> str:
     """One line of the command line's summary for ``pair_figures``."""
     line = (f"with {fig['character']}: bodies {fig['least_distance_m']:.2f} m apart at the nearest "
@@ -150,5 +231,6 @@ def pair_line(fig: dict) -> str:
     return line
 
 
-__all__ = ["BODY_RADIUS", "FOOT_OVER_ANKLE_BALL", "PLANTED_SPEED", "PlayedBody", "body_of", "pair_figures", "pair_line",
+__all__ = ["BODY_RADIUS", "FOOT_OVER_ANKLE_BALL", "MAX_CROSSINGS", "PLANTED_SPEED", "PlayedBody", "SEGMENT_SAMPLES",
+           "body_of", "inside", "moves", "obstacle_figures", "obstacle_line", "pair_figures", "pair_line",
            "planted_feet", "segment_distance"]

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from .crowd import pair_line
+from .crowd import obstacle_line, pair_line
 
 
 def format_table(title: str, analyses, refused=()) -> str:
@@ -114,6 +114,7 @@ def format_bake(doc) -> str:
                                                      if intro['bone'] else ""),
     ]
     lines += [pair_line(fig) for fig in q.get("others", [])]
+    lines += [obstacle_line(fig) for fig in q.get("moving_obstacles", [])]
     lines += format_turns(doc.get("turns_in_place", []))
     if doc.get("waypoints"):
         lines.append(format_waypoints(doc["waypoints"]))

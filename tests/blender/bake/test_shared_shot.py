@@ -75,7 +75,7 @@ def test_two_characters_crossing_are_measured_against_each_other_as_played(fp, t
     first, n = doc_b["frame_start"], doc_b["frame_end"] - doc_b["frame_start"] + 1
     obs = [scene.objects[n_] for n_ in names]
     rigs = [read.rig_from_armature(o) for o in obs]
-    played = bake.played_matrices(scene, list(zip(obs, rigs)), first, n)
+    played, _ = bake.played_matrices(scene, list(zip(obs, rigs)), first, n)
     bodies = [crowd.body_of(o.name, r, bake.played_world(*m), FPS) for o, r, m in zip(obs, rigs, played)]
     again = crowd.pair_figures(bodies[0], bodies[1], first)
     assert again == fig
@@ -83,3 +83,49 @@ def test_two_characters_crossing_are_measured_against_each_other_as_played(fp, t
     hips = [bd.hips for bd in bodies]
     nearest = first + int(np.argmin(np.linalg.norm(hips[0][:, :2] - hips[1][:, :2], axis=1)))
     assert abs(nearest - fig["least_distance_frame"]) <= 5
+
+
+def test_an_obstacle_that_moves_across_the_way_is_measured_as_played(fp, tmp_path):
+    """A cart keyed to slide onto A's way and stay there (planned where it stood at the
+    first frame, off the way) is measured against the body as played: A walks into it
+    (how deep, on which frame, for how many frames); a post that never moves is not
+    listed."""
+    import bpy
+
+    scene, a, b = _crossing(fp)
+    bpy.data.objects.remove(b)
+    ss = import_module(fp.__name__ + ".blender.sample.sample_scenes")
+    obst = ss._collection(scene, "Obstacles", "OBSTACLE")
+    cart = ss._box(obst, "Cart", -0.5, 0.5, -0.5, 0.5, 0.0, 1.0)
+    ss._box(obst, "Post", -0.2, 0.2, 6.0, 6.4, 0.0, 2.0)
+    for frame, y in ((1, -3.0), (60, 0.0), (400, 0.0)):
+        cart.location = (0.0, y, 0.0)
+        cart.keyframe_insert("location", frame=frame)
+    scene.frame_set(1)
+    doc = _bake(fp, scene, a, "A")
+    (fig,) = doc["quality"]["moving_obstacles"]
+    print("A against the cart as baked:", fig)
+    assert fig["obstacle"] == "Cart"
+    assert fig["least_distance_m"] < -0.1 and fig["frames_touching"] > 5
+    assert "with Cart (moving)" in import_module(fp.__name__ + ".core.report.tables").format_bake(doc)
+
+    # the saved file as Blender plays it: the same figure
+    path = str(tmp_path / "cart.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
+    name = a.name
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    bake = import_module(fp.__name__ + ".blender.write.bake")
+    crowd = import_module(fp.__name__ + ".core.report.crowd")
+    read = import_module(fp.__name__ + ".blender.read.scene")
+    surfaces = import_module(fp.__name__ + ".blender.read.surfaces")
+    first, n = doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1
+    ob, cart = scene.objects[name], scene.objects["Cart"]
+    rig = read.rig_from_armature(ob)
+    (played,), (moved,) = bake.played_matrices(scene, [(ob, rig)], first, n, [cart])
+    me = crowd.body_of(name, rig, bake.played_world(*played), FPS)
+    local = surfaces.BvhGround(surfaces.local_mesh("Cart", cart.evaluated_get(bpy.context.evaluated_depsgraph_get())))
+    assert crowd.obstacle_figures(me, "Cart", local, moved, first) == fig
+    # the deepest where the body passes the cart's middle (x = 0), the cart on the way
+    at = fig["least_distance_frame"] - first
+    assert abs(me.hips[at, 0]) < 0.35 and abs(moved[at, 1, 3]) < 1e-6

@@ -100,3 +100,53 @@ def test_two_bodies_passing_and_standing_on_one_spot():
     assert fig["frames_on_one_footprint"] == 0 and fig["first_frame_on_one_footprint"] is None
     # feet in the air never share a footprint
     assert pair_figures(a, body("D", np.zeros(F), np.full(F, 0.2), planted=False), 0)["frames_on_one_footprint"] == 0
+
+
+def test_a_box_sliding_across_a_body_is_measured_in_its_own_space():
+    """A 1 m box (its surface in its own space, moved by its world matrices) slides along
+    x through y = 1.5 while the body stands at the origin: the nearest is where the box's
+    side faces the body, 1.0 m from the body's axis (less the radius)."""
+    from footstep_planner.core.plan.surface import MeshGround
+    from footstep_planner.core.report.crowd import moves, obstacle_figures
+    from conftest import box
+
+    F = 81
+    me = body("A", np.zeros(F), np.zeros(F))
+    me = PlayedBody(me.name, me.hips, me.head, me.radius, me.soles, me.planted, me.foot_length,
+                    np.stack([np.stack([s, s], axis=1) for s in me.soles]))  # (each foot's two points: its sole)
+    ground = MeshGround(box((-0.5, -0.5, 0.0), (0.5, 0.5, 1.0)))
+    m = np.tile(np.eye(4), (F, 1, 1))
+    m[:, 0, 3] = np.linspace(-4.0, 4.0, F)
+    m[:, 1, 3] = 1.5
+    assert moves(m) and not moves(np.tile(np.eye(4), (F, 1, 1)))
+    fig = obstacle_figures(me, "Cart", ground, m, frame_start=1)
+    assert fig["obstacle"] == "Cart"
+    assert abs(fig["least_distance_m"] - (1.0 - me.radius)) < 1e-9
+    assert abs(m[fig["least_distance_frame"] - 1, 0, 3]) <= 0.5 + 1e-9  # (its side faces the body there)
+    assert fig["frames_touching"] == 0
+    # turned a quarter about Z and sliding through y = 0.6: it reaches into the body
+    c, s = 0.0, 1.0
+    m[:, :3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+    m[:, 1, 3] = 0.6
+    fig = obstacle_figures(me, "Cart", ground, m, frame_start=1)
+    assert abs(fig["least_distance_m"] - (0.1 - me.radius)) < 1e-9
+    assert fig["frames_touching"] > 0
+    # sliding through the body itself: its hips 5 cm under the box's top, inside it
+    m[:, 1, 3] = 0.0
+    fig = obstacle_figures(me, "Cart", ground, m, frame_start=1)
+    assert abs(fig["least_distance_m"] - (-0.05 - me.radius)) < 1e-9
+
+
+@settings(max_examples=60, **HYP)
+@given(arrays(np.float64, (20, 3), elements=st.floats(-2.0, 2.0, allow_nan=False, width=32)))
+def test_inside_a_box_is_inside_its_bounds_and_never_for_an_open_mesh(p):
+    from footstep_planner.core.plan.surface import MeshGround
+    from footstep_planner.core.report.crowd import inside
+    from conftest import box, plane
+
+    lo, hi = np.array([-0.5, -0.7, 0.1]), np.array([0.9, 0.4, 1.3])
+    got = inside(MeshGround(box(lo, hi)), p)
+    margin = np.minimum(p - lo, hi - p).min(axis=1)
+    sure = np.abs(margin) > 1e-6
+    assert np.array_equal(got[sure], (margin > 0)[sure])
+    assert not inside(MeshGround(plane(-1, 1, -1, 1)), p).any()
