@@ -182,26 +182,35 @@ class JobOutcome:
     error: str | None = None
     outputs: list = field(default_factory=list)
     attempts: int = 1
+    # m: the least distance from its body to another character's baked in the shot (and
+    # whose), from the report's ``quality.others``; None where there is none
+    nearest_m: float | None = None
+    nearest: str | None = None
 
     @classmethod
     def from_report(cls, number: int, label: str, doc: dict, seconds: float, outputs=()) -> "JobOutcome":
         q = doc.get("quality") or {}
+        near = min(q.get("others") or [], key=lambda o: o["least_distance_m"], default=None)
         return cls(number, label, "baked", seconds, frames=doc["frame_end"] - doc["frame_start"] + 1,
                    skate_mm=(q.get("foot_skate") or {}).get("max_mm"),
-                   goal_cm=100 * (q.get("goal") or {}).get("distance_m", float("nan")), outputs=list(outputs))
+                   goal_cm=100 * (q.get("goal") or {}).get("distance_m", float("nan")), outputs=list(outputs),
+                   nearest_m=None if near is None else near["least_distance_m"],
+                   nearest=None if near is None else near["character"])
 
     def to_dict(self) -> dict:
         return asdict(self)
 
 
 def summary_table(outcomes: list[JobOutcome], wall_seconds: float | None = None) -> str:
-    """The batch's summary: one row per job (status, frames, time, quality or the error)
-    and the counts."""
-    rows = [f"{'job':<40s} {'status':>8s} {'frames':>7s} {'time s':>7s} {'skate mm':>9s} {'goal cm':>8s}  error"]
+    """The batch's summary: one row per job (status, frames, time, quality, the nearest
+    another character baked in the shot came (m, whose body) or the error) and the counts."""
+    rows = [f"{'job':<40s} {'status':>8s} {'frames':>7s} {'time s':>7s} {'skate mm':>9s} {'goal cm':>8s} "
+            f"{'nearest m':>9s}  error or nearest character"]
     for o in outcomes:
         num = lambda v, f: format(v, f) if v is not None else "-"  # noqa: E731
         rows.append(f"{o.label[:40]:<40s} {o.status:>8s} {num(o.frames, 'd'):>7s} {o.seconds:7.1f} "
-                    f"{num(o.skate_mm, '.2f'):>9s} {num(o.goal_cm, '.1f'):>8s}  {(o.error or '')[:120]}")
+                    f"{num(o.skate_mm, '.2f'):>9s} {num(o.goal_cm, '.1f'):>8s} {num(o.nearest_m, '.2f'):>9s}  "
+                    f"{(o.error or o.nearest or '')[:120]}")
     failed = sum(o.status != "baked" for o in outcomes)
     tail = f"{len(outcomes) - failed} of {len(outcomes)} jobs baked, {failed} failed"
     if wall_seconds is not None:

@@ -1,7 +1,7 @@
 """Two characters baked into one shot (issue 29's figures per pair, measured as played):
 the later bake's report says how near the two bodies come, on which frame, and how many
-frames a foot of each stands on one footprint; the same figures come from the saved file
-as Blender plays it."""
+frames a foot of each stands on one footprint; a bake is measured against an obstacle
+that moves; the same figures come from the saved file as Blender plays it."""
 
 import math
 from importlib import import_module
@@ -38,36 +38,53 @@ def _bake(fp, scene, ob, tag):
     return planning.run(scene, ob, goal, heading, scene.objects[f"Start{tag}"], name=f"walk {tag}", frame_start=1)
 
 
-def test_two_characters_crossing_are_measured_against_each_other_as_played(fp, tmp_path):
-    import bpy
-
-    scene, a, b = _crossing(fp)
-    doc_a = _bake(fp, scene, a, "A")
-    assert "others" not in doc_a["quality"]  # (nobody else baked yet; B only stands there)
-    doc_b = _bake(fp, scene, b, "B")
-    (fig,) = doc_b["quality"]["others"]
-    print("B against A as baked:", fig)
-    assert fig["character"] == a.name
-    # they meet at the crossing: the bodies come within a shoulder's width of each other
-    assert fig["least_distance_m"] < 0.3, fig
-    lines = import_module(fp.__name__ + ".core.report.tables").format_bake(doc_b)
-    assert f"with {a.name}: bodies" in lines
-    # the panel's quality box (the report as the Bake operator keeps it) names the other too
+def test_two_characters_crossing_are_measured_against_each_other_as_played(fp, tmp_path, capsys):
+    """A job list baking two characters into one shot, from the command line: the second
+    job's report and summary name the first character, how near the bodies came and on
+    which frame; the saved scene, as Blender plays it, gives the same figures; the panel's
+    quality box names the other too."""
     import json
+
+    import bpy
 
     from conftest import Recorder
 
-    scene.footstep.plan_json = json.dumps({k: doc_b[k] for k in ("stages", "quality")})
-    stub = Recorder()
-    import_module(fp.__name__ + ".blender.ui.panel")._draw_report(stub, scene.footstep)
-    texts = [kw.get("text") for name, _, kw in stub.log if name == "label"]
-    assert f"nearest {a.name}" in texts and f"on {a.name}'s footprints" in texts
-
-    # the saved file, as Blender plays it: the same figures, from the bodies read there
+    scene, a, b = _crossing(fp)
     names = b.name, a.name
     path = str(tmp_path / "shot.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
-    bpy.ops.wm.open_mainfile(filepath=path)
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    jobs = tmp_path / "jobs.json"
+    jobs.write_text(json.dumps([
+        {"character": a.name, "goal": "GoalA", "start": "StartA", "name": "walk A", "report": str(tmp_path / "a.json")},
+        {"character": b.name, "goal": "GoalB", "start": "StartB", "name": "walk B", "report": str(tmp_path / "b.json")},
+    ]))
+    out = str(tmp_path / "baked.blend")
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
+    capsys.readouterr()
+    assert cli(["bake", path, "--job", str(jobs), "--out", out]) == 0
+    said = capsys.readouterr().out
+    doc_a, doc_b = (json.loads((tmp_path / n).read_text()) for n in ("a.json", "b.json"))
+    assert "others" not in doc_a["quality"]  # (nobody else baked yet; B only stands there)
+    (fig,) = doc_b["quality"]["others"]
+    print("B against A as baked:", fig)
+    assert fig["character"] == names[1]
+    # they meet at the crossing: the bodies come within a shoulder's width of each other
+    assert fig["least_distance_m"] < 0.3, fig
+    # the job list's summary: job 2's nearest other character, and how near
+    row = next(line for line in said.splitlines() if line.startswith("job 2"))
+    assert row.rstrip().endswith(names[1]) and f"{fig['least_distance_m']:.2f}" in row.split()
+
+    # the panel's quality box (the report as the Bake operator keeps it) names the other too
+    fs = bpy.context.scene.footstep  # (the command line read the scene file anew)
+    fs.plan_json = json.dumps({k: doc_b[k] for k in ("stages", "quality")})
+    stub = Recorder()
+    import_module(fp.__name__ + ".blender.ui.panel")._draw_report(stub, fs)
+    texts = [kw.get("text") for name, _, kw in stub.log if name == "label"]
+    assert f"nearest {names[1]}" in texts
+    assert f"on {names[1]}'s footprints" in texts or not fig["frames_on_one_footprint"]
+
+    # the saved scene, as Blender plays it: the same figures, from the bodies read there
+    bpy.ops.wm.open_mainfile(filepath=out)
     scene = bpy.context.scene
     bake = import_module(fp.__name__ + ".blender.write.bake")
     crowd = import_module(fp.__name__ + ".core.report.crowd")
@@ -77,8 +94,7 @@ def test_two_characters_crossing_are_measured_against_each_other_as_played(fp, t
     rigs = [read.rig_from_armature(o) for o in obs]
     played, _ = bake.played_matrices(scene, list(zip(obs, rigs)), first, n)
     bodies = [crowd.body_of(o.name, r, bake.played_world(*m), FPS) for o, r, m in zip(obs, rigs, played)]
-    again = crowd.pair_figures(bodies[0], bodies[1], first)
-    assert again == fig
+    assert crowd.pair_figures(bodies[0], bodies[1], first) == fig
     # and the least distance is where the hips are nearest, a few frames at most apart
     hips = [bd.hips for bd in bodies]
     nearest = first + int(np.argmin(np.linalg.norm(hips[0][:, :2] - hips[1][:, :2], axis=1)))
