@@ -538,24 +538,28 @@ def played_matrices(scene, characters, frame_start: int, frames: int, objects=()
 
 def played_world(pose: np.ndarray, obm: np.ndarray) -> np.ndarray:
     """(F, B, 4, 4) the bones' world matrices of one character's ``played_matrices``."""
-    return played_pose(None, pose, obm, rotations=False)[0]
+    return _in_world(pose, obm)[0]
 
 
-def played_pose(rig: Rig | None, pose: np.ndarray, obm: np.ndarray, root: int | None = None,
-                rotations: bool = True):
-    """``evaluate_played``'s figures of one character's ``played_matrices``: (world bone
-    matrices (F, B, 4, 4), body positions (F, 3), body yaw (F,) unwrapped, bone rotations
-    relative to rest (F, B, 4), None without ``rotations``); the body the object's frame,
-    or ``root``'s."""
-    pose = pose.copy()
-    # (an evenly scaled object: its scale moved into the bones, as the rig is read in world units)
+def _in_world(pose: np.ndarray, obm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(world bone matrices, armature-space bone matrices in world units, the object's
+    unscaled world matrices) of ``played_matrices``' (pose, obm): an evenly scaled
+    object's scale moved into the bones, as the rig is read in world units."""
     scale = np.cbrt(np.abs(np.linalg.det(obm[:, :3, :3])))
     obm = unscaled(obm)
+    pose = pose.copy()
     pose[..., :3, 3] *= scale[:, None, None]
-    world = obm[:, None] @ pose
+    return obm[:, None] @ pose, pose, obm
+
+
+def played_pose(rig: Rig, pose: np.ndarray, obm: np.ndarray, root: int | None = None):
+    """``evaluate_played``'s figures of one character's ``played_matrices``: (world bone
+    matrices (F, B, 4, 4), body positions (F, 3), body yaw (F,) unwrapped, bone rotations
+    relative to rest (F, B, 4)); the body the object's frame, or ``root``'s."""
+    world, pose, obm = _in_world(pose, obm)
     body = obm if root is None else obm @ pose[:, root] @ np.linalg.inv(rig.rest[root])
     yaw = np.unwrap(np.arctan2(body[:, 1, 0], body[:, 0, 0]))
-    return world, body[:, :3, 3].copy(), yaw, local_rotations(rig, pose) if rotations else None
+    return world, body[:, :3, 3].copy(), yaw, local_rotations(rig, pose)
 
 
 def local_rotations(rig: Rig, pose: np.ndarray) -> np.ndarray:

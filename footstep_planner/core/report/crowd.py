@@ -38,19 +38,22 @@ class PlayedBody:
     - ``name``: the character (its object's name);
     - ``hips``, ``head`` (F, 3): the ends of its body's segment (the hips, the top of the head);
     - ``radius``: m, its capsule's radius;
-    - ``soles`` (2, F, 3): the middle of each foot's sole (between ankle and ball), left then right;
+    - ``feet`` (2, F, P, 3): each foot's points (its ankle and ball), left then right;
     - ``planted`` (2, F) bool: where each foot stands (``planted_feet``);
-    - ``foot_length``: m, the foot's length (heel to toe);
-    - ``feet`` (2, F, P, 3) or None: each foot's points (its ankle and ball), for obstacles."""
+    - ``foot_length``: m, the foot's length (heel to toe)."""
 
     name: str
     hips: np.ndarray
     head: np.ndarray
     radius: float
-    soles: np.ndarray
+    feet: np.ndarray
     planted: np.ndarray
     foot_length: float
-    feet: np.ndarray | None = None
+
+    @property
+    def soles(self) -> np.ndarray:
+        """(2, F, 3) the middle of each foot's sole: the mean of its points."""
+        return self.feet.mean(axis=2)
 
 
 def segment_distance(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
@@ -66,15 +69,14 @@ def segment_distance(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndar
     c = np.einsum("fi,fi->f", d1, r)
     b = np.einsum("fi,fi->f", d1, d2)
     tiny = 1e-18
+    along_p, along_q = a > tiny, e > tiny  # (a segment, not a point)
     denom = a * e - b * b
-    # s on p's segment: from the lines' closest points where they are not parallel, else 0
-    s = np.where((a > tiny) & (e > tiny) & (denom > tiny * np.maximum(a * e, tiny)),
-                 np.clip((b * f - c * e) / np.where(denom > 0, denom, 1.0), 0.0, 1.0), 0.0)
-    s = np.where((a > tiny) & (e <= tiny), np.clip(-c / np.where(a > tiny, a, 1.0), 0.0, 1.0), s)
-    # t on q's segment for that s, clamped; then s again for the clamped t
-    t = np.where(e > tiny, (b * s + f) / np.where(e > tiny, e, 1.0), 0.0)
-    t = np.clip(t, 0.0, 1.0)
-    s = np.where(a > tiny, np.clip((t * b - c) / np.where(a > tiny, a, 1.0), 0.0, 1.0), 0.0)
+    skew = along_p & along_q & (denom > tiny * np.maximum(a * e, tiny))
+    # s on p's segment from the lines' closest points (0 where they are parallel or p is a
+    # point); t on q's segment for that s, clamped; then s again for the clamped t
+    s = np.where(skew, np.clip((b * f - c * e) / np.where(skew, denom, 1.0), 0.0, 1.0), 0.0)
+    t = np.where(along_q, np.clip((b * s + f) / np.where(along_q, e, 1.0), 0.0, 1.0), 0.0)
+    s = np.where(along_p, np.clip((t * b - c) / np.where(along_p, a, 1.0), 0.0, 1.0), 0.0)
     gap = (p0 + s[:, None] * d1) - (q0 + t[:, None] * d2)
     return np.sqrt(np.einsum("fi,fi->f", gap, gap))
 
@@ -115,8 +117,8 @@ def body_of(name: str, rig: Rig, world: np.ndarray, fps: float) -> PlayedBody:
         feet[k, :, 0] = world[:, foot, :3, 3]
         feet[k, :, 1] = (world[:, foot] @ ball_local)[:, :3]
         reach = max(reach, float(np.linalg.norm(ball_local[:3])))
-    return PlayedBody(name, hips, head, BODY_RADIUS * scale, feet.mean(axis=2), planted_feet(feet, fps, scale),
-                      FOOT_OVER_ANKLE_BALL * reach, feet)
+    return PlayedBody(name, hips, head, BODY_RADIUS * scale, feet, planted_feet(feet, fps, scale),
+                      FOOT_OVER_ANKLE_BALL * reach)
 
 
 def pair_figures(a: PlayedBody, b: PlayedBody, frame_start: int) -> dict:
@@ -168,7 +170,7 @@ def obstacle_figures(body: PlayedBody, name: str, local: Ground, matrices: np.nd
     F = len(m)
     u = np.linspace(0.0, 1.0, SEGMENT_SAMPLES)[None, :, None]
     seg = body.hips[:, None] + u * (body.head - body.hips)[:, None]  # (F, K, 3)
-    feet = body.feet.reshape(2, F, -1, 3).transpose(1, 0, 2, 3).reshape(F, -1, 3)  # (F, 2 * P, 3)
+    feet = body.feet.transpose(1, 0, 2, 3).reshape(F, -1, 3)  # (F, 2 * P, 3)
     pts = np.concatenate([seg, feet], axis=1)
     inv = np.linalg.inv(m)
     here = np.einsum("fij,fkj->fki", inv[:, :3, :3], pts) + inv[:, None, :3, 3]

@@ -76,7 +76,7 @@ def body(name, x, y, planted=True):
     hips = np.c_[x, y, np.full(F, 0.95)]
     head = hips + [0.0, 0.0, 0.8]
     soles = np.stack([np.c_[x - 0.1, y, np.zeros(F)], np.c_[x + 0.1, y, np.zeros(F)]])
-    return PlayedBody(name, hips, head, 0.2, soles, np.full((2, F), planted), 0.26)
+    return PlayedBody(name, hips, head, 0.2, soles[:, :, None], np.full((2, F), planted), 0.26)
 
 
 def test_two_bodies_passing_and_standing_on_one_spot():
@@ -114,8 +114,6 @@ def test_a_box_sliding_across_a_body_is_measured_in_its_own_space():
 
     F = 81
     me = body("A", np.zeros(F), np.zeros(F))
-    me = PlayedBody(me.name, me.hips, me.head, me.radius, me.soles, me.planted, me.foot_length,
-                    np.stack([np.stack([s, s], axis=1) for s in me.soles]))  # (each foot's two points: its sole)
     ground = MeshGround(box((-0.5, -0.5, 0.0), (0.5, 0.5, 1.0)))
     m = np.tile(np.eye(4), (F, 1, 1))
     m[:, 0, 3] = np.linspace(-4.0, 4.0, F)
