@@ -18,6 +18,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared")
 CMU = os.path.join(SHARED, "mocap", "cmu")
 MOD = "bl_ext.dev.footstep_planner"
+#: s: how long a test waits for a subprocess before taking it for hung. Only a hang: a
+#: slow or loaded machine must never fail a test by time (speed is the benchmarks').
+HANG_SECONDS = 900
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT
+from conftest import HANG_SECONDS, ROOT
 
 MANIFEST = tomllib.loads((Path(ROOT) / "blender_manifest.toml").read_text(encoding="utf-8"))
 
@@ -96,11 +96,11 @@ def test_python_dash_m_exits_with_the_verbs_own_status(tmp_path):
     env = dict(os.environ, PYTHONPATH=ROOT, BLENDER_USER_RESOURCES=str(tmp_path / "res"))
     missing = str(tmp_path / "missing.blend")
     run = subprocess.run([sys.executable, "-m", "footstep_planner", "plan", missing, "--character", "Hero"],
-                         cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+                         cwd=ROOT, env=env, capture_output=True, text=True, timeout=HANG_SECONDS)
     assert run.returncode == 2, (run.returncode, run.stderr[-2000:])
     assert "missing.blend" in run.stderr and "Traceback" not in run.stderr
     ok = subprocess.run([sys.executable, "-m", "footstep_planner", "--help"], cwd=ROOT, env=env,
-                        capture_output=True, text=True, timeout=120)
+                        capture_output=True, text=True, timeout=HANG_SECONDS)
     assert ok.returncode == 0 and "usage: footstep" in ok.stdout, (ok.returncode, ok.stderr[-2000:])
 
 

@@ -8,7 +8,7 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import needs_cmu, scene_with_cmu
+from conftest import HANG_SECONDS, needs_cmu, scene_with_cmu
 from fingerprint import _keys as keys
 
 pytestmark = needs_cmu
@@ -166,7 +166,7 @@ def test_the_report_measures_the_saved_scene_as_blender_plays_it(fp, jumps_baked
     path, heads = tmp_path / "baked.blend", tmp_path / "heads.npy"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
     subprocess.run([sys.executable, "-c", _PLAYED, str(path), str(doc["frame_start"]), str(n), str(heads)],
-                   check=True, capture_output=True, timeout=300)
+                   check=True, capture_output=True, timeout=HANG_SECONDS)
     played = np.load(heads)
     assert played.shape == world[..., :3, 3].shape
     assert np.abs(played - world[..., :3, 3]).max() < 1e-4

@@ -8,12 +8,16 @@ from importlib import import_module
 
 import numpy as np
 
+from conftest import cmu_armature, needs_cmu
+
 FPS = 30
 
 
-def _crossing(fp):
-    """An open floor where A walks east along y = 0 and B north along x = 0, both 5 m
-    from the crossing: at one pace they meet there."""
+def _crossing(fp, cmu_b: bool = False):
+    """An open floor where A (the sample character) walks east along y = 0 and B north
+    along x = 0, both 5 m from the crossing: at about one pace they meet there. B is
+    another sample character, or with ``cmu_b`` the CMU library's (real motion capture,
+    imported from its BVH files)."""
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
@@ -28,7 +32,7 @@ def _crossing(fp):
         ss._marker(scene, name, at, heading)
     man = import_module(fp.__name__ + ".blender.sample.mannequin")
     a, _ = man.add_to_scene(scene, "StartA")
-    b, _ = man.add_to_scene(scene, "StartB")
+    b = cmu_armature(fp) if cmu_b else man.add_to_scene(scene, "StartB")[0]
     return scene, a, b
 
 
@@ -38,18 +42,20 @@ def _bake(fp, scene, ob, tag):
     return planning.run(scene, ob, goal, heading, scene.objects[f"Start{tag}"], name=f"walk {tag}", frame_start=1)
 
 
+@needs_cmu
 def test_two_characters_crossing_are_measured_against_each_other_as_played(fp, tmp_path, capsys):
-    """A job list baking two characters into one shot, from the command line: the second
-    job's report and summary name the first character, how near the bodies came and on
-    which frame; the saved scene, as Blender plays it, gives the same figures; the panel's
-    quality box names the other too."""
+    """A job list baking two characters into one shot, from the command line (the sample
+    character, then CMU's real capture): the second job's report and summary name the
+    first character, how near the bodies came and on which frame; the saved scene, as
+    Blender plays it, gives the same figures; the panel's quality box names the other
+    too."""
     import json
 
     import bpy
 
     from conftest import Recorder
 
-    scene, a, b = _crossing(fp)
+    scene, a, b = _crossing(fp, cmu_b=True)
     names = b.name, a.name
     path = str(tmp_path / "shot.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
@@ -109,7 +115,7 @@ def test_an_obstacle_that_moves_across_the_way_is_measured_as_played(fp, tmp_pat
     import bpy
 
     scene, a, b = _crossing(fp)
-    bpy.data.objects.remove(b)
+    bpy.data.objects.remove(b)  # (A alone)
     ss = import_module(fp.__name__ + ".blender.sample.sample_scenes")
     obst = ss._collection(scene, "Obstacles", "OBSTACLE")
     cart = ss._box(obst, "Cart", -0.5, 0.5, -0.5, 0.5, 0.0, 1.0)

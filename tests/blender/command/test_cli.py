@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bvh_files import broken_variants, edit_frames, legless
-from conftest import ROOT, cmu, needs_cmu
+from conftest import HANG_SECONDS, ROOT, cmu, needs_cmu
 
 
 @pytest.fixture
@@ -159,7 +159,7 @@ def test_python_dash_m_runs_the_same_verbs(tmp_path):
     env.pop("BLENDER_USER_RESOURCES", None)
     env["BLENDER_USER_RESOURCES"] = str(tmp_path / "res")
     run = lambda *a: subprocess.run([sys.executable, "-m", "footstep_planner", *a], cwd=ROOT,  # noqa: E731
-                                    env=env, capture_output=True, text=True, timeout=120)
+                                    env=env, capture_output=True, text=True, timeout=HANG_SECONDS)
     ok = run("analyze", cmu("16_35"), "--json")
     assert ok.returncode == 0, ok.stderr
     (clip,) = json.loads(ok.stdout)["clips"]

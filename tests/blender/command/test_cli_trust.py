@@ -11,7 +11,7 @@ from importlib import import_module
 
 import pytest
 
-from conftest import ROOT
+from conftest import HANG_SECONDS, ROOT
 
 
 @pytest.fixture
@@ -200,7 +200,7 @@ def test_ctrl_c_of_a_real_process(shot):
         assert line, "the command ended before its first job did"
         seen += line
     p.send_signal(signal.SIGINT)
-    out, err = p.communicate(timeout=120)
+    out, err = p.communicate(timeout=HANG_SECONDS)
     if p.returncode == 0:
         pytest.skip("the jobs finished before the signal came")
     assert p.returncode == 130, seen + err
@@ -311,7 +311,7 @@ def test_json_on_stdout_is_exactly_one_document(shot):
     """``plan --json | jq`` works: Blender's "Read blend" line goes to stderr."""
     run = subprocess.run([sys.executable, "-m", "footstep_planner", "plan", str(shot / "shot.blend"),
                           "--character", CHAR, "--goal", "Goal", "--json"], cwd=ROOT, capture_output=True,
-                         text=True, timeout=300)
+                         text=True, timeout=HANG_SECONDS)
     assert run.returncode == 0, run.stderr
     doc = json.loads(run.stdout)
     assert doc["character"] == CHAR

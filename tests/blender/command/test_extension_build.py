@@ -20,6 +20,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import HANG_SECONDS
+
 ROOT = Path(__file__).resolve().parents[3]
 BUILD_SCRIPT = ROOT / "tools" / "build_extension.py"
 MANIFEST = tomllib.loads((ROOT / "blender_manifest.toml").read_text(encoding="utf-8"))
@@ -58,7 +60,7 @@ def built_zip(tmp_path_factory):
 def _build(python, out, *extra):
     proc = subprocess.run(
         [str(python), str(BUILD_SCRIPT), "--platforms", PLATFORM, "--output-dir", str(out), *extra],
-        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=600,
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=HANG_SECONDS,
     )
     if proc.returncode == EXIT_DOWNLOAD_FAILED:
         pytest.skip(f"the scipy wheel for {PLATFORM} could not be downloaded (no network?):\n"
@@ -81,10 +83,10 @@ def test_build_needs_only_python_and_pip(built_zip, tmp_path):
     """A fresh venv with pip and no bpy builds the same zip (byte for byte) and says it
     could not run Blender's validator; the zip then passes that validator."""
     venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=HANG_SECONDS)
     python = venv / "bin" / "python"
     probe = subprocess.run([str(python), "-c", "import importlib.util as u; print(u.find_spec('bpy'))"],
-                           capture_output=True, text=True, timeout=60)
+                           capture_output=True, text=True, timeout=HANG_SECONDS)
     assert probe.stdout.strip() == "None", "the fresh venv must not see bpy"
     out = tmp_path / "dist"
     # its own wheel folder: the wheel is fetched with the venv's pip
@@ -95,7 +97,7 @@ def test_build_needs_only_python_and_pip(built_zip, tmp_path):
     assert z.read_bytes() == built_zip.read_bytes()
     run = subprocess.run([sys.executable, str(_BUILD.blender_ext_path()), "validate",
                           "--valid-tags", str(_BUILD.valid_tags_path()), str(z)],
-                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120)
+                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=HANG_SECONDS)
     assert run.returncode == 0, run.stdout
 
 
@@ -122,7 +124,7 @@ def test_zip_validates(built_zip):
     proc = subprocess.run(
         [sys.executable, str(_BUILD.blender_ext_path()), "validate",
          "--valid-tags", str(_BUILD.valid_tags_path()), str(built_zip)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120,
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=HANG_SECONDS,
     )
     assert proc.returncode == 0, proc.stdout
 
@@ -226,7 +228,7 @@ def test_install_enable_bake_and_disable_in_blender(built_zip, tmp_path):
     proc = subprocess.run(
         [sys.executable, "-c", _INSTALL_SCRIPT, str(built_zip)],
         cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        timeout=300,
+        timeout=HANG_SECONDS,
     )
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
     assert proc.returncode == 0 and lines, proc.stdout

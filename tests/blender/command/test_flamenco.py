@@ -10,7 +10,7 @@ import subprocess
 
 import pytest
 
-from conftest import ROOT
+from conftest import HANG_SECONDS, ROOT
 from footstep_planner.core.jobs import check_job, job_argv, normalised
 from footstep_planner.core.base.settings import Settings
 
@@ -42,7 +42,7 @@ def compile_job(tmp_path, jobs, **settings) -> tuple[int, dict]:
     """(exit status, what check_job_type.js printed) for a job of this job type."""
     path = tmp_path / "settings.json"
     path.write_text(json.dumps({**SETTINGS, **settings, "jobs": jobs if isinstance(jobs, str) else json.dumps(jobs)}))
-    p = subprocess.run([NODE, CHECKER, JOB_TYPE, str(path)], capture_output=True, text=True, timeout=60)
+    p = subprocess.run([NODE, CHECKER, JOB_TYPE, str(path)], capture_output=True, text=True, timeout=HANG_SECONDS)
     assert p.stdout.strip(), p.stderr
     return p.returncode, json.loads(p.stdout)
 

@@ -12,6 +12,7 @@ time, each given at most 50 s.
 import pytest
 
 from benchmarks import fuzz
+from conftest import HANG_SECONDS
 
 fc = fuzz.fc
 
@@ -44,7 +45,7 @@ def records(tmp_path_factory):
     ctx = fc.Ctx(seed=1, pool=20, immutable=fc.immutable_works(work))
     cases = [fc.make_case(*fc.parse_id(cid), ctx) for cid, _ in SAMPLE]
     # (the timeout only catches a hang: a slow or loaded machine must not fail a case)
-    return {rec["id"]: rec for rec in fuzz.run_cases(cases, work, jobs=2, timeout=600)}
+    return {rec["id"]: rec for rec in fuzz.run_cases(cases, work, jobs=2, timeout=HANG_SECONDS)}
 
 
 def test_the_sample_spans_the_kinds_on_the_sample_scene_and_is_fixed():

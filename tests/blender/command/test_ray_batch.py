@@ -65,11 +65,12 @@ def worker_folders() -> set:
 
 
 def left_behind(before: set) -> set:
-    """Worker folders made since ``before`` and still there after a few seconds (another
-    test run's worker may be using one for a moment; a folder left behind stays)."""
+    """Worker folders made since ``before`` and still there after a minute (another test
+    run's worker may be using one for a moment, longer on a loaded machine; a folder left
+    behind stays). Most calls return at once: nothing was left."""
     import time
 
-    for _ in range(10):
+    for _ in range(120):
         left = worker_folders() - before
         if not left:
             break

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from stairs_checks import square_and_straight
-from conftest import ROOT, needs_cmu
+from conftest import HANG_SECONDS, ROOT, needs_cmu
 
 FWD = np.array([0.0, -1.0])
 
@@ -109,15 +109,15 @@ def test_the_script_saves_the_scenes(tmp_path):
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "res"))
     script = os.path.join(ROOT, "sample_scenes", "build.py")
     r = subprocess.run([sys.executable, script, "jumps", "turns", "--mannequin", "--out", str(tmp_path)],
-                       capture_output=True, text=True, timeout=120, env=env)
+                       capture_output=True, text=True, timeout=HANG_SECONDS, env=env)
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "jumps.blend").stat().st_size > 1000 and (tmp_path / "turns.blend").exists()
     check = ("import bpy; bpy.ops.wm.open_mainfile(filepath=%r); ob = bpy.data.objects['Footstep Mannequin'];"
              "st = bpy.data.objects['Start']; print((ob.location - st.location).length < 1e-6, ob.type)"
              % str(tmp_path / "jumps.blend"))
-    r = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=120, env=env)
+    r = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=HANG_SECONDS, env=env)
     assert "True ARMATURE" in r.stdout, r.stderr
-    bad = subprocess.run([sys.executable, script, "moon"], capture_output=True, text=True, timeout=60, env=env)
+    bad = subprocess.run([sys.executable, script, "moon"], capture_output=True, text=True, timeout=HANG_SECONDS, env=env)
     assert bad.returncode == 2 and "unknown scene 'moon'" in bad.stderr
 
 

@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+from conftest import HANG_SECONDS
 from footstep_planner.core.base import files
 from footstep_planner.core.base.files import OutputError, Outputs
 
@@ -87,7 +88,7 @@ out.commit()
 
 def _run_killed(tmp_path, at: int) -> int:
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    return subprocess.run([sys.executable, "-c", _KILLED_AT, root, str(tmp_path), str(at)], timeout=60).returncode
+    return subprocess.run([sys.executable, "-c", _KILLED_AT, root, str(tmp_path), str(at)], timeout=HANG_SECONDS).returncode
 
 
 def test_a_kill_at_any_point_leaves_the_old_file_or_the_whole_new_one(tmp_path):

@@ -12,7 +12,7 @@ import pytest
 
 from benchmarks.bench_planner import fingerprint, read_character, save_character
 from benchmarks.scene_generator import Character, benchmark_scenes, make_planner, plan_scene
-from conftest import ROOT, needs_cmu
+from conftest import HANG_SECONDS, ROOT, needs_cmu
 from footstep_planner.core.plan import distance_field, navgraph
 from footstep_planner.core.base.settings import Settings
 from footstep_planner.core.clips.steps import StepSet
@@ -163,7 +163,7 @@ def test_references_of_another_library_are_left_out(tmp_path):
         {"name": "corridor2_along", "cost": 1.0, "fallback": False, "library": fingerprint(ch)}]) + "\n")
     out = subprocess.run([sys.executable, "benchmarks/bench_planner.py", "--character", path,
                           "--reference", str(ref), "--only", "corridor2_along,clutter10"],
-                         capture_output=True, text=True, timeout=300,
+                         capture_output=True, text=True, timeout=HANG_SECONDS,
                          cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert "left out 1 references searched with another library: clutter10" in out.stderr
