@@ -152,6 +152,14 @@ class Settings:
         along a step's way).""", lo_open=True)
     max_step_height: float = setting(0.3, "m", 0.0, 10.0, """A step goes up or down at most this
         much from one footprint to the next.""", lo_open=True)
+    avoid_characters: bool = setting(False, "", doc="""Plan around the other characters the planner
+        baked in the scene, in time: no step brings the body within the two bodies' radii and
+        character_clearance of another's at the same moment, or sets a foot on a footprint another
+        foot stands on then, so the character side-steps or goes round them (the command line's
+        bake --together turns it on for a job list, each job around the ones before it).""")
+    character_clearance: float = setting(0.15, "m", 0.0, 10.0, """With avoid_characters, two bodies
+        (capsules from the hips to the head, a human's half shoulder width round) keep at least this
+        far apart.""")
 
     # --- smoothing (thesis 3.3) -----------------------------------------------------
     smoothing_iterations: int = setting(4, "passes", 0, 100, """Passes of the binomial kernel over

@@ -66,6 +66,7 @@ from ..clips.steps import StepSet
 from ..footprint import PathFootprint
 from .distance_field import AHEAD_TURN_COST, EDGE_COST, FREE_TURN, DistanceField, FieldCells, FieldLimits
 from .islands import Patches
+from .others import BODY_RADIUS, STANCE_STEPS, Others
 from .refusals import Refusals
 from .search_state import PlanError, SearchNode, _Batch, _Search
 from .step_rules import CLIMB_DZ, StepRules, _start_gaits
@@ -109,6 +110,10 @@ ARRIVE_SLACK = 0.02
 
 #: m: a stalled search's heuristic drops the jumps this close to where it is stuck.
 REROUTE_RADIUS = 3.0
+
+#: m: the hips above the footprints (a human's), where the search puts a body it keeps
+#: clear of the other characters' (``Planner._clear_of_others``).
+HIPS_HEIGHT = 0.95
 
 
 def _cheaper(best: dict, keys: np.ndarray, cost: np.ndarray) -> np.ndarray:
@@ -173,6 +178,9 @@ class Planner(StepRules, Refusals):
     settings: Settings = field(default_factory=Settings)
     cache: FootprintCache = field(default_factory=FootprintCache)
     heading_bins: int = 36
+    #: the characters already in the shot, in time (``others.Others``): a step that comes
+    #: too near one's body or lands on its footprint at the same time is refused
+    others: Others | None = None
 
     # The search's geometry, a human's (``Settings``: sizes) scaled to the character.
     @property
@@ -482,7 +490,7 @@ class Planner(StepRules, Refusals):
         parent, i = search.nodes[batch.parent], int(batch.sel[j])
         search.nodes.append(SearchNode(1 - parent.foot, self.steps.gait[i],
                                        np.array([batch.nxt[j, 0], batch.nxt[j, 1], batch.z[j]]),
-                                       float(batch.psi[j]), float(batch.g[j]), batch.parent, i))
+                                       float(batch.psi[j]), float(batch.g[j]), batch.parent, i, float(batch.t[j])))
         search.h.append(float(batch.h[j]))
         return len(search.nodes) - 1
 
@@ -511,9 +519,32 @@ class Planner(StepRules, Refusals):
         walk = ok & ~self.steps.jump[batch.sel[todo]]
         if walk.any() and node.parent >= 0:  # the stepping foot swings from the footprint before
             ok[walk] &= self._no_bump(search.nodes[node.parent].position, to[walk])
+        if self.others is not None and ok.any():
+            free = self._clear_of_others(search, node, batch.sel[todo][ok], to[ok], batch.t[todo][ok])
+            search.crowded += int((~free).sum())
+            ok[ok] = free
         batch.state[todo] = np.where(ok, 1, 2)
         batch.z[todo] = z
 
+    def _clear_of_others(self, search: _Search, node: SearchNode, steps: np.ndarray, to: np.ndarray,
+                         t: np.ndarray) -> np.ndarray:
+        """(K,) whether steps ``steps`` from ``node`` to ``to`` (K, 3), landing at times ``t``
+        (K,) s, keep clear of the other characters in the shot (``others``): the body, between
+        the two feet, from where it is at ``node`` to where it will be, never within the two
+        bodies' radii and ``Settings.character_clearance`` of another's at the same time, and
+        the new footprint never on one another foot stands on during its stance."""
+        others, cfg = self.others, self.settings
+        here = node.position if node.parent < 0 else 0.5 * (node.position + search.nodes[node.parent].position)
+        there = 0.5 * (node.position[None, :] + to)
+        a = np.repeat(here[None, :2], len(to), axis=0)
+        hips_z = 0.5 * (node.position[2] + to[:, 2]) + self._len(HIPS_HEIGHT)
+        radius = self._len(BODY_RADIUS)
+        ok = others.bodies_apart(a, there[:, :2], np.full(len(to), node.time), t, hips_z, radius,
+                                 cfg.character_clearance, cfg.body_scale)
+        if ok.any():
+            stance = t[ok] + STANCE_STEPS * self.steps.duration[steps[ok]]
+            ok[ok] = others.feet_clear(to[ok], t[ok], stance, self.foot.back + max(self.foot.front, self.foot.tip))
+        return ok
 
     def _arrived(self, search: _Search, idx: int) -> bool:
         """Whether node ``idx`` ends the path (within the goal radius, heading within
@@ -551,7 +582,8 @@ class Planner(StepRules, Refusals):
         at[:, 2] = node.position[2]
         h = search.heuristic(at, npsi[keep])
         batch = _Batch(idx, sel[keep], nxt[keep], npsi[keep], cost[keep], [keys[j] for j in keep],
-                       np.zeros(len(keep), np.int8), np.zeros(len(keep)), h)
+                       np.zeros(len(keep), np.int8), np.zeros(len(keep)), h,
+                       node.time + self.steps.duration[sel[keep]])
         search.push_batch(batch)
         self._offer_arrivals(search, batch)
 

@@ -30,7 +30,8 @@ class SearchNode(NamedTuple):
     """A footprint the search reached: the foot that stands there (0 left, 1 right), the
     gait it arrived in, its position (3,) and heading (rad), the cost (s) of the way
     there, the index of the node it was reached from (-1 at the start) and the index of
-    the step (``StepSet`` row) that reached it (-1 at the start)."""
+    the step (``StepSet`` row) that reached it (-1 at the start), and when it lands (s
+    from the start, the sum of its path's step durations)."""
 
     foot: int
     gait: str
@@ -39,6 +40,7 @@ class SearchNode(NamedTuple):
     cost: float
     parent: int
     step: int
+    time: float = 0.0
 
 
 class _Batch(NamedTuple):
@@ -55,6 +57,7 @@ class _Batch(NamedTuple):
     state: np.ndarray  # (K,) int8: 0 unchecked, 1 may be stood on and reached, 2 not
     z: np.ndarray  # (K,) the surface's height there, once checked
     h: np.ndarray  # (K,) the heuristic there (unweighted)
+    t: np.ndarray  # (K,) s when each lands (the parent's time and the step's duration)
 
 
 #: Footprints expanded without the heuristic falling before the search suspects the
@@ -85,6 +88,7 @@ class _Search:
     h: list = field(default_factory=list)  # each node's heuristic
     best_h: tuple = (np.inf, 0, None)  # (least heuristic popped, when, where)
     reroutes: int = 0  # times the heuristic was rebuilt without jumps where the search stalled
+    crowded: int = 0  # steps refused for coming too near another character (``Planner.others``)
     field_seconds: float = 0.0
     climb_reach: np.ndarray | None = None  # (S,) m, ``climb_reach`` of the steps, once per search
     # (cost, batch, successor) of the cheapest checked successor that ends the path, or None

@@ -23,10 +23,9 @@ import numpy as np
 from ..clips.body import body_scale
 from ..clips.clip import SIDES
 from ..clips.rig import Rig
+from ..plan.others import BODY_RADIUS
 from ..plan.surface import Ground
 
-#: m: a human's half shoulder width, the radius of a body's capsule (times its size).
-BODY_RADIUS = 0.2
 #: m/s: a foot whose ankle and ball move slower than this (a human's) is planted.
 PLANTED_SPEED = 0.25
 

@@ -1,0 +1,196 @@
+"""The characters already in the shot, as the search sees them: where each body is and
+where each foot stands, in time (issue 29: characters planned in one space and time,
+in turn, each around those planned before it).
+
+Reads: what the other characters play (their hips, their body's radius, their feet's
+soles and when each is planted, at the scene's frame rate) on the clock of the plan being
+made (seconds from its first frame). Returns: ``Others``, which answers for a batch of the
+search's steps whether each comes too near another body at the same time or lands on a
+footprint another foot stands on then. Never: reads the scene (``blender.planning`` plays
+it and passes the arrays), or changes what the others do.
+
+The search's clock is its own: each footprint lands the sum of its path's step durations
+after the start, which the synthesis then shifts (the stand before the first step, the
+start clip, the blends, the pace: about a second later on a CMU walk). ``Others.clock``
+maps it onto the shot's: a first plan is synthesized, the clock fitted to when its
+footprints were struck (``fit_clock``), and the plan made again on it. Then a body is
+refused where another comes within the two bodies' radii and
+``Settings.character_clearance`` at any time within ``TIME_SLACK`` of it, and a foot where
+another foot stands within a foot's length at any time of its stance, widened as much.
+Before its first frame and after its last, another character stands as it stood then.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+#: m: a human's half shoulder width, the radius of a body's capsule (times its size).
+BODY_RADIUS = 0.2
+
+#: s: the search's times against the played ones (the start clip, blends and pace shift
+#: them): another body or foot counts this long before and after the time asked.
+TIME_SLACK = 0.5
+
+#: m: two bodies' hips this much apart in height (a human's, times the larger body's size)
+#: are on different levels (a bridge over a floor), never in each other's way.
+LEVEL_APART = 1.2
+
+#: A step's new footprint is stood on from its landing for this many times the step's
+#: duration (until the foot lifts again: about the next step and its double support).
+STANCE_STEPS = 1.5
+
+
+@dataclass(frozen=True, eq=False)
+class Others:
+    """Other characters over the frames of a shot, on the plan's clock:
+
+    - ``names`` (N,): each character's name, for messages;
+    - ``times`` (F,) s: the frames' times (seconds from the plan's first frame, evenly spaced);
+    - ``hips`` (N, F, 3): each body's hips; ``radius`` (N,) m its capsule's radius;
+    - ``prints`` (M, 3): the footprints the other feet stand on (a sole's middle over one
+      planted stretch), ``print_owner`` (M,) whose, ``print_span`` (M, 2) s from and to;
+    - ``foot_length`` (N,) m each one's foot;
+    - ``clock`` (lead s, rate): the search's time t is the shot's lead + rate t."""
+
+    names: tuple
+    times: np.ndarray
+    hips: np.ndarray
+    radius: np.ndarray
+    prints: np.ndarray
+    print_owner: np.ndarray
+    print_span: np.ndarray
+    foot_length: np.ndarray
+    clock: tuple = (0.0, 1.0)
+
+    def on_clock(self, lead: float, rate: float) -> "Others":
+        """These others for a search whose time t is the shot's ``lead`` + ``rate`` t."""
+        return replace(self, clock=(float(lead), float(rate)))
+
+    def _shot(self, t) -> np.ndarray:
+        lead, rate = self.clock
+        return lead + rate * np.asarray(t, float)
+
+    @classmethod
+    def of(cls, names, times, hips, radius, soles, planted, foot_length) -> "Others":
+        """From what each character played at ``times`` (F,) s: ``hips`` (N, F, 3), ``radius``
+        (N,), ``soles`` (N, 2, F, 3) each foot's sole middle, ``planted`` (N, 2, F) bool,
+        ``foot_length`` (N,)."""
+        times = np.asarray(times, float)
+        soles, planted = np.asarray(soles, float), np.asarray(planted, bool)
+        prints, owner, span = [], [], []
+        for n in range(len(names)):
+            for k in range(2):
+                for a, b in _runs(planted[n, k]):
+                    prints.append(soles[n, k, a:b].mean(axis=0))
+                    owner.append(n)
+                    span.append((times[a], times[b - 1]))
+        # (the first stretch stood on since before the first frame, the last until after the last)
+        span = np.array(span, float).reshape(-1, 2)
+        if len(span):
+            span[span[:, 0] <= times[0], 0] = -np.inf
+            span[span[:, 1] >= times[-1], 1] = np.inf
+        return cls(tuple(names), times, np.asarray(hips, float).reshape(len(names), len(times), 3),
+                   np.asarray(radius, float).reshape(-1), np.array(prints, float).reshape(-1, 3),
+                   np.array(owner, np.int64), span, np.asarray(foot_length, float).reshape(-1))
+
+    @property
+    def empty(self) -> bool:
+        return not len(self.names)
+
+    def _hips_near(self, t: np.ndarray) -> np.ndarray:
+        """(N, Q, W, 3) each body's hips at the frames within ``TIME_SLACK`` of each time
+        ``t`` (Q,) (clamped to the shot: before it and after it, as it stood)."""
+        times = self.times
+        dt = (times[-1] - times[0]) / max(len(times) - 1, 1) if len(times) > 1 else TIME_SLACK
+        w = int(np.ceil(TIME_SLACK / max(dt, 1e-6)))
+        centre = np.rint((np.asarray(t, float) - times[0]) / max(dt, 1e-6)).astype(np.int64)
+        at = np.clip(centre[:, None] + np.arange(-w, w + 1)[None, :], 0, len(times) - 1)
+        return self.hips[:, at]
+
+    def bodies_apart(self, a: np.ndarray, b: np.ndarray, t0: np.ndarray, t1: np.ndarray, hips_z: np.ndarray,
+                     radius: float, clearance: float, scale: float = 1.0) -> np.ndarray:
+        """(K,) whether a body whose hips go from ``a`` to ``b`` (K, 2) over the times ``t0`` to
+        ``t1`` (K,) s, its hips at height ``hips_z`` (K,), with ``radius`` m, keeps
+        ``clearance`` m clear of every other body at its start, middle and end (each against
+        the other bodies within ``TIME_SLACK`` of then), where both are on one level."""
+        k = len(a)
+        if self.empty or not k:
+            return np.ones(k, bool)
+        t0, t1 = self._shot(t0), self._shot(t1)
+        s = np.array([0.0, 0.5, 1.0])
+        pos = a[:, None, :] + (b - a)[:, None, :] * s[None, :, None]  # (K, 3, 2)
+        t = (t0[:, None] + (t1 - t0)[:, None] * s[None, :]).reshape(-1)
+        near = self._hips_near(t)  # (N, K*3, W, 3)
+        gap = np.linalg.norm(near[..., :2] - pos.reshape(-1, 2)[None, :, None, :], axis=-1)
+        level = np.abs(near[..., 2] - np.repeat(hips_z, 3)[None, :, None]) < LEVEL_APART * scale
+        need = (self.radius + radius + clearance)[:, None, None]
+        hit = (level & (gap < need)).any(axis=(0, 2)).reshape(k, 3)
+        return ~hit.any(axis=1)
+
+    def feet_clear(self, at: np.ndarray, t0: np.ndarray, t1: np.ndarray, foot_length: float) -> np.ndarray:
+        """(K,) whether a foot standing at ``at`` (K, 3) from ``t0`` to ``t1`` (K,) s keeps off
+        every footprint another foot stands on at any time of it (within ``TIME_SLACK``):
+        their middles a foot's length apart (the longer foot's)."""
+        k = len(at)
+        if not len(self.prints) or not k:
+            return np.ones(k, bool)
+        t0, t1 = self._shot(t0), self._shot(t1)
+        span = self.print_span
+        meet = (span[None, :, 0] <= (t1 + TIME_SLACK)[:, None]) & (span[None, :, 1] >= (t0 - TIME_SLACK)[:, None])
+        reach = np.maximum(self.foot_length[self.print_owner], foot_length)
+        d = np.linalg.norm(self.prints[None, :, :2] - np.asarray(at, float)[:, None, :2], axis=-1)
+        level = np.abs(self.prints[None, :, 2] - np.asarray(at, float)[:, None, 2]) < 0.5 * reach[None, :]
+        return ~(meet & level & (d < reach[None, :])).any(axis=1)
+
+    def whose(self, at: np.ndarray) -> str | None:
+        """The name of the other character whose path comes nearest ``at`` (2,) (for a
+        refusal's message), None where there are none."""
+        if self.empty:
+            return None
+        d = np.linalg.norm(self.hips[..., :2] - np.asarray(at, float)[:2], axis=-1).min(axis=1)
+        return str(self.names[int(np.argmin(d))])
+
+
+#: The fitted clock's rate is kept within these (a synthesis never plays a path at twice
+#: or half the pace the search timed it at).
+RATE_RANGE = (0.5, 2.0)
+
+
+def fit_clock(path, synthesized, planted) -> tuple[float, float] | None:
+    """(lead s, rate): the least-squares line from the search's times of ``path``'s stepped
+    footprints (``PathFootprint.time``) to when the synthesis struck them (``planted``:
+    ``Synthesis.planted``'s (strike, stance, liftoff) per footprint of ``synthesized``, its
+    ``plan``), each matched to the synthesized footprint of its foot nearest it in order;
+    None with fewer than two matched."""
+    pos = np.array([f.position for f in synthesized], float).reshape(-1, 3)
+    feet = np.array([f.foot for f in synthesized])
+    ts, tp, j0 = [], [], 0
+    for f in path:
+        if f.time <= 0.0:
+            continue
+        mine = np.flatnonzero(feet[j0:] == f.foot) + j0
+        if not len(mine):
+            break
+        d = np.linalg.norm(pos[mine, :2] - np.asarray(f.position, float)[:2], axis=1)
+        j = int(mine[int(np.argmin(d))])
+        if d.min() < 0.5:
+            ts.append(f.time)
+            tp.append(planted[j][0])
+            j0 = j + 1
+    if len(ts) < 2:
+        return None
+    rate, lead = np.polyfit(np.array(ts), np.array(tp), 1)
+    rate = float(np.clip(rate, *RATE_RANGE))
+    return float(np.mean(np.array(tp) - rate * np.array(ts))), rate
+
+
+def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) of each run of True in ``flags`` (F,)."""
+    f = np.concatenate([[False], np.asarray(flags, bool), [False]])
+    edges = np.flatnonzero(f[1:] != f[:-1])
+    return list(zip(edges[0::2].tolist(), edges[1::2].tolist()))
+
+
+__all__ = ["BODY_RADIUS", "LEVEL_APART", "Others", "RATE_RANGE", "STANCE_STEPS", "TIME_SLACK", "fit_clock"]

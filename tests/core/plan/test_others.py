@@ -1,0 +1,133 @@
+"""The search around other characters in time (``core.plan.others``): a body is never
+brought within the bodies' clearance of another's at the same time, a foot never lands on
+a footprint another stands on then, and a path with no one near is the path without them."""
+
+import numpy as np
+from hypothesis import given, settings as hsettings, strategies as hs
+
+from conftest import plane, standing
+from footstep_planner.core.base.settings import Settings
+from footstep_planner.core.plan.navgraph import HIPS_HEIGHT, Planner
+from footstep_planner.core.plan.others import BODY_RADIUS, TIME_SLACK, Others
+from footstep_planner.core.plan.surface import MeshGround
+from test_navgraph import EAST, FWD, steps
+
+FASTEST = Settings(run_penalty=0.0)
+FPS = 30.0
+
+
+def _walker(name, times, xy, z=0.0, radius=BODY_RADIUS):
+    """One other character whose hips follow ``xy`` (F, 2) at ``times`` (F,), feet never planted."""
+    f = len(times)
+    hips = np.c_[xy, np.full(f, z + HIPS_HEIGHT)]
+    soles = np.zeros((2, f, 3))
+    return name, hips, radius, soles, np.zeros((2, f), bool)
+
+
+def _others(*walkers, times, feet=None):
+    names, hips, radius, soles, planted = zip(*walkers)
+    soles, planted = np.array(soles), np.array(planted)
+    if feet is not None:  # ((n, foot, frames, point (3,)), ...): planted there over those frames
+        for n, k, frames, at in feet:
+            soles[n, k, frames] = at
+            planted[n, k, frames] = True
+    return Others.of(names, times, np.array(hips), np.array(radius), soles, planted, np.full(len(names), 0.26))
+
+
+def _body_track(result, settings=FASTEST, scale=1.0):
+    """(times (T,), body xy (T, 2)): the search's body between its feet, as ``_clear_of_others`` puts it."""
+    fs = result.footprints
+    t = np.array([f.time for f in fs])
+    p = np.array([f.position[:2] for f in fs])
+    mid = np.vstack([p[:1], 0.5 * (p[1:] + p[:-1])])
+    return t, mid
+
+
+def test_no_one_near_plans_the_path_alone():
+    g = MeshGround(plane(-2, 12, -6, 6))
+    goal = np.array([8.0, 0.0, 0.0])
+    alone = Planner(g, None, steps(), FWD, settings=FASTEST).plan(standing(0, 0, EAST, FWD), goal)
+    times = np.arange(0, 20, 1 / FPS)
+    far = _others(_walker("far", times, np.c_[np.full(len(times), 5.0), np.full(len(times), 30.0)]), times=times)
+    beside = Planner(g, None, steps(), FWD, settings=FASTEST, others=far).plan(standing(0, 0, EAST, FWD), goal)
+    assert [tuple(f.position) for f in beside.footprints] == [tuple(f.position) for f in alone.footprints]
+    assert beside.cost == alone.cost
+
+
+def test_a_character_standing_in_the_way_is_gone_round():
+    g = MeshGround(plane(-2, 12, -6, 6))
+    goal = np.array([8.0, 0.0, 0.0])
+    times = np.arange(0, 20, 1 / FPS)
+    still = np.tile([4.0, 0.0], (len(times), 1))
+    others = _others(_walker("Bystander", times, still), times=times,
+                     feet=[(0, 0, slice(None), [4.0, 0.1, 0.0]), (0, 1, slice(None), [4.0, -0.1, 0.0])])
+    pl = Planner(g, None, steps(), FWD, settings=FASTEST, others=others)
+    res = pl.plan(standing(0, 0, EAST, FWD), goal)
+    t, body = _body_track(res)
+    need = 2 * BODY_RADIUS + FASTEST.character_clearance
+    assert np.min(np.linalg.norm(body - [4.0, 0.0], axis=1)) >= need - 1e-9
+    alone = Planner(g, None, steps(), FWD, settings=FASTEST).plan(standing(0, 0, EAST, FWD), goal)
+    assert res.cost > alone.cost  # (the way round is longer)
+    assert np.linalg.norm(res.footprints[-1].position[:2] - goal[:2]) <= FASTEST.goal_radius
+
+
+def test_a_character_crossing_is_let_by_or_passed_behind():
+    """Another walks across the way from the right at 1.2 m/s, through the path's middle
+    when this one would reach it: this one's body keeps clear of it at every time."""
+    g = MeshGround(plane(-2, 14, -8, 8))
+    goal = np.array([10.0, 0.0, 0.0])
+    alone = Planner(g, None, steps(), FWD, settings=FASTEST).plan(standing(0, 0, EAST, FWD), goal)
+    ta, ba = _body_track(alone)
+    t_mid = float(np.interp(5.0, ba[:, 0], ta))
+    times = np.arange(0, 30, 1 / FPS)
+    xy = np.c_[np.full(len(times), 5.0), -1.2 * (times - t_mid)]  # (at x = 5 when this one would be)
+    others = _others(_walker("Passer", times, xy), times=times)
+    pl = Planner(g, None, steps(), FWD, settings=FASTEST, others=others)
+    res = pl.plan(standing(0, 0, EAST, FWD), goal)
+    t, body = _body_track(res)
+    # (the search's own clock: at each of its footprints the other, within the time slack, is clear)
+    need = 2 * BODY_RADIUS + FASTEST.character_clearance
+    for ti, b in zip(t, body):
+        near = (times >= ti - TIME_SLACK) & (times <= ti + TIME_SLACK)
+        assert np.min(np.linalg.norm(xy[near] - b, axis=1)) >= need - 1e-9
+    # (alone, its body is where the other crosses, then)
+    y_then = np.interp(np.interp(5.0, ba[:, 0], ta), times, xy[:, 1])
+    assert abs(y_then - np.interp(5.0, ba[:, 0], ba[:, 1])) < 0.05
+    assert res.cost > alone.cost
+
+
+def test_a_footprint_stood_on_is_not_stepped_on_until_it_is_left():
+    """Feet alone (no body near: the other's hips far above, on another level): the
+    footprints of the other's stance are refused while it stands there, free after."""
+    times = np.arange(0, 10, 1 / FPS)
+    hips = np.tile([0.0, 0.0], (len(times), 1))
+    others = _others(_walker("Above", times, hips, z=5.0), times=times,
+                     feet=[(0, 0, slice(0, 60), [1.0, 0.0, 0.0])])  # (stands there the first 2 s)
+    at = np.array([[1.0, 0.05, 0.0], [1.0, 0.05, 0.0], [2.0, 0.0, 0.0]])
+    t0 = np.array([1.0, 3.0, 1.0])
+    ok = others.feet_clear(at, t0, t0 + 0.5, 0.26)
+    assert ok.tolist() == [False, True, True]
+    # (bodies on different levels never meet)
+    assert others.bodies_apart(np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1), np.ones(1), np.full(1, HIPS_HEIGHT),
+                               BODY_RADIUS, 0.15).all()
+
+
+@hsettings(max_examples=60, deadline=None)
+@given(hs.floats(-3, 3), hs.floats(-3, 3), hs.floats(0, 8), hs.floats(0.05, 0.4), hs.floats(0, 0.5))
+def test_bodies_apart_is_the_distance_at_the_times_within_the_slack(x, y, t, r, clearance):
+    """``bodies_apart`` of a body standing still at (x, y) against one walking the x axis at
+    1 m/s: apart exactly where every distance within the slack of the time exceeds the radii
+    and clearance (up to a frame's travel)."""
+    times = np.arange(0, 10, 1 / FPS)
+    xy = np.c_[times - 2.0, np.zeros(len(times))]
+    others = _others(_walker("Walker", times, xy, radius=r), times=times)
+    ok = others.bodies_apart(np.array([[x, y]]), np.array([[x, y]]), np.array([t]), np.array([t]),
+                             np.array([HIPS_HEIGHT]), BODY_RADIUS, clearance)[0]
+    near = (times >= t - TIME_SLACK - 1e-9) & (times <= t + TIME_SLACK + 1e-9)
+    d = np.linalg.norm(xy[near] - [x, y], axis=1).min() if near.any() else np.linalg.norm(xy[-1] - [x, y])
+    need = r + BODY_RADIUS + clearance
+    frame = 1.0 / FPS
+    if d > need + frame:
+        assert ok
+    elif d < need - frame:
+        assert not ok
