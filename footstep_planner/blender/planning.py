@@ -25,6 +25,7 @@ from ..core.footprint import PathFootprint
 from ..core.perform import turn_in_place
 from ..core.perform.run import Planned, perform_plan, synthesize_plan, waypoint_rows
 from ..core.plan.navgraph import FootprintCache, PlanError, PlanResult, Planner
+from ..core.plan.others import Others, fit_clock
 from ..core.plan.setup import PlanSetup, check_size, foot_shape, standing_footprints
 from ..core.plan.surface import FootShape
 from ..core.clips.rig import RigError
@@ -90,9 +91,10 @@ def object_geometry(ground, obstacles) -> dict:
     return out
 
 
-def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSetup:
+def plan_setup(scene, ob, settings=None, traversable=(), obstacles=(), others: Others | None = None) -> PlanSetup:
     """What a plan needs from the scene: the tagged surfaces, the character's clips
-    analysed, its library and steps, its forward, and the Planner built from them."""
+    analysed, its library and steps, its forward, and the Planner built from them (around
+    ``others``, the characters already in the shot, when given: ``others_in_time``)."""
     settings = settings or Settings()
     depsgraph = bpy.context.evaluated_depsgraph_get()
     ground, obst = scene_surfaces(scene, depsgraph, traversable, obstacles)
@@ -112,7 +114,7 @@ def plan_setup(scene, ob, settings=None, traversable=(), obstacles=()) -> PlanSe
                            margin=settings.length(0.6))  # (a foot's own)
     cache.update(object_geometry(ground, obst))
     planner = Planner(ground, obst, steps, forward, foot=foot,
-                      settings=settings, cache=cache)
+                      settings=settings, cache=cache, others=others)
     return PlanSetup(planner, clips.analyses, library, forward, clips.rig)
 
 
@@ -147,18 +149,40 @@ def goal_of(scene, name: str | None):
 
 
 def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
-         traversable=(), obstacles=(), route=None) -> tuple[PlanResult, PlanSetup]:
+         traversable=(), obstacles=(), route=None, frame_start: float | None = None,
+         not_around=()) -> tuple[PlanResult, PlanSetup]:
     """The footprints from the start (``start_marker``, else where the character stands) to
     ``goal``, arriving facing ``goal_heading`` (a Z rotation, rad, see ``FACING``) when
     one is given; or, with ``route``, ``route(setup, start footprints, goal heading in the
-    planner's frame)``'s (an edited plan, a way through waypoints)."""
-    setup = plan_setup(scene, ob, settings, traversable, obstacles)
+    planner's frame)``'s (an edited plan, a way through waypoints). With
+    ``Settings.avoid_characters``, around the other characters the planner baked in the
+    scene (but those named in ``not_around``) as they play from ``frame_start`` (default:
+    the current frame) on: ``others_in_time``."""
+    settings = settings or Settings()
+    others = None
+    if settings.avoid_characters:
+        first = scene.frame_current if frame_start is None else frame_start
+        others = others_in_time(scene, ob, int(round(first)), not_around)
+    setup = plan_setup(scene, ob, settings, traversable, obstacles, others)
     start = marker_footprints(start_marker, setup) if start_marker is not None else character_footprints(ob, setup)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     setup.start = start
+    return _search(setup, goal, heading, route), setup
+
+
+def _search(setup: PlanSetup, goal, heading, route) -> PlanResult:
+    """The plan's search from ``setup.start`` (``heading`` in the planner's frame): ``route``'s
+    or, without one, the footprints' (turning in place where the way turns back)."""
     if route is not None:
-        return route(setup, start, heading), setup
-    return turn_in_place.plan(setup.planner, start, goal, heading, standing_body(setup.library, setup.analyses)), setup
+        return route(setup, setup.start, heading)
+    return turn_in_place.plan(setup.planner, setup.start, goal, heading, standing_body(setup.library, setup.analyses))
+
+
+#: Plans made again on the clock their synthesis kept (``core.plan.others.fit_clock``) when
+#: a character is planned around others, and by how much (s, at the path's end) the clock
+#: must have moved for it.
+CLOCK_TRIES = 2
+CLOCK_MOVED = 0.1
 
 
 def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=None,
@@ -168,16 +192,33 @@ def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=
 
 
 def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
-                        traversable=(), obstacles=(), route=None, frame_start: float | None = None) -> Planned:
+                        traversable=(), obstacles=(), route=None, frame_start: float | None = None,
+                        not_around=()) -> Planned:
     """Plan the footprints to ``goal`` and perform them (``core.perform.run.perform_plan``:
     a route through waypoints, ``directing.ViaRoute``, that stops at some or has arrival
     frames, scene frames from ``frame_start``, default the current one, is performed leg by
-    leg); the overlay shows the result."""
+    leg; with ``Settings.avoid_characters`` around the other characters baked in the scene
+    but ``not_around``: ``plan``); the overlay shows the result."""
     settings = settings or Settings()
-    result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles, route)
+    result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles, route,
+                         frame_start, not_around)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     first = float(scene.frame_current if frame_start is None else frame_start)
     planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
+    others = setup.planner.others
+    for _ in range(CLOCK_TRIES if others is not None and not others.empty else 0):
+        # (the search timed its steps on its own clock; the synthesis played them later (the
+        # stand and the start clip first) and at its pace: the search again on that clock)
+        clock = fit_clock(result.footprints, planned.synthesis.plan, planned.synthesis.planted())
+        if clock is None:
+            break
+        end = max(f.time for f in result.footprints)
+        old = setup.planner.others.clock
+        if abs((clock[0] + clock[1] * end) - (old[0] + old[1] * end)) <= CLOCK_MOVED:
+            break
+        setup.planner.others = others.on_clock(*clock)
+        result = _search(setup, goal, heading, route)
+        planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
     syn = planned.synthesis
     overlay.remember(scene, planned.result.footprints, *syn.footprints, setup.forward, setup.planner.foot,
                      syn.body_position, planned.result.explored_positions if planned.result.explored else None)
@@ -255,6 +296,26 @@ def other_characters(scene, ob) -> list:
     return out
 
 
+def others_in_time(scene, ob, frame_start: int, not_around=()) -> Others:
+    """The other characters the planner baked in the scene (``other_characters``, but those
+    named in ``not_around``) as Blender plays them from ``frame_start`` to the last frame of
+    their tracks (one pass of ``scene.frame_set``; after it each stands as it ends), on the
+    clock of a plan starting there (``core.plan.others.Others``: their bodies, and the
+    footprints their feet stand on and when)."""
+    chars = [(o, r) for o, r in other_characters(scene, ob) if o.name not in set(not_around)]
+    fps = scene_fps(scene)
+    if not chars:
+        return Others.of((), np.zeros(1), np.zeros((0, 1, 3)), np.zeros(0), np.zeros((0, 2, 1, 3)),
+                         np.zeros((0, 2, 1), bool), np.zeros(0))
+    last = max(st.frame_end for o, _ in chars for tr in baking.owned_tracks(o) for st in tr.strips)
+    frames = max(int(np.ceil(last)) - int(frame_start) + 1, 1)
+    played, _ = baking.played_matrices(scene, chars, frame_start, frames)
+    bodies = [crowd.body_of(o.name, r, baking.played_world(*m), fps) for (o, r), m in zip(chars, played)]
+    return Others.of([b.name for b in bodies], np.arange(frames) / fps, [b.hips for b in bodies],
+                     [b.radius for b in bodies], [b.soles for b in bodies], [b.planted for b in bodies],
+                     [b.foot_length for b in bodies])
+
+
 @dataclass
 class BakeRequest:
     """What a bake is asked for (``run``, ``run_steps``; the fields in the order the old
@@ -266,7 +327,10 @@ class BakeRequest:
     the frame range grown (``frame_range``). ``route`` replaces the search (an edited plan,
     waypoints: see ``plan``); a re-bake's ``splice`` (``directing.Splice``) re-keys only
     what changed; ``force`` bakes over an earlier bake of this name whose keys were edited,
-    ``new_track`` beside it under a new name (``bake.new_track_name``)."""
+    ``new_track`` beside it under a new name (``bake.new_track_name``). With
+    ``Settings.avoid_characters`` the plan goes round the other characters the planner baked
+    in the scene, but those named in ``not_around`` (a job list's later jobs, with
+    ``--together``)."""
 
     goal: np.ndarray
     goal_heading: float | None = None
@@ -283,6 +347,7 @@ class BakeRequest:
     splice: object = None
     force: bool = False
     new_track: bool = False
+    not_around: tuple = ()
 
     def options(self, ob, scene, settings: Settings) -> baking.BakeOptions:
         """What ``bake.bake`` writes for this request on ``ob`` in ``scene``: its name (default
@@ -337,7 +402,8 @@ def bake_steps(scene, ob, req: BakeRequest):
     baking.check_scene(scene, ob, req.body_on)
     yield 0.0, "planning"
     job.planned = planned = plan_and_synthesize(scene, ob, req.goal, req.goal_heading, req.start_marker, job.settings,
-                                                req.traversable, req.obstacles, req.route, job.opts.frame_start)
+                                                req.traversable, req.obstacles, req.route, job.opts.frame_start,
+                                                req.not_around)
     baking.check_leg_constraints(ob, planned.setup.rig)
     yield 0.5, "inverse kinematics"
     if req.splice is not None:

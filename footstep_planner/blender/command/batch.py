@@ -198,7 +198,8 @@ def bake_job(scene, job: dict, common: dict, settings: Settings, plan=None) -> d
                        frame_start=job.get("frame_start"), markers=bool(common.get("markers")),
                        body_on=str(job.get("body_on") or common.get("body_on") or "object").upper(),
                        frame_range=not common.get("keep_frame_range"), route=route, splice=splice,
-                       force=bool(common.get("force")), new_track=bool(common.get("new_track")))
+                       force=bool(common.get("force")), new_track=bool(common.get("new_track")),
+                       not_around=tuple(common.get("not_around", ())))
     _route_report(doc, route, splice, job)
     return doc
 

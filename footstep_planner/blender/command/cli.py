@@ -212,6 +212,11 @@ def _add_bake(sub) -> None:
     p.add_argument("--new-track", action="store_true",
                    help="bake beside the planner's earlier bake of this name, under a new name (\"NAME (2)\")")
     p.add_argument("--job", metavar="JOBS.json", help="several jobs, run one after another")
+    p.add_argument("--together", action="store_true",
+                   help="plan the --job list in one space and time: each job in the list's order goes "
+                   "round the characters of the jobs before it (and any other the planner baked in the "
+                   "scene) as they play, side-stepping or going round their bodies and never stepping "
+                   "where another foot stands (--set avoid_characters=true for every job)")
     p.add_argument("--plan", metavar="PLAN.json", help="bake this plan (from plan --out-plan, maybe edited): "
                    "its locked and moved footprints are kept, the way around what changed is searched "
                    "again, and over an earlier bake of the plan only that span is re-keyed")
@@ -369,6 +374,12 @@ def _common(args, names: bool = False) -> dict:
 def _bake(args) -> int:
     if args.ray and not args.job:
         raise CliError("--ray runs a job list: give --job JOBS.json")
+    if args.together and not args.job:
+        raise CliError("--together plans a job list in one space and time: give --job JOBS.json "
+                       "(one bake goes round the characters already baked with --set avoid_characters=true)")
+    if args.together and args.ray:
+        raise CliError("--together plans each job around the ones before it, in one scene: it runs "
+                       "here, not on Ray (leave out --ray)")
     if args.plan and args.job:
         raise CliError("--plan bakes one plan: give it without --job")
     if not args.job and not args.character and not args.plan:
@@ -455,9 +466,12 @@ def _bake_jobs(args, raw: list, settings: Settings, outs: Outputs, out: str | No
     if args.ray:
         outcomes += _on_ray(args, jobs, outs, tell)
     else:
-        for job in jobs:
-            tell(batch.run_job(bpy.context.scene, job, _common(args, names=True), settings, outs,
-                               blend_writer(job.out or "")))
+        for k, job in enumerate(jobs):
+            common = _common(args, names=True)
+            if args.together:  # (each job round those before it, not the later ones' earlier bakes)
+                common["not_around"] = tuple(j.fields["character"] for j in jobs[k + 1:])
+            tell(batch.run_job(bpy.context.scene, job, common, settings.replace(avoid_characters=True)
+                               if args.together else settings, outs, blend_writer(job.out or "")))
         outcomes += done
     outcomes.sort(key=lambda o: o.number)
     if out and not args.ray and any(o.status == "baked" for o in outcomes):

@@ -55,21 +55,8 @@ def test_two_characters_crossing_are_measured_against_each_other_as_played(fp, t
 
     from conftest import Recorder
 
-    scene, a, b = _crossing(fp, cmu_b=True)
-    names = b.name, a.name
-    path = str(tmp_path / "shot.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=path)
-    jobs = tmp_path / "jobs.json"
-    jobs.write_text(json.dumps([
-        {"character": a.name, "goal": "GoalA", "start": "StartA", "name": "walk A", "report": str(tmp_path / "a.json")},
-        {"character": b.name, "goal": "GoalB", "start": "StartB", "name": "walk B", "report": str(tmp_path / "b.json")},
-    ]))
-    out = str(tmp_path / "baked.blend")
-    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
-    capsys.readouterr()
-    assert cli(["bake", path, "--job", str(jobs), "--out", out]) == 0
-    said = capsys.readouterr().out
-    doc_a, doc_b = (json.loads((tmp_path / n).read_text()) for n in ("a.json", "b.json"))
+    a, b, doc_a, doc_b, out, said = _job_list(fp, tmp_path, capsys)
+    names = b, a
     assert "others" not in doc_a["quality"]  # (nobody else baked yet; B only stands there)
     (fig,) = doc_b["quality"]["others"]
     print("B against A as baked:", fig)
@@ -90,16 +77,8 @@ def test_two_characters_crossing_are_measured_against_each_other_as_played(fp, t
     assert f"on {names[1]}'s footprints" in texts or not fig["frames_on_one_footprint"]
 
     # the saved scene, as Blender plays it: the same figures, from the bodies read there
-    bpy.ops.wm.open_mainfile(filepath=out)
-    scene = bpy.context.scene
-    bake = import_module(fp.__name__ + ".blender.write.bake")
+    bodies, first = _played_pair(fp, out, doc_b, names)
     crowd = import_module(fp.__name__ + ".core.report.crowd")
-    read = import_module(fp.__name__ + ".blender.read.scene")
-    first, n = doc_b["frame_start"], doc_b["frame_end"] - doc_b["frame_start"] + 1
-    obs = [scene.objects[n_] for n_ in names]
-    rigs = [read.rig_from_armature(o) for o in obs]
-    played, _ = bake.played_matrices(scene, list(zip(obs, rigs)), first, n)
-    bodies = [crowd.body_of(o.name, r, bake.played_world(*m), FPS) for o, r, m in zip(obs, rigs, played)]
     assert crowd.pair_figures(bodies[0], bodies[1], first) == fig
     # and the least distance is where the hips are nearest, a few frames at most apart
     hips = [bd.hips for bd in bodies]
@@ -151,3 +130,74 @@ def test_an_obstacle_that_moves_across_the_way_is_measured_as_played(fp, tmp_pat
     # the deepest where the body passes the cart's middle (x = 0), the cart on the way
     at = fig["least_distance_frame"] - first
     assert abs(me.hips[at, 0]) < 0.35 and abs(moved[at, 1, 3]) < 1e-6
+
+
+@needs_cmu
+def test_a_job_list_planned_together_keeps_the_bodies_apart_as_played(fp, tmp_path):
+    """The crossing as one shot (``bake --job --together``): CMU's real capture, planned
+    after the sample character, goes round it in time. As Blender plays the saved scene the
+    bodies never touch (they kept a clearance apart where they crossed: they met above) and
+    no foot of either stands where the other's does; the first job is planned as alone
+    (the same footprints as without ``--together``)."""
+    import bpy
+
+    a, b, doc_a, doc_b, out, _ = _job_list(fp, tmp_path, None, "--together")
+    names = a, b
+    alone = _bake(fp, _crossing(fp)[0], bpy.context.scene.objects[names[0]], "A")
+    assert doc_a["footprints"] == alone["footprints"]
+    (fig,) = doc_b["quality"]["others"]
+    print("B against A, planned together:", fig, doc_b["plan"]["search"] if "plan" in doc_b else "")
+    assert fig["character"] == names[0]
+    # (planned a clearance apart, 0.15 m, with half a second's slack either way in time)
+    assert fig["least_distance_m"] > 0.1 and fig["frames_overlapping"] == 0, fig
+    assert fig["frames_on_one_footprint"] == 0, fig
+    assert doc_b["quality"]["goal"]["distance_m"] <= 0.3
+
+    # the saved scene as Blender plays it: the same, from the bodies read there
+    bodies, first = _played_pair(fp, out, doc_b, (names[1], names[0]))
+    again = import_module(fp.__name__ + ".core.report.crowd").pair_figures(bodies[0], bodies[1], first)
+    assert again == fig
+
+
+def _job_list(fp, tmp_path, capsys, *flags):
+    """The crossing (the sample character A, CMU's capture B) saved and baked from the
+    command line as a job list, A first: (A's name, B's, A's report, B's, the baked scene's
+    path, what the command printed)."""
+    import json
+
+    import bpy
+
+    scene, a, b = _crossing(fp, cmu_b=True)
+    names = a.name, b.name  # (the objects go when the command line opens the file)
+    path = str(tmp_path / "shot.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    jobs = tmp_path / "jobs.json"
+    jobs.write_text(json.dumps([
+        {"character": names[0], "goal": "GoalA", "start": "StartA", "name": "walk A", "report": str(tmp_path / "a.json")},
+        {"character": names[1], "goal": "GoalB", "start": "StartB", "name": "walk B", "report": str(tmp_path / "b.json")},
+    ]))
+    out = str(tmp_path / "baked.blend")
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
+    if capsys is not None:
+        capsys.readouterr()
+    assert cli(["bake", path, "--job", str(jobs), *flags, "--out", out]) == 0
+    said = capsys.readouterr().out if capsys is not None else ""
+    doc_a, doc_b = (json.loads((tmp_path / n).read_text()) for n in ("a.json", "b.json"))
+    return *names, doc_a, doc_b, out, said
+
+
+def _played_pair(fp, out: str, doc: dict, names) -> tuple[list, int]:
+    """The bodies (``crowd.body_of``) of the two characters ``names`` as Blender plays the
+    saved scene ``out`` over the frames of the report ``doc``, and its first frame."""
+    import bpy
+
+    bpy.ops.wm.open_mainfile(filepath=out)
+    scene = bpy.context.scene
+    bake = import_module(fp.__name__ + ".blender.write.bake")
+    crowd = import_module(fp.__name__ + ".core.report.crowd")
+    read = import_module(fp.__name__ + ".blender.read.scene")
+    first, n = doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1
+    obs = [scene.objects[n_] for n_ in names]
+    rigs = [read.rig_from_armature(o) for o in obs]
+    played, _ = bake.played_matrices(scene, list(zip(obs, rigs)), first, n)
+    return [crowd.body_of(o.name, r, bake.played_world(*m), FPS) for o, r, m in zip(obs, rigs, played)], first
