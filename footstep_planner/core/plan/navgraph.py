@@ -114,6 +114,9 @@ REROUTE_RADIUS = 3.0
 #: m: the hips above the footprints (a human's), where the search puts a body it keeps
 #: clear of the other characters' (``Planner._clear_of_others``).
 HIPS_HEIGHT = 0.95
+#: s: a standing body is checked against the others this often (each check covers the
+#: others' slack either side: ``others.TIME_SLACK``)
+STAND_SLOT = 0.5
 
 
 def _cheaper(best: dict, keys: np.ndarray, cost: np.ndarray) -> np.ndarray:
@@ -145,6 +148,10 @@ class PlanResult:
     cost: float
     field_seconds: float = 0.0  # of ``seconds``: building the heuristic's distance field
     explored: list[SearchNode] = field(default_factory=list, repr=False)
+    #: (index, s) of each stand to let another character pass (``stands.plan_round``):
+    #: after footprint ``index`` (the other foot beside it is the next), or before the
+    #: first step (index 0); the footprints' times include the stands
+    waits: tuple = ()
 
     @property
     def explored_positions(self) -> np.ndarray:
@@ -159,6 +166,8 @@ class PlanResult:
             "search": {"expanded": self.expanded, "generated": self.generated,
                        "seconds": round(self.seconds, 4), "field_seconds": round(self.field_seconds, 4),
                        "cost": round(self.cost, 4)},
+            # (where: the report's "waypoints" rows, a "stand" per stand on the way, by frame)
+            **({"stands": [{"seconds": round(w, 3), "at_start": i == 0} for i, w in self.waits]} if self.waits else {}),
         }
 
 
@@ -181,6 +190,12 @@ class Planner(StepRules, Refusals):
     #: the characters already in the shot, in time (``others.Others``): a step that comes
     #: too near one's body or lands on its footprint at the same time is refused
     others: Others | None = None
+    #: s: when the start footprints are stood on, on the others' clock (a plan that leaves
+    #: a stand later); the path's footprint times stay from its start
+    start_time: float = 0.0
+    #: s: a path costing more is not wanted (another plan costs this): a footprint whose way
+    #: there and heuristic on cost at least this is not pushed
+    cost_limit: float = np.inf
 
     # The search's geometry, a human's (``Settings``: sizes) scaled to the character.
     @property
@@ -281,7 +296,8 @@ class Planner(StepRules, Refusals):
         search.weight = 1.0 + START_WEIGHT * (self.settings.heuristic_weight - 1.0)
         for s in start:
             for gait in _start_gaits(s, set(self.steps.gait[~self.steps.jump].tolist())):
-                node = SearchNode(s.foot, gait, np.asarray(s.position, float), float(s.heading), 0.0, -1, -1)
+                node = SearchNode(s.foot, gait, np.asarray(s.position, float), float(s.heading), 0.0, -1, -1,
+                                  float(self.start_time))
                 search.push(node, float(search.heuristic(node.position, [node.heading])[0]))
         # (plain A* ends with its arrival once nothing open may be cheaper: it stays exact)
         slack = ARRIVE_SLACK if self.settings.heuristic_weight > 1.0 else 0.0
@@ -305,7 +321,7 @@ class Planner(StepRules, Refusals):
             _, b, j = search.arrival
             return self._result(search, self._take(search, search.batches[b], j), time.perf_counter() - t0,
                                 search.field_seconds)
-        if not search.heap and self.settings.weave_penalty > 0:
+        if not search.heap and self.settings.weave_penalty > 0 and self.cost_limit == np.inf:
             # (every way on ran dry: the weave penalty orders the search, and the footprint
             # reached first closes its merge key, so a search without it may still find one)
             try:
@@ -498,15 +514,25 @@ class Planner(StepRules, Refusals):
         """Check, in one batch, successor ``j`` of a batch and the ``CHECK_CHUNK`` - 1 of its
         siblings not checked yet whose merge key is still open that come first in the open
         list (the likeliest to leave it next): whether a foot may stand there, within a
-        step's height, and the way there is clear (``_supported``, ``_way_clear``). Which
-        are checked when changes nothing but the work: a successor's answer is its own."""
+        step's height, and the way there is clear (``_supported``, ``_way_clear``), and
+        first, round other characters, clear of them in time (``_clear_of_others``, on the
+        footprint's level before its ground is read). Which are checked when changes nothing
+        but the work: a successor's answer is its own."""
         shut = search.closed.__contains__
         todo = np.flatnonzero((batch.state == 0) & ~np.fromiter(map(shut, batch.keys), bool, len(batch.keys)))
+        node = search.nodes[batch.parent]
+        if self.others is not None and len(todo):  # (first, all at once: no rays, and most go where others crowd)
+            est = np.c_[batch.nxt[todo], np.full(len(todo), node.position[2])]
+            free = self._clear_of_others(search, node, batch.sel[todo], est, batch.t[todo])
+            search.crowded += int((~free).sum())
+            batch.state[todo[~free]] = 2
+            todo = todo[free]
+            if not len(todo):
+                return
         if len(todo) > CHECK_CHUNK:
             f = batch.g[todo] + search.weight * batch.h[todo]
             f[todo == j] = -np.inf
             todo = np.sort(todo[np.argpartition(f, CHECK_CHUNK - 1)[:CHECK_CHUNK]])
-        node = search.nodes[batch.parent]
         nxt, psi = batch.nxt[todo], batch.psi[todo]
         ok, z = self._supported(node, nxt, psi)
         to = np.empty((len(todo), 3))
@@ -519,10 +545,6 @@ class Planner(StepRules, Refusals):
         walk = ok & ~self.steps.jump[batch.sel[todo]]
         if walk.any() and node.parent >= 0:  # the stepping foot swings from the footprint before
             ok[walk] &= self._no_bump(search.nodes[node.parent].position, to[walk])
-        if self.others is not None and ok.any():
-            free = self._clear_of_others(search, node, batch.sel[todo][ok], to[ok], batch.t[todo][ok])
-            search.crowded += int((~free).sum())
-            ok[ok] = free
         batch.state[todo] = np.where(ok, 1, 2)
         batch.z[todo] = z
 
@@ -543,8 +565,49 @@ class Planner(StepRules, Refusals):
                                  cfg.character_clearance, cfg.body_scale)
         if ok.any():
             stance = t[ok] + STANCE_STEPS * self.steps.duration[steps[ok]]
-            ok[ok] = others.feet_clear(to[ok], t[ok], stance, self.foot.back + max(self.foot.front, self.foot.tip))
+            ok[ok] = others.feet_clear(to[ok], t[ok], stance, self._foot_reach)
         return ok
+
+    @property
+    def _foot_reach(self) -> float:
+        """m: heel to toe tip of this character's foot (a footprint another foot keeps off)."""
+        return self.foot.back + max(self.foot.front, self.foot.tip)
+
+    def clear_in_time(self, path: list[PathFootprint], later: float = 0.0) -> np.ndarray:
+        """(N,) per footprint of ``path`` whether the step onto it keeps clear of the other
+        characters (``_clear_of_others``' test: the body from between the two footprints
+        before to between the last and it, and the foot over its stance), its times from
+        ``start_time`` and ``later`` s; the first (the start) True."""
+        n, others = len(path), self.others
+        ok = np.ones(n, bool)
+        if others is None or others.empty or n < 2:
+            return ok
+        cfg = self.settings
+        pos = np.array([f.position for f in path], float)
+        t = np.array([f.time for f in path], float) + self.start_time + later
+        mid = 0.5 * (pos[1:] + pos[:-1])
+        before = np.vstack([pos[:1], mid[:-1]])
+        body = others.bodies_apart(before[:, :2], mid[:, :2], t[:-1], t[1:], mid[:, 2] + self._len(HIPS_HEIGHT),
+                                   self._len(BODY_RADIUS), cfg.character_clearance, cfg.body_scale)
+        stance = t[1:] + STANCE_STEPS * np.maximum(t[1:] - t[:-1], 0.0)
+        ok[1:] = body & others.feet_clear(pos[1:], t[1:], stance, self._foot_reach)
+        return ok
+
+    def stand_clear(self, feet: np.ndarray, t0: float, t1: float) -> bool:
+        """Whether a body standing over ``feet`` (2, 3) from ``t0`` to ``t1`` s (from
+        ``start_time``) keeps clear of the other characters' bodies (the same clearance,
+        every ``STAND_SLOT`` s) and no other foot lands on either footprint meanwhile."""
+        others, cfg = self.others, self.settings
+        if others is None or others.empty:
+            return True
+        t0, t1 = t0 + self.start_time, t1 + self.start_time
+        centre = np.asarray(feet, float).mean(axis=0)
+        slots = np.append(np.arange(t0, t1, STAND_SLOT), t1)
+        at = np.repeat(centre[None, :2], len(slots), axis=0)
+        body = others.bodies_apart(at, at, slots, slots, np.full(len(slots), centre[2] + self._len(HIPS_HEIGHT)),
+                                   self._len(BODY_RADIUS), cfg.character_clearance, cfg.body_scale)
+        return bool(body.all() and others.feet_clear(np.asarray(feet, float), np.full(2, t0), np.full(2, t1),
+                                                     self._foot_reach).all())
 
     def _arrived(self, search: _Search, idx: int) -> bool:
         """Whether node ``idx`` ends the path (within the goal radius, heading within
@@ -581,6 +644,12 @@ class Planner(StepRules, Refusals):
         at[:, :2] = nxt[keep]
         at[:, 2] = node.position[2]
         h = search.heuristic(at, npsi[keep])
+        if self.cost_limit < np.inf:
+            under = cost[keep] + h < self.cost_limit
+            if not under.all():
+                keep, h, at = keep[under], h[under], at[under]
+                if not len(keep):
+                    return
         batch = _Batch(idx, sel[keep], nxt[keep], npsi[keep], cost[keep], [keys[j] for j in keep],
                        np.zeros(len(keep), np.int8), np.zeros(len(keep)), h,
                        node.time + self.steps.duration[sel[keep]])

@@ -137,10 +137,14 @@ class _Search:
         self.advance(b)
 
     def advance(self, b: int) -> None:
-        """The next queued successor of batch ``b`` into the heap."""
-        if self.queued[b]:
-            j = self.queued[b].pop()
-            heapq.heappush(self.heap, (self.f[b][j], self.seq0[b] + j + 1, b, j))
+        """The next queued successor of batch ``b`` into the heap (but the ones refused
+        already: a batch checked at once round other characters)."""
+        queued, state = self.queued[b], self.batches[b].state
+        while queued:
+            j = queued.pop()
+            if state[j] != 2:
+                heapq.heappush(self.heap, (self.f[b][j], self.seq0[b] + j + 1, b, j))
+                return
 
     def requeue(self, keep: Callable | None = None) -> None:
         """The open list again at the weight now (and the batches' heuristics now), less
