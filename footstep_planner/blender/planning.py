@@ -24,8 +24,9 @@ from ..core.clips.steps import library_steps, shortest_stride
 from ..core.footprint import PathFootprint
 from ..core.perform import turn_in_place
 from ..core.perform.run import Planned, perform_plan, synthesize_plan, waypoint_rows
-from ..core.plan.navgraph import FootprintCache, PlanError, PlanResult, Planner
-from ..core.plan.others import Others, fit_clock
+from ..core.plan.navgraph import HIPS_HEIGHT, FootprintCache, PlanError, PlanResult, Planner
+from ..core.plan.others import BODY_RADIUS, Others, fit_clock
+from ..core.plan import stands
 from ..core.plan.setup import PlanSetup, check_size, foot_shape, standing_footprints
 from ..core.plan.surface import FootShape
 from ..core.clips.rig import RigError
@@ -175,13 +176,16 @@ def _search(setup: PlanSetup, goal, heading, route) -> PlanResult:
     or, without one, the footprints' (turning in place where the way turns back)."""
     if route is not None:
         return route(setup, setup.start, heading)
-    return turn_in_place.plan(setup.planner, setup.start, goal, heading, standing_body(setup.library, setup.analyses))
+    body = standing_body(setup.library, setup.analyses)
+    return stands.plan_round(setup.planner, setup.start,
+                             lambda planner, start: turn_in_place.plan(planner, start, goal, heading, body))
 
 
-#: Plans made again on the clock their synthesis kept (``core.plan.others.fit_clock``) when
-#: a character is planned around others, and by how much (s, at the path's end) the clock
-#: must have moved for it.
-CLOCK_TRIES = 2
+#: Plans made again round other characters: on the clock their synthesis kept
+#: (``core.plan.others.fit_clock``) where it moved by more than CLOCK_MOVED s at the
+#: path's end, or with the time slack doubled where the synthesized body still came within
+#: half the clearance of another's; at most CLOCK_TRIES times.
+CLOCK_TRIES = 3
 CLOCK_MOVED = 0.1
 
 
@@ -205,24 +209,44 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     first = float(scene.frame_current if frame_start is None else frame_start)
     planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
-    others = setup.planner.others
-    for _ in range(CLOCK_TRIES if others is not None and not others.empty else 0):
-        # (the search timed its steps on its own clock; the synthesis played them later (the
-        # stand and the start clip first) and at its pace: the search again on that clock)
-        clock = fit_clock(result.footprints, planned.synthesis.plan, planned.synthesis.planted())
-        if clock is None:
+    for _ in range(CLOCK_TRIES):
+        others = _again(setup, result, planned, settings)
+        if others is None:
             break
-        end = max(f.time for f in result.footprints)
-        old = setup.planner.others.clock
-        if abs((clock[0] + clock[1] * end) - (old[0] + old[1] * end)) <= CLOCK_MOVED:
+        kept, setup.planner.others = setup.planner.others, others
+        try:
+            again = _search(setup, goal, heading, route)
+        except PlanError:  # (no way on that clock, or that wide: the plan made stands, its report says how near)
+            setup.planner.others = kept
             break
-        setup.planner.others = others.on_clock(*clock)
-        result = _search(setup, goal, heading, route)
+        result = again
         planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
     syn = planned.synthesis
     overlay.remember(scene, planned.result.footprints, *syn.footprints, setup.forward, setup.planner.foot,
                      syn.body_position, planned.result.explored_positions if planned.result.explored else None)
     return planned
+
+
+def _again(setup: PlanSetup, result: PlanResult, planned: Planned, settings: Settings):
+    """The others to plan round again (``CLOCK_TRIES``), None when the plan stands: the
+    search timed its steps on its own clock, and the synthesis played them later (the stand
+    and the start clip first) and at its pace, so the search goes again on that clock; where
+    the clock held but the synthesized body still meets another's, with a wider slack."""
+    others = setup.planner.others
+    if others is None or others.empty:
+        return None
+    syn = planned.synthesis
+    clock = fit_clock(result.footprints, syn.plan, syn.planted())
+    end = max(f.time for f in result.footprints)
+    old = others.clock
+    if clock is not None and abs((clock[0] + clock[1] * end) - (old[0] + old[1] * end)) > CLOCK_MOVED:
+        return others.on_clock(*clock)
+    scale = setup.planner.settings.body_scale
+    hips = syn.body_position + [0.0, 0.0, setup.planner.settings.length(HIPS_HEIGHT)]
+    gap, _ = others.least_gap(syn.t, hips, setup.planner.settings.length(BODY_RADIUS), scale)
+    if gap < 0.5 * settings.character_clearance:
+        return others.widened()
+    return None
 
 
 #: mm: a re-bake whose splice lets a planted foot slide more than this is baked whole

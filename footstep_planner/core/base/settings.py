@@ -155,11 +155,15 @@ class Settings:
     avoid_characters: bool = setting(False, "", doc="""Plan around the other characters the planner
         baked in the scene, in time: no step brings the body within the two bodies' radii and
         character_clearance of another's at the same moment, or sets a foot on a footprint another
-        foot stands on then, so the character side-steps or goes round them (the command line's
+        foot stands on then, so the character side-steps, goes round them or stands to let them
+        pass (the command line's
         bake --together turns it on for a job list, each job around the ones before it).""")
     character_clearance: float = setting(0.15, "m", 0.0, 10.0, """With avoid_characters, two bodies
         (capsules from the hips to the head, a human's half shoulder width round) keep at least this
         far apart.""")
+    wait_penalty: float = setting(1.0, "s", 0.0, 60.0, """With avoid_characters, the cost of stopping to
+        let another character pass, beyond the time stood: a way round or a change of pace that
+        costs less than the stand and this is taken instead.""")
 
     # --- smoothing (thesis 3.3) -----------------------------------------------------
     smoothing_iterations: int = setting(4, "passes", 0, 100, """Passes of the binomial kernel over

@@ -168,7 +168,8 @@ class _Plan:
 
 
 def perform(path, marks: list[Mark], synth: SynthFn, goal, goal_heading=None, hold: float | None = None,
-            pace_range: tuple[float, float] = (0.8, 1.25), frame_start: float = 1.0, body=None) -> Performance:
+            pace_range: tuple[float, float] = (0.8, 1.25), frame_start: float = 1.0, body=None,
+            wait: float = 0.0) -> Performance:
     """The performance of ``path`` through its ``marks`` (in order, the last the goal):
     stopping where a mark stops, each arrival frame met (``Mark.arrive``). ``synth`` makes
     one leg (see ``SynthFn``); ``hold`` s of standing at the goal. Raises TimingError for
@@ -176,9 +177,11 @@ def perform(path, marks: list[Mark], synth: SynthFn, goal, goal_heading=None, ho
     no stop before it to wait at), naming the waypoint and, when too soon, the earliest
     frame (``frame_start`` is the first frame's number). ``body(synthesis)`` gives the body
     positions (F, 3) the arrivals are read on (default the synthesis's; the bake's, after
-    the IK, is what the scene plays)."""
+    the IK, is what the scene plays). ``wait`` s more are stood at the start before the
+    first step (a stand the search made there, to let another character pass)."""
     body = body or (lambda s: s.body_position)
     plan = _Plan(list(path), marks, np.asarray(goal, float), goal_heading, hold)
+    plan.wait[0] = max(float(wait), 0.0)
     syn, parts = plan.synthesize(synth)
     fps = syn.final.schedule.fps
     lo, hi = pace_range

@@ -27,7 +27,7 @@ from ..synth.labels import clip_tracks
 from ..synth.pipeline import Synthesis, standing_body, surface_snap
 from ..synth.pipeline import synthesize as synthesize_leg
 from . import turn_in_place
-from .directed import Performance, SynthFn, TimingError, arrival_frames, arrival_times, perform
+from .directed import Mark, Performance, SynthFn, TimingError, arrival_frames, arrival_times, perform
 
 
 @runtime_checkable
@@ -127,10 +127,31 @@ def perform_plan(result: PlanResult, setup: PlanSetup, settings: Settings, fps: 
             syn = synthesize_plan(result, setup, settings, fps, goal, heading)
             times, windows = arrival_times(syn, [syn], marks, ik.body(syn))
             performance = Performance(syn, marks, times, np.ones(len(marks)), np.zeros(len(marks)), windows)
+    elif result.waits:  # (the search stood to let another character pass: a stop there)
+        marks, wait = stand_marks(result, goal, heading)
+        performance = perform(result.footprints, marks, legs(setup, settings, fps), goal, heading,
+                              pace_range=(settings.pace_min, settings.pace_max), frame_start=first, body=ik.body,
+                              wait=wait)
+        syn = performance.synthesis
     else:
         syn = synthesize_plan(result, setup, settings, fps, goal, heading)
     result = replace(result, footprints=list(syn.plan))  # with both standing feet at either end
     return Planned(result, setup, syn, heading, performance, ik.of(syn))
+
+
+def stand_marks(result: PlanResult, goal, heading=None) -> tuple[list[Mark], float]:
+    """The stops of a path whose search stood to let other characters pass (``PlanResult.waits``):
+    a mark that stops and pauses at each stand (on the footprint arrived on, the other foot
+    beside it next), the goal last; and the seconds stood at the start before the first step."""
+    fs, marks, wait = result.footprints, [], 0.0
+    for i, w in result.waits:
+        if i == 0:
+            wait += w
+            continue
+        marks.append(Mark(f"stand {len(marks) + 1}", i, 0.5 * (fs[i].position + fs[i + 1].position), None,
+                          stop=True, pause=float(w)))
+    marks.append(Mark("goal", len(fs) - 1, np.asarray(goal, float), heading, stop=True))
+    return marks, wait
 
 
 class LastSolve:
@@ -175,4 +196,5 @@ def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=No
     return rows
 
 
-__all__ = ["LastSolve", "MarkedRoute", "Planned", "legs", "perform_plan", "synthesize_plan", "waypoint_rows"]
+__all__ = ["LastSolve", "MarkedRoute", "Planned", "legs", "perform_plan", "stand_marks", "synthesize_plan",
+           "waypoint_rows"]

@@ -48,7 +48,9 @@ def plan_via(planner: Planner, start: list[PathFootprint], waypoints: list[Waypo
     at a waypoint and the way on lies behind or beside it, it turns in place there
     (``turn_in_place.start_turn``; ``body``: see ``turn_in_place.pivot_footprints``), and
     at a hairpin on a leg (``turn_in_place.hairpin_turn``). A leg that can't be found
-    raises PlanError naming the leg."""
+    raises PlanError naming the leg. Round other characters (``Planner.others``) a leg
+    goes round or ahead of them; it does not stand to let one pass (``stands``: not on a
+    route yet)."""
 
     if not waypoints:
         raise PlanError("no waypoint to go to")

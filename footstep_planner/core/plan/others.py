@@ -52,7 +52,9 @@ class Others:
     - ``prints`` (M, 3): the footprints the other feet stand on (a sole's middle over one
       planted stretch), ``print_owner`` (M,) whose, ``print_span`` (M, 2) s from and to;
     - ``foot_length`` (N,) m each one's foot;
-    - ``clock`` (lead s, rate): the search's time t is the shot's lead + rate t."""
+    - ``clock`` (lead s, rate): the search's time t is the shot's lead + rate t;
+    - ``slack`` s: another body or foot counts this long before and after the time asked
+      (``TIME_SLACK``; wider where a plan made with it still met another as synthesized)."""
 
     names: tuple
     times: np.ndarray
@@ -63,10 +65,31 @@ class Others:
     print_span: np.ndarray
     foot_length: np.ndarray
     clock: tuple = (0.0, 1.0)
+    slack: float = TIME_SLACK
 
     def on_clock(self, lead: float, rate: float) -> "Others":
         """These others for a search whose time t is the shot's ``lead`` + ``rate`` t."""
         return replace(self, clock=(float(lead), float(rate)))
+
+    def widened(self, by: float = 2.0) -> "Others":
+        """These others with ``by`` times the time slack."""
+        return replace(self, slack=self.slack * by)
+
+    def least_gap(self, times: np.ndarray, hips: np.ndarray, radius: float, scale: float = 1.0) -> tuple[float, float]:
+        """(m, s): the least distance between a body whose hips are at ``hips`` (F, 3) at
+        the shot's ``times`` (F,) s (a synthesis's, from the plan's first frame) and any
+        other body on its level at the same moment, less both radii, and when (inf where
+        none is on its level)."""
+        if self.empty or not len(times):
+            return np.inf, 0.0
+        dt = (self.times[-1] - self.times[0]) / max(len(self.times) - 1, 1) if len(self.times) > 1 else 1.0
+        at = np.clip(np.rint((np.asarray(times, float) - self.times[0]) / max(dt, 1e-6)).astype(np.int64),
+                     0, len(self.times) - 1)
+        other = self.hips[:, at]  # (N, F, 3)
+        gap = np.linalg.norm(other[..., :2] - hips[None, :, :2], axis=-1) - (self.radius[:, None] + radius)
+        gap = np.where(np.abs(other[..., 2] - hips[None, :, 2]) < LEVEL_APART * scale, gap, np.inf)
+        k = np.unravel_index(int(np.argmin(gap)), gap.shape)
+        return float(gap[k]), float(times[k[1]])
 
     def _shot(self, t) -> np.ndarray:
         lead, rate = self.clock
@@ -100,11 +123,11 @@ class Others:
         return not len(self.names)
 
     def _hips_near(self, t: np.ndarray) -> np.ndarray:
-        """(N, Q, W, 3) each body's hips at the frames within ``TIME_SLACK`` of each time
+        """(N, Q, W, 3) each body's hips at the frames within ``slack`` of each time
         ``t`` (Q,) (clamped to the shot: before it and after it, as it stood)."""
         times = self.times
-        dt = (times[-1] - times[0]) / max(len(times) - 1, 1) if len(times) > 1 else TIME_SLACK
-        w = int(np.ceil(TIME_SLACK / max(dt, 1e-6)))
+        dt = (times[-1] - times[0]) / max(len(times) - 1, 1) if len(times) > 1 else self.slack
+        w = int(np.ceil(self.slack / max(dt, 1e-6)))
         centre = np.rint((np.asarray(t, float) - times[0]) / max(dt, 1e-6)).astype(np.int64)
         at = np.clip(centre[:, None] + np.arange(-w, w + 1)[None, :], 0, len(times) - 1)
         return self.hips[:, at]
@@ -114,7 +137,7 @@ class Others:
         """(K,) whether a body whose hips go from ``a`` to ``b`` (K, 2) over the times ``t0`` to
         ``t1`` (K,) s, its hips at height ``hips_z`` (K,), with ``radius`` m, keeps
         ``clearance`` m clear of every other body at its start, middle and end (each against
-        the other bodies within ``TIME_SLACK`` of then), where both are on one level."""
+        the other bodies within ``slack`` of then), where both are on one level."""
         k = len(a)
         if self.empty or not k:
             return np.ones(k, bool)
@@ -131,18 +154,32 @@ class Others:
 
     def feet_clear(self, at: np.ndarray, t0: np.ndarray, t1: np.ndarray, foot_length: float) -> np.ndarray:
         """(K,) whether a foot standing at ``at`` (K, 3) from ``t0`` to ``t1`` (K,) s keeps off
-        every footprint another foot stands on at any time of it (within ``TIME_SLACK``):
+        every footprint another foot stands on at any time of it (within ``slack``):
         their middles a foot's length apart (the longer foot's)."""
         k = len(at)
         if not len(self.prints) or not k:
             return np.ones(k, bool)
         t0, t1 = self._shot(t0), self._shot(t1)
         span = self.print_span
-        meet = (span[None, :, 0] <= (t1 + TIME_SLACK)[:, None]) & (span[None, :, 1] >= (t0 - TIME_SLACK)[:, None])
+        meet = (span[None, :, 0] <= (t1 + self.slack)[:, None]) & (span[None, :, 1] >= (t0 - self.slack)[:, None])
         reach = np.maximum(self.foot_length[self.print_owner], foot_length)
         d = np.linalg.norm(self.prints[None, :, :2] - np.asarray(at, float)[:, None, :2], axis=-1)
         level = np.abs(self.prints[None, :, 2] - np.asarray(at, float)[:, None, 2]) < 0.5 * reach[None, :]
         return ~(meet & level & (d < reach[None, :])).any(axis=1)
+
+    def near(self, at: np.ndarray, z: float, t0: float, t1: float, reach: float, scale: float = 1.0) -> bool:
+        """Whether another body on this level (hips at ``z``) comes within its radius and
+        ``reach`` m of ``at`` (2,) at any time from ``t0`` to ``t1`` s (widened by
+        ``slack``)."""
+        if self.empty:
+            return False
+        a, b = self._shot(t0) - self.slack, self._shot(t1) + self.slack
+        lo, hi = np.searchsorted(self.times, [a, b])
+        lo, hi = min(int(lo), len(self.times) - 1), max(int(hi), 1)
+        hips = self.hips[:, min(lo, hi - 1):hi]  # (before the first frame and after the last: as they stood)
+        d = np.linalg.norm(hips[..., :2] - np.asarray(at, float)[:2], axis=-1)
+        level = np.abs(hips[..., 2] - z) < LEVEL_APART * scale
+        return bool(((d < (self.radius + reach)[:, None]) & level).any())
 
     def whose(self, at: np.ndarray) -> str | None:
         """The name of the other character whose path comes nearest ``at`` (2,) (for a

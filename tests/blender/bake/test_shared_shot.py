@@ -36,6 +36,30 @@ def _crossing(fp, cmu_b: bool = False):
     return scene, a, b
 
 
+def _corridor(fp):
+    """Two squares 6 m across joined by a passage 0.7 m wide and 4 m long (east to west, at
+    y = 0), no way round it: A (the sample character) walks from the west square to the
+    east one, B (CMU's real capture) from the east to the west, both setting off at once;
+    alone they meet in the corridor's middle."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.fps = FPS
+    ss = import_module(fp.__name__ + ".blender.sample.sample_scenes")
+    floor = ss._collection(scene, "Traversable", "TRAVERSABLE")
+    ss._box(floor, "West", -8.0, -2.0, -3.0, 3.0, -0.2, 0.0)
+    ss._box(floor, "Corridor", -2.0, 2.0, -0.35, 0.35, -0.2, 0.0)
+    ss._box(floor, "East", 2.0, 8.0, -3.0, 3.0, -0.2, 0.0)
+    east, west = math.pi / 2, -math.pi / 2
+    for name, at, heading in (("StartA", (-6.5, 1.0, 0.0), east), ("GoalA", (6.5, 1.0, 0.0), east),
+                              ("StartB", (6.5, -1.0, 0.0), west), ("GoalB", (-6.5, -1.0, 0.0), west)):
+        ss._marker(scene, name, at, heading)
+    man = import_module(fp.__name__ + ".blender.sample.mannequin")
+    a, _ = man.add_to_scene(scene, "StartA")
+    return scene, a, cmu_armature(fp)
+
+
 def _bake(fp, scene, ob, tag):
     planning = import_module(fp.__name__ + ".blender.planning")
     goal, heading = planning.goal_of(scene, f"Goal{tag}")
@@ -159,15 +183,44 @@ def test_a_job_list_planned_together_keeps_the_bodies_apart_as_played(fp, tmp_pa
     assert again == fig
 
 
-def _job_list(fp, tmp_path, capsys, *flags):
-    """The crossing (the sample character A, CMU's capture B) saved and baked from the
-    command line as a job list, A first: (A's name, B's, A's report, B's, the baked scene's
-    path, what the command printed)."""
+@needs_cmu
+def test_head_on_in_a_corridor_one_stands_aside_and_lets_the_other_through(fp, tmp_path):
+    """Head-on in a passage 0.7 m wide (no room to pass in it: two bodies need 0.55 m
+    between their middles), planned together: CMU's capture, planned after the sample
+    character, stands in its square (at its start, or on the way with the other foot
+    brought beside) until the passage is clear, then goes through. As Blender plays the
+    saved scene the bodies never touch and no foot stands on the other's footprint; both
+    reach their goals."""
+    a, b, doc_a, doc_b, out, _ = _job_list(fp, tmp_path, None, "--together", scene=_corridor)
+    (fig,) = doc_b["quality"]["others"]
+    print("B against A in the corridor:", fig, doc_b["search"], doc_b.get("waypoints"))
+    assert fig["least_distance_m"] > 0.1 and fig["frames_overlapping"] == 0, fig
+    assert fig["frames_on_one_footprint"] == 0, fig
+    # (it stood: at the start, or on the way, a stop of the report's waypoints)
+    (stand,) = doc_b["stands"]
+    rows = doc_b["waypoints"]
+    if stand["at_start"]:
+        assert rows[0]["waited"] == stand["seconds"] > 0, rows
+    else:
+        assert rows[0]["name"] == "stand 1" and rows[0]["stops"] and rows[0]["pause"] == stand["seconds"] > 0, rows
+    assert "stands" not in doc_a
+    for doc in (doc_a, doc_b):
+        assert doc["quality"]["goal"]["distance_m"] <= 0.3
+    bodies, first = _played_pair(fp, out, doc_b, (b, a))
+    again = import_module(fp.__name__ + ".core.report.crowd").pair_figures(bodies[0], bodies[1], first)
+    assert again == fig
+
+
+def _job_list(fp, tmp_path, capsys, *flags, scene=None):
+    """The crossing (the sample character A, CMU's capture B), or ``scene`` (a function of
+    ``fp`` giving the scene, A and B), saved and baked from the command line as a job list,
+    A first: (A's name, B's, A's report, B's, the baked scene's path, what the command
+    printed)."""
     import json
 
     import bpy
 
-    scene, a, b = _crossing(fp, cmu_b=True)
+    scene, a, b = _crossing(fp, cmu_b=True) if scene is None else scene(fp)
     names = a.name, b.name  # (the objects go when the command line opens the file)
     path = str(tmp_path / "shot.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)

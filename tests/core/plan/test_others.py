@@ -9,6 +9,7 @@ from conftest import plane, standing
 from footstep_planner.core.base.settings import Settings
 from footstep_planner.core.plan.navgraph import HIPS_HEIGHT, Planner
 from footstep_planner.core.plan.others import BODY_RADIUS, TIME_SLACK, Others
+from footstep_planner.core.plan.stands import plan_round
 from footstep_planner.core.plan.surface import MeshGround
 from test_navgraph import EAST, FWD, steps
 
@@ -94,6 +95,44 @@ def test_a_character_crossing_is_let_by_or_passed_behind():
     y_then = np.interp(np.interp(5.0, ba[:, 0], ta), times, xy[:, 1])
     assert abs(y_then - np.interp(5.0, ba[:, 0], ba[:, 1])) < 0.05
     assert res.cost > alone.cost
+
+
+def test_a_character_blocking_a_corridor_is_waited_for():
+    """A bystander stands in a corridor a metre wide for 6 s, then leaves: there is no way
+    round, so the plan (``stands.plan_round``) stops before it, brings the other foot
+    beside, stands, and goes on once it has gone, its body never near the bystander's while
+    it is there; the footprints' times hold the stand."""
+    calm = Settings()  # (running costs its penalty: it walks)
+    g = MeshGround(plane(-2, 12, -0.5, 0.5))
+    goal = np.array([8.0, 0.0, 0.0])
+    times = np.arange(0, 20, 1 / FPS)
+    there = times < 6.0
+    xy = np.where(there[:, None], [4.0, 0.0], [4.0, 40.0])  # (gone, far off, after 6 s)
+    others = _others(_walker("Bystander", times, xy), times=times)
+    pl = Planner(g, None, steps(), FWD, settings=calm, others=others)
+    res = plan_round(pl, standing(0, 0, EAST, FWD), lambda p, s: p.plan(s, goal))
+    assert len(res.waits) == 1, "it should stand and let the bystander go"
+    t, body = _body_track(res)
+    need = 2 * BODY_RADIUS + calm.character_clearance
+    for ti, b in zip(t, body):
+        near = (times >= ti - TIME_SLACK) & (times <= ti + TIME_SLACK) & there
+        if near.any():
+            assert np.min(np.linalg.norm(xy[near] - b, axis=1)) >= need - 1e-9
+    fs = res.footprints
+    (i, w), = res.waits
+    assert w > 0 and fs[i + 1].foot != fs[i].foot and fs[i + 1].label == fs[i].label
+    assert np.linalg.norm(fs[i + 1].position - fs[i].position) < 0.3  # (side by side)
+    assert fs[i + 2].time >= fs[i + 1].time + w and fs[i + 2].foot == fs[i].foot
+    assert fs[i + 2].time >= 6.0 - TIME_SLACK  # (it goes on once the bystander has gone)
+    assert np.all(np.diff([f.time for f in fs]) >= 0)
+    assert np.linalg.norm(fs[-1].position[:2] - goal[:2]) <= calm.goal_radius
+    # (alone it walks straight through, sooner; with no one near, the plan alone)
+    alone = Planner(g, None, steps(), FWD, settings=calm).plan(standing(0, 0, EAST, FWD), goal)
+    assert res.cost > alone.cost + calm.wait_penalty
+    gone = _others(_walker("Gone", times, np.tile([4.0, 40.0], (len(times), 1))), times=times)
+    free = plan_round(Planner(g, None, steps(), FWD, settings=calm, others=gone), standing(0, 0, EAST, FWD),
+                      lambda p, s: p.plan(s, goal))
+    assert not free.waits and [tuple(f.position) for f in free.footprints] == [tuple(f.position) for f in alone.footprints]
 
 
 def test_a_footprint_stood_on_is_not_stepped_on_until_it_is_left():
