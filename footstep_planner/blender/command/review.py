@@ -67,7 +67,54 @@ def review_sheet(scene, ob, doc, out_dir: str, name: str, foot: FootShape | None
     return sheet, shots + [top]
 
 
-def _compose_labelled(top: str, shots: list[str], captions: list[str], title: str, out: str) -> None:
+#: the top view's caption on a one-character sheet
+ONE_LEGEND = "top view: footprints (left blue, right red, jump landings yellow), body path (orange)"
+#: each character's colour on a shot's sheet (``crowd_sheet``), in job order
+PALETTE = ((0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.84, 0.15, 0.16),
+           (0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.89, 0.47, 0.76), (0.5, 0.5, 0.5),
+           (0.74, 0.74, 0.13), (0.09, 0.75, 0.81))
+
+
+def crowd_sheet(scene, shot: list, out_dir: str, name: str, frames: list[int],
+                foot: FootShape | None = None) -> str:
+    """The review sheet of a shot of several characters baked together: ``shot`` is
+    [(armature, its report)] in the order they were planned; a top view with each one's
+    footprints and body path in its own colour (``PALETTE``: the right foot's darker), and
+    Workbench renders at ``frames`` (where two pass nearest: of the character whose report
+    names the pair nearest at that frame). Draws in the scene (the caller's scratch copy)."""
+    foot = foot or FootShape()
+    for k, (ob, doc) in enumerate(shot):
+        _draw_footprints(scene, doc, foot, tint=PALETTE[k % len(PALETTE)], tag=f" {k + 1}")
+    top = os.path.join(out_dir, f"{name}_top.png")
+    scene.frame_set(max(doc["frame_end"] for _, doc in shot))
+    _render_top(scene, top)
+    shots, captions = [], []
+    for f in frames:  # (the pair nearest at the frame: a later character's report and the other it names)
+        at = [(x["least_distance_m"], k, x) for k, (o, d) in enumerate(shot)
+              for x in d["quality"].get("others", []) if x.get("least_distance_frame") == f]
+        best = min(at, key=lambda a: a[:2]) if at else None
+        ob, near = (shot[best[1]][0], best[2]) if best else (shot[0][0], None)
+        shots.append(_render_character(scene, ob, f, os.path.join(out_dir, f"{name}_frame{f:04d}.png"), foot.scale))
+        captions.append(f"frame {f}: {ob.name}" + (f" and {near['character']}, {near['least_distance_m']:.2f} m apart"
+                                                    if near else ""))
+    legend = "top view: " + ", ".join(f"{ob.name} {_colour_name(k)}" for k, (ob, _) in enumerate(shot))
+    least = min((x["least_distance_m"] for _, d in shot for x in d["quality"].get("others", [])), default=None)
+    title = (f"{scene.name}: {len(shot)} characters planned together" +
+             (f"; bodies {least:.2f} m apart at the nearest" if least is not None else ""))
+    sheet = os.path.join(out_dir, f"{name}_review.png")
+    try:
+        _compose_labelled(top, shots, captions, title, sheet, legend)
+    except ImportError:
+        _compose([top] + shots, sheet)
+    return sheet
+
+
+def _colour_name(k: int) -> str:
+    return ("blue", "orange", "green", "red", "purple", "brown", "pink", "grey", "olive", "cyan")[k % len(PALETTE)]
+
+
+def _compose_labelled(top: str, shots: list[str], captions: list[str], title: str, out: str,
+                      legend: str = ONE_LEGEND) -> None:
     """The review sheet with a title and captions (matplotlib): the top view on the left,
     the frames in two columns beside it."""
     import matplotlib
@@ -80,8 +127,7 @@ def _compose_labelled(top: str, shots: list[str], captions: list[str], title: st
     grid = fig.add_gridspec(rows, 4, width_ratios=[1.15, 1.15, 1, 1], wspace=0.02, hspace=0.12)
     ax = fig.add_subplot(grid[:, :2])
     ax.imshow(plt.imread(top))
-    ax.set_title("top view: footprints (left blue, right red, jump landings yellow), body path (orange)",
-                 fontsize=10)
+    ax.set_title(legend, fontsize=10)
     ax.axis("off")
     for k, (png, cap) in enumerate(zip(shots, captions)):
         a = fig.add_subplot(grid[k // 2, 2 + k % 2])
@@ -206,12 +252,14 @@ def _material(name: str, rgba) -> bpy.types.Material:
     return m
 
 
-def _draw_footprints(scene, doc, foot: FootShape) -> None:
+def _draw_footprints(scene, doc, foot: FootShape, tint=None, tag: str = "") -> None:
     """The baked footprints (report ``doc``) as the viewport overlay draws them (quads of
     the ``foot`` shape, left blue, right red, jump landings yellow, shaded by clip) and the
     body trajectory as a thin orange tube, in a collection of the demo's own. Each object's
-    colour is its overlay colour (opaque); its material carries the foot's base colour."""
-    coll = bpy.data.collections.new("Footprints (demo)")
+    colour is its overlay colour (opaque); its material carries the foot's base colour.
+    With ``tint`` (r, g, b) every footprint and the tube are that colour (the right foot's
+    darker): one character's among others'."""
+    coll = bpy.data.collections.new("Footprints (demo)" + tag)
     scene.collection.children.link(coll)
     fps = doc["footprints"]
     mats = {key: _material(f"footprint_{key}", (*rgb, 1.0))
@@ -226,8 +274,9 @@ def _draw_footprints(scene, doc, foot: FootShape) -> None:
         me.from_pydata(tri[6 * i:6 * i + 6].tolist(), [], [(0, 1, 2), (3, 4, 5)])
         key = "J" if f.get("jump") else f["foot"]
         me.materials.append(mats[key])
-        fob = bpy.data.objects.new(f"footprint{i:03d}", me)
-        fob.color = (*col[6 * i, :3], 1.0)
+        fob = bpy.data.objects.new(f"footprint{i:03d}{tag}", me)
+        fob.color = (*col[6 * i, :3], 1.0) if tint is None else \
+            (*(np.asarray(tint) * (0.65 if f["foot"] == "R" else 1.0)), 1.0)
         coll.objects.link(fob)
     seg = geo.polyline_segments(np.asarray(doc["synthesis"]["body"]["position"])[::2])
     body = np.concatenate([seg[::2], seg[-1:]])  # the lifted polyline's points again
@@ -238,8 +287,8 @@ def _draw_footprints(scene, doc, foot: FootShape) -> None:
     sp.points.add(len(body) - 1)
     sp.points.foreach_set("co", np.c_[body, np.ones(len(body))].astype(np.float32).ravel())
     cu.materials.append(mats["B"])
-    bob = bpy.data.objects.new("body_trajectory", cu)
-    bob.color = geo.BODY
+    bob = bpy.data.objects.new("body_trajectory" + tag, cu)
+    bob.color = geo.BODY if tint is None else (*tint, 1.0)
     coll.objects.link(bob)
 
 

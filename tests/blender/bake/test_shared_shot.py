@@ -182,6 +182,22 @@ def test_a_job_list_planned_together_keeps_the_bodies_apart_as_played(fp, tmp_pa
     again = import_module(fp.__name__ + ".core.report.crowd").pair_figures(bodies[0], bodies[1], first)
     assert again == fig
 
+    # the shot's review sheet: the top view has each character's footprints in its colour
+    review = import_module(fp.__name__ + ".blender.command.review")
+    scene = bpy.context.scene
+    shot = [(scene.objects[names[0]], doc_a), (scene.objects[names[1]], doc_b)]
+    sheet = review.crowd_sheet(scene, shot, str(tmp_path), "shot", [fig["least_distance_frame"]])
+    for k, doc in enumerate((doc_a, doc_b)):  # (what the top view drew: its objects' colours)
+        drawn = bpy.data.collections[f"Footprints (demo) {k + 1}"].objects
+        prints = [o for o in drawn if o.name.startswith("footprint")]
+        assert len(prints) == len(doc["footprints"])
+        tint = np.array(review.PALETTE[k])
+        for o, f in zip(sorted(prints, key=lambda o: o.name), doc["footprints"]):
+            assert np.allclose(o.color[:3], tint * (0.65 if f["foot"] == "R" else 1.0), atol=1e-6)
+    for png in ("shot_top.png", f"shot_frame{fig['least_distance_frame']:04d}.png", "shot_review.png"):
+        assert (tmp_path / png).stat().st_size > 10_000, png
+    assert sheet == str(tmp_path / "shot_review.png")
+
 
 @needs_cmu
 def test_head_on_in_a_corridor_one_stands_aside_and_lets_the_other_through(fp, tmp_path):
