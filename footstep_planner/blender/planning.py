@@ -25,7 +25,7 @@ from ..core.footprint import PathFootprint
 from ..core.perform import turn_in_place
 from ..core.perform.run import Planned, perform_plan, synthesize_plan, waypoint_rows
 from ..core.plan.navgraph import HIPS_HEIGHT, FootprintCache, PlanError, PlanResult, Planner
-from ..core.plan.others import BODY_RADIUS, Others, fit_clock
+from ..core.plan.others import BODY_RADIUS, OUTLINE_STEP, Others, fit_clock, outline_points
 from ..core.plan import stands
 from ..core.plan.setup import PlanSetup, check_size, foot_shape, standing_footprints
 from ..core.plan.surface import FootShape
@@ -95,10 +95,12 @@ def object_geometry(ground, obstacles) -> dict:
 def plan_setup(scene, ob, settings=None, traversable=(), obstacles=(), others: Others | None = None) -> PlanSetup:
     """What a plan needs from the scene: the tagged surfaces, the character's clips
     analysed, its library and steps, its forward, and the Planner built from them (around
-    ``others``, the characters already in the shot, when given: ``others_in_time``)."""
+    ``others``, the characters already in the shot, when given: ``others_in_time``; the
+    obstacles among them that move are avoided in time, not where they stand now)."""
     settings = settings or Settings()
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    ground, obst = scene_surfaces(scene, depsgraph, traversable, obstacles)
+    ground, obst = scene_surfaces(scene, depsgraph, traversable, obstacles,
+                                  leave_out=others.movers if others is not None else ())
     clips = analyze_character(ob, settings, mirrors=True)
     if not clips.analyses:
         why = "; ".join(clips.errors.values()) or "it has no actions"
@@ -163,7 +165,7 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     others = None
     if settings.avoid_characters:
         first = scene.frame_current if frame_start is None else frame_start
-        others = others_in_time(scene, ob, int(round(first)), not_around)
+        others = others_in_time(scene, ob, int(round(first)), not_around, obstacles)
     setup = plan_setup(scene, ob, settings, traversable, obstacles, others)
     start = marker_footprints(start_marker, setup) if start_marker is not None else character_footprints(ob, setup)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
@@ -320,24 +322,49 @@ def other_characters(scene, ob) -> list:
     return out
 
 
-def others_in_time(scene, ob, frame_start: int, not_around=()) -> Others:
+def others_in_time(scene, ob, frame_start: int, not_around=(), obstacles=()) -> Others:
     """The other characters the planner baked in the scene (``other_characters``, but those
     named in ``not_around``) as Blender plays them from ``frame_start`` to the last frame of
-    their tracks (one pass of ``scene.frame_set``; after it each stands as it ends), on the
-    clock of a plan starting there (``core.plan.others.Others``: their bodies, and the
-    footprints their feet stand on and when)."""
+    their tracks or the scene's (one pass of ``scene.frame_set``; after it each stands as it
+    ends), on the clock of a plan starting there (``core.plan.others.Others``: their bodies,
+    and the footprints their feet stand on and when); and the tagged obstacles (and those
+    named in ``obstacles``) whose transform changes over those frames (keys, a parent,
+    constraints, drivers), as points along their outline (``outline_points``) in time."""
     chars = [(o, r) for o, r in other_characters(scene, ob) if o.name not in set(not_around)]
     fps = scene_fps(scene)
-    if not chars:
+    movable = [o for o in tagged_objects(scene, (), obstacles)[1] if _might_move(o)]
+    if not chars and not movable:
         return Others.of((), np.zeros(1), np.zeros((0, 1, 3)), np.zeros(0), np.zeros((0, 2, 1, 3)),
                          np.zeros((0, 2, 1), bool), np.zeros(0))
-    last = max(st.frame_end for o, _ in chars for tr in baking.owned_tracks(o) for st in tr.strips)
+    last = max([st.frame_end for o, _ in chars for tr in baking.owned_tracks(o) for st in tr.strips]
+               + [scene.frame_end])
     frames = max(int(np.ceil(last)) - int(frame_start) + 1, 1)
-    played, _ = baking.played_matrices(scene, chars, frame_start, frames)
+    played, moved = baking.played_matrices(scene, chars, frame_start, frames, movable)
+    times = np.arange(frames) / fps
     bodies = [crowd.body_of(o.name, r, baking.played_world(*m), fps) for (o, r), m in zip(chars, played)]
-    return Others.of([b.name for b in bodies], np.arange(frames) / fps, [b.hips for b in bodies],
-                     [b.radius for b in bodies], [b.soles for b in bodies], [b.planted for b in bodies],
-                     [b.foot_length for b in bodies])
+    others = Others.of([b.name for b in bodies], times, np.array([b.hips for b in bodies]).reshape(-1, frames, 3),
+                       [b.radius for b in bodies], np.array([b.soles for b in bodies]).reshape(-1, 2, frames, 3),
+                       np.array([b.planted for b in bodies], bool).reshape(-1, 2, frames),
+                       [b.foot_length for b in bodies])
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for o, m in zip(movable, moved):
+        if not crowd.moves(m):
+            continue
+        mesh = local_mesh(o.name, o.evaluated_get(depsgraph))
+        pts = outline_points(mesh.verts, mesh.tris)
+        world = np.einsum("fij,pj->pfi", m[:, :3, :3], pts) + m[None, :, :3, 3]
+        others = others.with_movers([o.name] * len(pts), times, world, 0.5 * OUTLINE_STEP)
+    return others
+
+
+def _might_move(ob) -> bool:
+    """Whether an object or a parent of it is animated or constrained (else it stands)."""
+    while ob is not None:
+        ad = ob.animation_data
+        if ob.constraints or (ad is not None and (ad.action is not None or len(ad.drivers) or len(ad.nla_tracks))):
+            return True
+        ob = ob.parent
+    return False
 
 
 @dataclass

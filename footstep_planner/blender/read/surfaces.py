@@ -241,11 +241,13 @@ class BvhGround:
         return out, dist
 
 
-def scene_surfaces(scene, depsgraph, traversable=(), obstacles=()):
-    """(ground, obstacles) ground queries for a scene; SurfaceError when nothing is
+def scene_surfaces(scene, depsgraph, traversable=(), obstacles=(), leave_out=()):
+    """(ground, obstacles) ground queries for a scene, but for the obstacles named in
+    ``leave_out`` (ones that move, avoided in time instead); SurfaceError when nothing is
     traversable."""
     skipped = []
     trav, obst = tagged_objects(scene, traversable, obstacles, skipped)
+    obst = [o for o in obst if o.name not in set(leave_out)]
     inst = instanced(scene, depsgraph)
     if not trav and not inst["TRAVERSABLE"]:
         if skipped:

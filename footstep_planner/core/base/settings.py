@@ -153,11 +153,11 @@ class Settings:
     max_step_height: float = setting(0.3, "m", 0.0, 10.0, """A step goes up or down at most this
         much from one footprint to the next.""", lo_open=True)
     avoid_characters: bool = setting(False, "", doc="""Plan around the other characters the planner
-        baked in the scene, in time: no step brings the body within the two bodies' radii and
-        character_clearance of another's at the same moment, or sets a foot on a footprint another
-        foot stands on then, so the character side-steps, goes round them or stands to let them
-        pass (the command line's
-        bake --together turns it on for a job list, each job around the ones before it).""")
+        baked in the scene, and the obstacles that move, in time: no step brings the body within
+        the two bodies' radii and character_clearance of another's (or of a moving obstacle) at
+        the same moment, or sets a foot on a footprint another foot stands on then, so the
+        character side-steps, goes round, or stands to let them pass (the command line's bake
+        --together turns it on for a job list, each job around the ones before it).""")
     character_clearance: float = setting(0.15, "m", 0.0, 10.0, """With avoid_characters, two bodies
         (capsules from the hips to the head, a human's half shoulder width round) keep at least this
         far apart.""")

@@ -66,6 +66,7 @@ class Others:
     foot_length: np.ndarray
     clock: tuple = (0.0, 1.0)
     slack: float = TIME_SLACK
+    movers: tuple = ()  # the obstacles that move among the bodies (``with_movers``), by name
 
     def on_clock(self, lead: float, rate: float) -> "Others":
         """These others for a search whose time t is the shot's ``lead`` + ``rate`` t."""
@@ -117,6 +118,20 @@ class Others:
         return cls(tuple(names), times, np.asarray(hips, float).reshape(len(names), len(times), 3),
                    np.asarray(radius, float).reshape(-1), np.array(prints, float).reshape(-1, 3),
                    np.array(owner, np.int64), span, np.asarray(foot_length, float).reshape(-1))
+
+    def with_movers(self, names, times, points, radius: float) -> "Others":
+        """These others and obstacles that move: ``points`` (M, F, 3) on each one's outline
+        (``outline_points``) at ``times`` (the same frames), each a body of ``radius`` m
+        named after its obstacle (``names`` (M,)), standing on no footprint."""
+        points = np.asarray(points, float).reshape(-1, len(self.times), 3)
+        if not len(points):
+            return self
+        if not np.array_equal(np.asarray(times, float), self.times):
+            raise ValueError("the obstacles' frames are the characters' frames")
+        return replace(self, names=self.names + tuple(names), hips=np.concatenate([self.hips, points]),
+                       radius=np.concatenate([self.radius, np.full(len(points), float(radius))]),
+                       foot_length=np.concatenate([self.foot_length, np.zeros(len(points))]),
+                       movers=tuple(dict.fromkeys(self.movers + tuple(names))))
 
     @property
     def empty(self) -> bool:
@@ -223,6 +238,30 @@ def fit_clock(path, synthesized, planted) -> tuple[float, float] | None:
     return float(np.mean(np.array(tp) - rate * np.array(ts))), rate
 
 
+#: m: an obstacle that moves is kept clear of as points this far apart along its outline
+#: (each a body of half this radius).
+OUTLINE_STEP = 0.1
+
+
+def outline_points(verts: np.ndarray, tris: np.ndarray, step: float = OUTLINE_STEP) -> np.ndarray:
+    """(P, 3) points of a mesh (its own space: ``verts`` (V, 3), ``tris`` (T, 3)) seen from
+    above: along every edge at most ``step`` apart, one per ``step`` cell of the plane, at
+    the mesh's middle height (a body is on its level from the ground to a person's height)."""
+    verts = np.asarray(verts, float)
+    if not len(tris):
+        return verts[:0]
+    e = np.asarray(tris, np.int64)[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    a, b = verts[e[:, 0]], verts[e[:, 1]]
+    n = np.maximum(np.ceil(np.linalg.norm((b - a)[:, :2], axis=1) / step).astype(np.int64), 1)
+    k = np.repeat(np.arange(len(e)), n + 1)
+    t = np.concatenate([np.linspace(0.0, 1.0, m + 1) for m in n.tolist()])
+    pts = a[k] + (b - a)[k] * t[:, None]
+    _, first = np.unique(np.rint(pts[:, :2] / step).astype(np.int64), axis=0, return_index=True)
+    out = pts[np.sort(first)]
+    out[:, 2] = 0.5 * (verts[:, 2].min() + verts[:, 2].max())
+    return out
+
+
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
     """[start, stop) of each run of True in ``flags`` (F,)."""
     f = np.concatenate([[False], np.asarray(flags, bool), [False]])
@@ -230,4 +269,5 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[0::2].tolist(), edges[1::2].tolist()))
 
 
-__all__ = ["BODY_RADIUS", "LEVEL_APART", "Others", "RATE_RANGE", "STANCE_STEPS", "TIME_SLACK", "fit_clock"]
+__all__ = ["BODY_RADIUS", "LEVEL_APART", "OUTLINE_STEP", "Others", "RATE_RANGE", "STANCE_STEPS", "TIME_SLACK",
+           "fit_clock", "outline_points"]

@@ -156,6 +156,87 @@ def test_an_obstacle_that_moves_across_the_way_is_measured_as_played(fp, tmp_pat
     assert abs(me.hips[at, 0]) < 0.35 and abs(moved[at, 1, 3]) < 1e-6
 
 
+def test_a_door_that_slides_open_is_waited_for_and_a_cart_gone_round_in_time(fp, tmp_path):
+    """Obstacles that move, avoided in time (``avoid_characters``): a door in a wall slides
+    open between frames 200 and 230, and the only way is through it; the character stops
+    before it, stands until it has opened and goes through, never touching it as Blender
+    plays the saved scene. Planned where it stands on the first frame, the door is shut
+    and the plan refused. A cart that slides onto the way (the test above) is kept clear
+    of, in time, where alone the body walks into it."""
+    import bpy
+
+    scene, a, b = _crossing(fp)
+    bpy.data.objects.remove(b)
+    ss = import_module(fp.__name__ + ".blender.sample.sample_scenes")
+    for name in ("Floor",):
+        bpy.data.objects.remove(scene.objects[name])
+    floor = next(c for c in bpy.data.collections if c.name.startswith("Traversable"))
+    ss._box(floor, "Hall", -6.0, 6.0, -3.0, 3.0, -0.2, 0.0)
+    obst = ss._collection(scene, "Obstacles", "OBSTACLE")
+    ss._box(obst, "Wall south", -0.1, 0.1, -3.0, -0.5, 0.0, 2.5)
+    ss._box(obst, "Wall north", -0.1, 0.1, 0.5, 3.0, 0.0, 2.5)
+    door = ss._box(obst, "Door", -0.05, 0.05, -0.5, 0.5, 0.0, 2.2)
+    for frame, y in ((1, 0.0), (200, 0.0), (230, 1.1)):
+        door.location = (0.0, y, 0.0)
+        door.keyframe_insert("location", frame=frame)
+    scene.frame_set(1)
+    planning = import_module(fp.__name__ + ".blender.planning")
+    PlanError = import_module(fp.__name__ + ".core.plan.navgraph").PlanError
+    Settings = import_module(fp.__name__ + ".core.base.settings").Settings
+    goal, heading = planning.goal_of(scene, "GoalA")
+    try:
+        planning.plan(scene, a, goal, heading, scene.objects["StartA"], Settings(), frame_start=1)
+    except PlanError:
+        pass
+    else:
+        raise AssertionError("the door is shut on the first frame: planned where it stands, no way through")
+    doc = planning.run(scene, a, goal, heading, scene.objects["StartA"], Settings(avoid_characters=True),
+                       name="walk A", frame_start=1)
+    (fig,) = doc["quality"]["moving_obstacles"]
+    print("A against the door, avoided in time:", fig, doc.get("stands"), doc.get("waypoints"))
+    assert fig["obstacle"] == "Door" and fig["least_distance_m"] > 0.05 and fig["frames_touching"] == 0, fig
+    assert doc["stands"] and doc["quality"]["goal"]["distance_m"] <= 0.3
+    # (it goes through once the door is open: the body crosses the wall after frame 200)
+    body = np.array(doc["synthesis"]["body"]["position"])
+    through = doc["frame_start"] + int(np.argmax(body[:, 0] > 0.0))
+    assert through > 200, through
+
+    # the saved file as Blender plays it: the same figure against the door
+    path = str(tmp_path / "door.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
+    name = a.name
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    bake = import_module(fp.__name__ + ".blender.write.bake")
+    crowd = import_module(fp.__name__ + ".core.report.crowd")
+    read = import_module(fp.__name__ + ".blender.read.scene")
+    surfaces = import_module(fp.__name__ + ".blender.read.surfaces")
+    ob, door = scene.objects[name], scene.objects["Door"]
+    first, n = doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1
+    rig = read.rig_from_armature(ob)
+    (played,), (moved,) = bake.played_matrices(scene, [(ob, rig)], first, n, [door])
+    me = crowd.body_of(name, rig, bake.played_world(*played), FPS)
+    local = surfaces.BvhGround(surfaces.local_mesh("Door", door.evaluated_get(bpy.context.evaluated_depsgraph_get())))
+    assert crowd.obstacle_figures(me, "Door", local, moved, first) == fig
+
+    # the cart that slides onto the way, in time: kept clear of
+    scene, a, b = _crossing(fp)
+    bpy.data.objects.remove(b)
+    obst = ss._collection(scene, "Obstacles", "OBSTACLE")
+    cart = ss._box(obst, "Cart", -0.5, 0.5, -0.5, 0.5, 0.0, 1.0)
+    for frame, y in ((1, -3.0), (60, 0.0), (400, 0.0)):
+        cart.location = (0.0, y, 0.0)
+        cart.keyframe_insert("location", frame=frame)
+    scene.frame_set(1)
+    goal, heading = planning.goal_of(scene, "GoalA")
+    doc = planning.run(scene, a, goal, heading, scene.objects["StartA"], Settings(avoid_characters=True),
+                       name="walk A", frame_start=1)
+    (fig,) = doc["quality"]["moving_obstacles"]
+    print("A against the cart, avoided in time:", fig)
+    assert fig["least_distance_m"] > 0.05 and fig["frames_touching"] == 0, fig
+    assert doc["quality"]["goal"]["distance_m"] <= 0.3
+
+
 @needs_cmu
 def test_a_job_list_planned_together_keeps_the_bodies_apart_as_played(fp, tmp_path):
     """The crossing as one shot (``bake --job --together``): CMU's real capture, planned

@@ -170,3 +170,25 @@ def test_bodies_apart_is_the_distance_at_the_times_within_the_slack(x, y, t, r, 
         assert ok
     elif d < need - frame:
         assert not ok
+
+
+@hsettings(max_examples=30, deadline=None)
+@given(hs.floats(0.2, 3.0), hs.floats(0.05, 2.0), hs.floats(0.1, 2.5))
+def test_an_obstacles_outline_is_points_along_its_sides_no_further_apart_than_the_step(w, d, h):
+    """``outline_points`` of a box seen from above: every point within its footprint (on
+    an edge of its triangles, at its middle height), and every point of its outline within
+    a step (and a cell's rounding) of one of them."""
+    from footstep_planner.core.plan.others import OUTLINE_STEP, outline_points
+
+    x, y = np.meshgrid([0.0, w], [0.0, d])
+    corners = np.array([[a, b, z] for z in (0.0, h) for a, b in zip(x.ravel(), y.ravel())])
+    faces = [(0, 1, 3), (0, 3, 2), (4, 5, 7), (4, 7, 6), (0, 1, 5), (0, 5, 4), (2, 3, 7), (2, 7, 6),
+             (0, 2, 6), (0, 6, 4), (1, 3, 7), (1, 7, 5)]
+    pts = outline_points(corners, np.array(faces))
+    assert np.allclose(pts[:, 2], 0.5 * h)
+    assert (pts[:, 0] >= -1e-9).all() and (pts[:, 0] <= w + 1e-9).all()
+    assert (pts[:, 1] >= -1e-9).all() and (pts[:, 1] <= d + 1e-9).all()
+    t = np.linspace(0, 1, 200)[:, None]
+    rim = np.vstack([np.c_[t * w, 0 * t], np.c_[t * w, 0 * t + d], np.c_[0 * t, t * d], np.c_[0 * t + w, t * d]])
+    gap = np.linalg.norm(rim[:, None, :] - pts[None, :, :2], axis=2).min(axis=1)
+    assert gap.max() <= OUTLINE_STEP * (0.5 + np.sqrt(0.5)) + 1e-9
