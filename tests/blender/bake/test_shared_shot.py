@@ -135,24 +135,10 @@ def test_an_obstacle_that_moves_across_the_way_is_measured_as_played(fp, tmp_pat
     assert "with Cart (moving)" in import_module(fp.__name__ + ".core.report.tables").format_bake(doc)
 
     # the saved file as Blender plays it: the same figure
-    path = str(tmp_path / "cart.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
-    name = a.name
-    bpy.ops.wm.open_mainfile(filepath=path)
-    scene = bpy.context.scene
-    bake = import_module(fp.__name__ + ".blender.write.bake")
-    crowd = import_module(fp.__name__ + ".core.report.crowd")
-    read = import_module(fp.__name__ + ".blender.read.scene")
-    surfaces = import_module(fp.__name__ + ".blender.read.surfaces")
-    first, n = doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1
-    ob, cart = scene.objects[name], scene.objects["Cart"]
-    rig = read.rig_from_armature(ob)
-    (played,), (moved,) = bake.played_matrices(scene, [(ob, rig)], first, n, [cart])
-    me = crowd.body_of(name, rig, bake.played_world(*played), FPS)
-    local = surfaces.BvhGround(surfaces.local_mesh("Cart", cart.evaluated_get(bpy.context.evaluated_depsgraph_get())))
-    assert crowd.obstacle_figures(me, "Cart", local, moved, first) == fig
+    me, moved, again = _played_obstacle(fp, str(tmp_path / "cart.blend"), a.name, "Cart", doc)
+    assert again == fig
     # the deepest where the body passes the cart's middle (x = 0), the cart on the way
-    at = fig["least_distance_frame"] - first
+    at = fig["least_distance_frame"] - doc["frame_start"]
     assert abs(me.hips[at, 0]) < 0.35 and abs(moved[at, 1, 3]) < 1e-6
 
 
@@ -202,22 +188,7 @@ def test_a_door_that_slides_open_is_waited_for_and_a_cart_gone_round_in_time(fp,
     assert through > 200, through
 
     # the saved file as Blender plays it: the same figure against the door
-    path = str(tmp_path / "door.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
-    name = a.name
-    bpy.ops.wm.open_mainfile(filepath=path)
-    scene = bpy.context.scene
-    bake = import_module(fp.__name__ + ".blender.write.bake")
-    crowd = import_module(fp.__name__ + ".core.report.crowd")
-    read = import_module(fp.__name__ + ".blender.read.scene")
-    surfaces = import_module(fp.__name__ + ".blender.read.surfaces")
-    ob, door = scene.objects[name], scene.objects["Door"]
-    first, n = doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1
-    rig = read.rig_from_armature(ob)
-    (played,), (moved,) = bake.played_matrices(scene, [(ob, rig)], first, n, [door])
-    me = crowd.body_of(name, rig, bake.played_world(*played), FPS)
-    local = surfaces.BvhGround(surfaces.local_mesh("Door", door.evaluated_get(bpy.context.evaluated_depsgraph_get())))
-    assert crowd.obstacle_figures(me, "Door", local, moved, first) == fig
+    assert _played_obstacle(fp, str(tmp_path / "door.blend"), a.name, "Door", doc)[2] == fig
 
     # the cart that slides onto the way, in time: kept clear of
     scene, a, b = _crossing(fp)
@@ -306,6 +277,28 @@ def test_head_on_in_a_corridor_one_stands_aside_and_lets_the_other_through(fp, t
     bodies, first = _played_pair(fp, out, doc_b, (b, a))
     again = import_module(fp.__name__ + ".core.report.crowd").pair_figures(bodies[0], bodies[1], first)
     assert again == fig
+
+
+def _played_obstacle(fp, path: str, name: str, obstacle: str, doc: dict):
+    """(the body of character ``name``, the obstacle's world matrices (F, 4, 4), its
+    ``crowd.obstacle_figures``) as Blender plays the scene saved (a copy) at ``path`` over
+    the frames of the report ``doc``."""
+    import bpy
+
+    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    bake = import_module(fp.__name__ + ".blender.write.bake")
+    crowd = import_module(fp.__name__ + ".core.report.crowd")
+    read = import_module(fp.__name__ + ".blender.read.scene")
+    surfaces = import_module(fp.__name__ + ".blender.read.surfaces")
+    first, n = doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1
+    ob, thing = scene.objects[name], scene.objects[obstacle]
+    rig = read.rig_from_armature(ob)
+    (played,), (moved,) = bake.played_matrices(scene, [(ob, rig)], first, n, [thing])
+    me = crowd.body_of(name, rig, bake.played_world(*played), FPS)
+    local = surfaces.BvhGround(surfaces.local_mesh(obstacle, thing.evaluated_get(bpy.context.evaluated_depsgraph_get())))
+    return me, moved, crowd.obstacle_figures(me, obstacle, local, moved, first)
 
 
 def _job_list(fp, tmp_path, capsys, *flags, scene=None):
