@@ -279,6 +279,62 @@ def test_head_on_in_a_corridor_one_stands_aside_and_lets_the_other_through(fp, t
     assert again == fig
 
 
+def _square(fp):
+    """A square 12 m across; four characters set off at once from the middles of its four
+    sides for the opposite ones, through its middle: three sample characters and, from
+    the south, CMU's real capture. (scene, the characters' names in job order)."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.fps = FPS
+    ss = import_module(fp.__name__ + ".blender.sample.sample_scenes")
+    man = import_module(fp.__name__ + ".blender.sample.mannequin")
+    ss._box(ss._collection(scene, "Traversable", "TRAVERSABLE"), "Square", -6.0, 6.0, -6.0, 6.0, -0.2, 0.0)
+    names = []
+    for k in range(4):
+        ang = k * math.pi / 2  # (from the west walking east, then south, east and north)
+        d = np.array([math.cos(ang), math.sin(ang), 0.0])
+        ss._marker(scene, f"Start{k}", tuple(-5.0 * d), ang + math.pi / 2)
+        ss._marker(scene, f"Goal{k}", tuple(5.0 * d), ang + math.pi / 2)
+        ob = cmu_armature(fp) if k == 1 else man.add_to_scene(scene, f"Start{k}")[0]
+        names.append(ob.name)
+    return scene, names
+
+
+@needs_cmu
+def test_four_characters_crossing_a_square_through_its_middle_keep_apart_and_arrive(fp, tmp_path):
+    """Four characters crossing a square from its four sides through its middle, planned
+    together from the command line (three sample characters and CMU's capture): as
+    Blender plays the saved scene every one reaches its goal within 5 cm, no two bodies
+    come within the clearance of each other at any frame, and no foot stands on another's
+    footprint."""
+    import json
+
+    import bpy
+
+    scene, names = _square(fp)
+    path = str(tmp_path / "square.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    jobs = [{"character": n, "goal": f"Goal{k}", "start": f"Start{k}", "name": f"cross {k}",
+             "report": str(tmp_path / f"r{k}.json")} for k, n in enumerate(names)]
+    (tmp_path / "jobs.json").write_text(json.dumps(jobs))
+    cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
+    assert cli(["bake", path, "--job", str(tmp_path / "jobs.json"), "--together", "--out",
+                str(tmp_path / "baked.blend")]) == 0
+    docs = [json.loads((tmp_path / f"r{k}.json").read_text()) for k in range(4)]
+    pairs = [(d["character"], o) for d in docs for o in d["quality"].get("others", [])]
+    print("the square's pairs:", [(a, o["character"], o["least_distance_m"], o["least_distance_frame"])
+                                  for a, o in pairs])
+    assert len(pairs) == 6  # (each job against every one before it: every pair once)
+    clearance = import_module(fp.__name__ + ".core.base.settings").Settings().character_clearance
+    for who, o in pairs:
+        assert o["least_distance_m"] >= clearance and o["frames_overlapping"] == 0, (who, o)
+        assert o["frames_on_one_footprint"] == 0, (who, o)
+    for d in docs:
+        assert d["quality"]["goal"]["distance_m"] <= 0.05, (d["character"], d["quality"]["goal"])
+
+
 def _played_obstacle(fp, path: str, name: str, obstacle: str, doc: dict):
     """(the body of character ``name``, the obstacle's world matrices (F, 4, 4), its
     ``crowd.obstacle_figures``) as Blender plays the scene saved (a copy) at ``path`` over
