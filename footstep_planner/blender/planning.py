@@ -186,7 +186,7 @@ def _search(setup: PlanSetup, goal, heading, route) -> PlanResult:
 #: Plans made again round other characters: on the clock their synthesis kept
 #: (``core.plan.others.fit_clock``) where it moved by more than CLOCK_MOVED s at the
 #: path's end, or with the time slack doubled where the synthesized body still came within
-#: half the clearance of another's; at most CLOCK_TRIES times.
+#: the clearance of another's; at most CLOCK_TRIES times.
 CLOCK_TRIES = 3
 CLOCK_MOVED = 0.1
 
@@ -212,7 +212,7 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     first = float(scene.frame_current if frame_start is None else frame_start)
     planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
     for _ in range(CLOCK_TRIES):
-        others = _again(setup, result, planned, settings)
+        others = _again(setup, result, planned)
         if others is None:
             break
         kept, setup.planner.others = setup.planner.others, others
@@ -229,7 +229,7 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     return planned
 
 
-def _again(setup: PlanSetup, result: PlanResult, planned: Planned, settings: Settings):
+def _again(setup: PlanSetup, result: PlanResult, planned: Planned):
     """The others to plan round again (``CLOCK_TRIES``), None when the plan stands: the
     search timed its steps on its own clock, and the synthesis played them later (the stand
     and the start clip first) and at its pace, so the search goes again on that clock; where
@@ -243,10 +243,10 @@ def _again(setup: PlanSetup, result: PlanResult, planned: Planned, settings: Set
     old = others.clock
     if clock is not None and abs((clock[0] + clock[1] * end) - (old[0] + old[1] * end)) > CLOCK_MOVED:
         return others.on_clock(*clock)
-    scale = setup.planner.settings.body_scale
-    hips = syn.body_position + [0.0, 0.0, setup.planner.settings.length(HIPS_HEIGHT)]
-    gap, _ = others.least_gap(syn.t, hips, setup.planner.settings.length(BODY_RADIUS), scale)
-    if gap < 0.5 * settings.character_clearance:
+    cfg = setup.planner.settings  # (the character's: its lengths for its size)
+    hips = syn.body_position + [0.0, 0.0, cfg.length(HIPS_HEIGHT)]
+    gap, _ = others.least_gap(syn.t, hips, cfg.length(BODY_RADIUS), cfg.body_scale)
+    if gap < cfg.character_clearance:
         return others.widened()
     return None
 
