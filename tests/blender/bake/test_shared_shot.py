@@ -282,7 +282,8 @@ def test_head_on_in_a_corridor_one_stands_aside_and_lets_the_other_through(fp, t
 def _square(fp):
     """A square 12 m across; four characters set off at once from the middles of its four
     sides for the opposite ones, through its middle: three sample characters and, from
-    the south, CMU's real capture. (scene, the characters' names in job order)."""
+    the south, CMU's real capture; and a fifth (a sample character) on a floor of its own
+    20 m off. (scene, the characters' names in job order)."""
     import bpy
 
     bpy.ops.wm.read_homefile(use_empty=True)
@@ -299,6 +300,10 @@ def _square(fp):
         ss._marker(scene, f"Goal{k}", tuple(5.0 * d), ang + math.pi / 2)
         ob = cmu_armature(fp) if k == 1 else man.add_to_scene(scene, f"Start{k}")[0]
         names.append(ob.name)
+    ss._box(bpy.data.collections["Traversable"], "Far", 20.0, 32.0, -2.0, 2.0, -0.2, 0.0)
+    ss._marker(scene, "Start4", (21.0, 0.0, 0.0), math.pi / 2)
+    ss._marker(scene, "Goal4", (31.0, 0.0, 0.0), math.pi / 2)
+    names.append(man.add_to_scene(scene, "Start4")[0].name)
     return scene, names
 
 
@@ -308,7 +313,7 @@ def test_four_characters_crossing_a_square_through_its_middle_keep_apart_and_arr
     together from the command line (three sample characters and CMU's capture): as
     Blender plays the saved scene every one reaches its goal within 5 cm, no two bodies
     come within the clearance of each other at any frame, and no foot stands on another's
-    footprint."""
+    footprint. A fifth, far from them, bakes the footprints it bakes alone."""
     import json
 
     import bpy
@@ -322,7 +327,9 @@ def test_four_characters_crossing_a_square_through_its_middle_keep_apart_and_arr
     cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     assert cli(["bake", path, "--job", str(tmp_path / "jobs.json"), "--together", "--out",
                 str(tmp_path / "baked.blend")]) == 0
-    docs = [json.loads((tmp_path / f"r{k}.json").read_text()) for k in range(4)]
+    docs = [json.loads((tmp_path / f"r{k}.json").read_text()) for k in range(5)]
+    far = docs.pop()
+    assert min(o["least_distance_m"] for o in far["quality"]["others"]) > 10.0
     pairs = [(d["character"], o) for d in docs for o in d["quality"].get("others", [])]
     print("the square's pairs:", [(a, o["character"], o["least_distance_m"], o["least_distance_frame"])
                                   for a, o in pairs])
@@ -333,6 +340,15 @@ def test_four_characters_crossing_a_square_through_its_middle_keep_apart_and_arr
         assert o["frames_on_one_footprint"] == 0, (who, o)
     for d in docs:
         assert d["quality"]["goal"]["distance_m"] <= 0.05, (d["character"], d["quality"]["goal"])
+
+    # the far one, baked again alone (round no one) over its bake: the same footprints
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "baked.blend"))
+    scene = bpy.context.scene
+    planning = import_module(fp.__name__ + ".blender.planning")
+    goal, heading = planning.goal_of(scene, "Goal4")
+    alone = planning.run(scene, scene.objects[names[4]], goal, heading, scene.objects["Start4"], name="cross 4",
+                         frame_start=1)
+    assert far["footprints"] == alone["footprints"]
 
 
 def _played_obstacle(fp, path: str, name: str, obstacle: str, doc: dict):
