@@ -245,8 +245,7 @@ def _again(setup: PlanSetup, result: PlanResult, planned: Planned):
         return others.on_clock(*clock)
     cfg = setup.planner.settings  # (the character's: its lengths for its size)
     hips = syn.body_position + [0.0, 0.0, cfg.length(HIPS_HEIGHT)]
-    gap, _ = others.least_gap(syn.t, hips, cfg.length(BODY_RADIUS), cfg.body_scale)
-    if gap < cfg.character_clearance:
+    if others.least_gap(syn.t, hips, cfg.length(BODY_RADIUS), cfg.body_scale) < cfg.character_clearance:
         return others.widened()
     return None
 
@@ -353,7 +352,7 @@ def others_in_time(scene, ob, frame_start: int, not_around=(), obstacles=()) -> 
         mesh = local_mesh(o.name, o.evaluated_get(depsgraph))
         pts = outline_points(mesh.verts, mesh.tris)
         world = np.einsum("fij,pj->pfi", m[:, :3, :3], pts) + m[None, :, :3, 3]
-        others = others.with_movers([o.name] * len(pts), times, world, 0.5 * OUTLINE_STEP)
+        others = others.with_movers([o.name] * len(pts), world, 0.5 * OUTLINE_STEP)
     return others
 
 

@@ -129,9 +129,7 @@ def perform_plan(result: PlanResult, setup: PlanSetup, settings: Settings, fps: 
             performance = Performance(syn, marks, times, np.ones(len(marks)), np.zeros(len(marks)), windows)
     elif result.waits:  # (the search stood to let another character pass: a stop there)
         marks, wait = stand_marks(result, goal, heading)
-        performance = perform(result.footprints, marks, legs(setup, settings, fps), goal, heading,
-                              pace_range=(settings.pace_min, settings.pace_max), frame_start=first, body=ik.body,
-                              wait=wait)
+        performance = _perform(result, setup, settings, fps, marks, goal, heading, first, ik.body, wait)
         syn = performance.synthesis
     else:
         syn = synthesize_plan(result, setup, settings, fps, goal, heading)
@@ -171,11 +169,12 @@ class LastSolve:
 
 
 def _perform(result: PlanResult, setup: PlanSetup, settings: Settings, fps: float, marks, goal, heading,
-             frame_start: float, body) -> Performance:
+             frame_start: float, body, wait: float = 0.0) -> Performance:
     """The path through its marks leg by leg, stopping where they stop, their frames met
-    (read on ``body(synthesis)``: the body the bake will have, after the IK)."""
+    (read on ``body(synthesis)``: the body the bake will have, after the IK), ``wait`` s
+    stood at the start."""
     return perform(result.footprints, marks, legs(setup, settings, fps), goal, heading,
-                   pace_range=(settings.pace_min, settings.pace_max), frame_start=frame_start, body=body)
+                   pace_range=(settings.pace_min, settings.pace_max), frame_start=frame_start, body=body, wait=wait)
 
 
 def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=None) -> list[dict]:

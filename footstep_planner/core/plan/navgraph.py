@@ -524,7 +524,6 @@ class Planner(StepRules, Refusals):
         if self.others is not None and len(todo):  # (first, all at once: no rays, and most go where others crowd)
             est = np.c_[batch.nxt[todo], np.full(len(todo), node.position[2])]
             free = self._clear_of_others(search, node, batch.sel[todo], est, batch.t[todo])
-            search.crowded += int((~free).sum())
             batch.state[todo[~free]] = 2
             todo = todo[free]
             if not len(todo):
@@ -555,23 +554,24 @@ class Planner(StepRules, Refusals):
         the two feet, from where it is at ``node`` to where it will be, never within the two
         bodies' radii and ``Settings.character_clearance`` of another's at the same time, and
         the new footprint never on one another foot stands on during its stance."""
-        others, cfg = self.others, self.settings
         here = node.position if node.parent < 0 else 0.5 * (node.position + search.nodes[node.parent].position)
         there = 0.5 * (node.position[None, :] + to)
-        a = np.repeat(here[None, :2], len(to), axis=0)
-        hips_z = 0.5 * (node.position[2] + to[:, 2]) + self._len(HIPS_HEIGHT)
-        radius = self._len(BODY_RADIUS)
-        ok = others.bodies_apart(a, there[:, :2], np.full(len(to), node.time), t, hips_z, radius,
-                                 cfg.character_clearance, cfg.body_scale)
+        ok = self._bodies_apart(np.repeat(here[None, :2], len(to), axis=0), there[:, :2], np.full(len(to), node.time),
+                                t, there[:, 2])
         if ok.any():
-            stance = t[ok] + STANCE_STEPS * self.steps.duration[steps[ok]]
-            ok[ok] = others.feet_clear(to[ok], t[ok], stance, self._foot_reach)
+            ok[ok] = self._feet_clear(to[ok], t[ok], t[ok] + STANCE_STEPS * self.steps.duration[steps[ok]])
         return ok
 
-    @property
-    def _foot_reach(self) -> float:
-        """m: heel to toe tip of this character's foot (a footprint another foot keeps off)."""
-        return self.foot.back + max(self.foot.front, self.foot.tip)
+    def _bodies_apart(self, a, b, t0, t1, z) -> np.ndarray:
+        """``Others.bodies_apart`` for this character's body (hips ``HIPS_HEIGHT`` over the
+        ground at ``z``, ``BODY_RADIUS``; its size and clearance)."""
+        cfg = self.settings
+        return self.others.bodies_apart(a, b, t0, t1, np.asarray(z, float) + self._len(HIPS_HEIGHT),
+                                        self._len(BODY_RADIUS), cfg.character_clearance, cfg.body_scale)
+
+    def _feet_clear(self, at, t0, t1) -> np.ndarray:
+        """``Others.feet_clear`` for this character's foot (heel to toe tip)."""
+        return self.others.feet_clear(at, t0, t1, self.foot.back + max(self.foot.front, self.foot.tip))
 
     def clear_in_time(self, path: list[PathFootprint], later: float = 0.0) -> np.ndarray:
         """(N,) per footprint of ``path`` whether the step onto it keeps clear of the other
@@ -582,32 +582,26 @@ class Planner(StepRules, Refusals):
         ok = np.ones(n, bool)
         if others is None or others.empty or n < 2:
             return ok
-        cfg = self.settings
         pos = np.array([f.position for f in path], float)
         t = np.array([f.time for f in path], float) + self.start_time + later
         mid = 0.5 * (pos[1:] + pos[:-1])
         before = np.vstack([pos[:1], mid[:-1]])
-        body = others.bodies_apart(before[:, :2], mid[:, :2], t[:-1], t[1:], mid[:, 2] + self._len(HIPS_HEIGHT),
-                                   self._len(BODY_RADIUS), cfg.character_clearance, cfg.body_scale)
-        stance = t[1:] + STANCE_STEPS * np.maximum(t[1:] - t[:-1], 0.0)
-        ok[1:] = body & others.feet_clear(pos[1:], t[1:], stance, self._foot_reach)
+        body = self._bodies_apart(before[:, :2], mid[:, :2], t[:-1], t[1:], mid[:, 2])
+        ok[1:] = body & self._feet_clear(pos[1:], t[1:], t[1:] + STANCE_STEPS * np.maximum(t[1:] - t[:-1], 0.0))
         return ok
 
     def stand_clear(self, feet: np.ndarray, t0: float, t1: float) -> bool:
         """Whether a body standing over ``feet`` (2, 3) from ``t0`` to ``t1`` s (from
         ``start_time``) keeps clear of the other characters' bodies (the same clearance,
         every ``STAND_SLOT`` s) and no other foot lands on either footprint meanwhile."""
-        others, cfg = self.others, self.settings
-        if others is None or others.empty:
+        if self.others is None or self.others.empty:
             return True
         t0, t1 = t0 + self.start_time, t1 + self.start_time
         centre = np.asarray(feet, float).mean(axis=0)
         slots = np.append(np.arange(t0, t1, STAND_SLOT), t1)
         at = np.repeat(centre[None, :2], len(slots), axis=0)
-        body = others.bodies_apart(at, at, slots, slots, np.full(len(slots), centre[2] + self._len(HIPS_HEIGHT)),
-                                   self._len(BODY_RADIUS), cfg.character_clearance, cfg.body_scale)
-        return bool(body.all() and others.feet_clear(np.asarray(feet, float), np.full(2, t0), np.full(2, t1),
-                                                     self._foot_reach).all())
+        return bool(self._bodies_apart(at, at, slots, slots, np.full(len(slots), centre[2])).all()
+                    and self._feet_clear(np.asarray(feet, float), np.full(2, t0), np.full(2, t1)).all())
 
     def _arrived(self, search: _Search, idx: int) -> bool:
         """Whether node ``idx`` ends the path (within the goal radius, heading within

@@ -76,21 +76,27 @@ class Others:
         """These others with ``by`` times the time slack."""
         return replace(self, slack=self.slack * by)
 
-    def least_gap(self, times: np.ndarray, hips: np.ndarray, radius: float, scale: float = 1.0) -> tuple[float, float]:
-        """(m, s): the least distance between a body whose hips are at ``hips`` (F, 3) at
-        the shot's ``times`` (F,) s (a synthesis's, from the plan's first frame) and any
-        other body on its level at the same moment, less both radii, and when (inf where
-        none is on its level)."""
+    def least_gap(self, times: np.ndarray, hips: np.ndarray, radius: float, scale: float = 1.0) -> float:
+        """m: the least distance between a body whose hips are at ``hips`` (F, 3) at the
+        shot's ``times`` (F,) s (a synthesis's, from the plan's first frame) and any other
+        body on its level at the same moment, less both radii (inf where none is on its
+        level)."""
         if self.empty or not len(times):
-            return np.inf, 0.0
-        dt = (self.times[-1] - self.times[0]) / max(len(self.times) - 1, 1) if len(self.times) > 1 else 1.0
-        at = np.clip(np.rint((np.asarray(times, float) - self.times[0]) / max(dt, 1e-6)).astype(np.int64),
-                     0, len(self.times) - 1)
-        other = self.hips[:, at]  # (N, F, 3)
+            return np.inf
+        other = self.hips[:, np.clip(self._frame(times), 0, len(self.times) - 1)]  # (N, F, 3)
         gap = np.linalg.norm(other[..., :2] - hips[None, :, :2], axis=-1) - (self.radius[:, None] + radius)
         gap = np.where(np.abs(other[..., 2] - hips[None, :, 2]) < LEVEL_APART * scale, gap, np.inf)
-        k = np.unravel_index(int(np.argmin(gap)), gap.shape)
-        return float(gap[k]), float(times[k[1]])
+        return float(gap.min())
+
+    @property
+    def _dt(self) -> float:
+        """s between two of the frames (they are evenly spaced)."""
+        times = self.times
+        return max((times[-1] - times[0]) / (len(times) - 1), 1e-6) if len(times) > 1 else 1.0
+
+    def _frame(self, t) -> np.ndarray:
+        """The index of the frame nearest each shot time ``t`` (not clamped)."""
+        return np.rint((np.asarray(t, float) - self.times[0]) / self._dt).astype(np.int64)
 
     def _shot(self, t) -> np.ndarray:
         lead, rate = self.clock
@@ -119,15 +125,13 @@ class Others:
                    np.asarray(radius, float).reshape(-1), np.array(prints, float).reshape(-1, 3),
                    np.array(owner, np.int64), span, np.asarray(foot_length, float).reshape(-1))
 
-    def with_movers(self, names, times, points, radius: float) -> "Others":
+    def with_movers(self, names, points, radius: float) -> "Others":
         """These others and obstacles that move: ``points`` (M, F, 3) on each one's outline
-        (``outline_points``) at ``times`` (the same frames), each a body of ``radius`` m
-        named after its obstacle (``names`` (M,)), standing on no footprint."""
+        (``outline_points``) at these others' frames, each a body of ``radius`` m named
+        after its obstacle (``names`` (M,)), standing on no footprint."""
         points = np.asarray(points, float).reshape(-1, len(self.times), 3)
         if not len(points):
             return self
-        if not np.array_equal(np.asarray(times, float), self.times):
-            raise ValueError("the obstacles' frames are the characters' frames")
         return replace(self, names=self.names + tuple(names), hips=np.concatenate([self.hips, points]),
                        radius=np.concatenate([self.radius, np.full(len(points), float(radius))]),
                        foot_length=np.concatenate([self.foot_length, np.zeros(len(points))]),
@@ -140,11 +144,8 @@ class Others:
     def _hips_near(self, t: np.ndarray) -> np.ndarray:
         """(N, Q, W, 3) each body's hips at the frames within ``slack`` of each time
         ``t`` (Q,) (clamped to the shot: before it and after it, as it stood)."""
-        times = self.times
-        dt = (times[-1] - times[0]) / max(len(times) - 1, 1) if len(times) > 1 else self.slack
-        w = int(np.ceil(self.slack / max(dt, 1e-6)))
-        centre = np.rint((np.asarray(t, float) - times[0]) / max(dt, 1e-6)).astype(np.int64)
-        at = np.clip(centre[:, None] + np.arange(-w, w + 1)[None, :], 0, len(times) - 1)
+        w = int(np.ceil(self.slack / self._dt))
+        at = np.clip(self._frame(t)[:, None] + np.arange(-w, w + 1)[None, :], 0, len(self.times) - 1)
         return self.hips[:, at]
 
     def bodies_apart(self, a: np.ndarray, b: np.ndarray, t0: np.ndarray, t1: np.ndarray, hips_z: np.ndarray,
@@ -181,28 +182,6 @@ class Others:
         d = np.linalg.norm(self.prints[None, :, :2] - np.asarray(at, float)[:, None, :2], axis=-1)
         level = np.abs(self.prints[None, :, 2] - np.asarray(at, float)[:, None, 2]) < 0.5 * reach[None, :]
         return ~(meet & level & (d < reach[None, :])).any(axis=1)
-
-    def near(self, at: np.ndarray, z: float, t0: float, t1: float, reach: float, scale: float = 1.0) -> bool:
-        """Whether another body on this level (hips at ``z``) comes within its radius and
-        ``reach`` m of ``at`` (2,) at any time from ``t0`` to ``t1`` s (widened by
-        ``slack``)."""
-        if self.empty:
-            return False
-        a, b = self._shot(t0) - self.slack, self._shot(t1) + self.slack
-        lo, hi = np.searchsorted(self.times, [a, b])
-        lo, hi = min(int(lo), len(self.times) - 1), max(int(hi), 1)
-        hips = self.hips[:, min(lo, hi - 1):hi]  # (before the first frame and after the last: as they stood)
-        d = np.linalg.norm(hips[..., :2] - np.asarray(at, float)[:2], axis=-1)
-        level = np.abs(hips[..., 2] - z) < LEVEL_APART * scale
-        return bool(((d < (self.radius + reach)[:, None]) & level).any())
-
-    def whose(self, at: np.ndarray) -> str | None:
-        """The name of the other character whose path comes nearest ``at`` (2,) (for a
-        refusal's message), None where there are none."""
-        if self.empty:
-            return None
-        d = np.linalg.norm(self.hips[..., :2] - np.asarray(at, float)[:2], axis=-1).min(axis=1)
-        return str(self.names[int(np.argmin(d))])
 
 
 #: The fitted clock's rate is kept within these (a synthesis never plays a path at twice

@@ -88,7 +88,6 @@ class _Search:
     h: list = field(default_factory=list)  # each node's heuristic
     best_h: tuple = (np.inf, 0, None)  # (least heuristic popped, when, where)
     reroutes: int = 0  # times the heuristic was rebuilt without jumps where the search stalled
-    crowded: int = 0  # steps refused for coming too near another character (``Planner.others``)
     field_seconds: float = 0.0
     climb_reach: np.ndarray | None = None  # (S,) m, ``climb_reach`` of the steps, once per search
     # (cost, batch, successor) of the cheapest checked successor that ends the path, or None

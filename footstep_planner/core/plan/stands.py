@@ -123,8 +123,7 @@ def _joined(planner: Planner, alone: PlanResult, i: int, first, t_from: float, w
     else:
         # (the other foot beside as a waypoint's stop has it: labelled by the step that arrived)
         fps = list(alone.footprints[:i + 1]) + [replace(first[0], label=alone.footprints[i].label)] + on[1:]
-    cost = alone.footprints[i].time + (t_from - alone.footprints[i].time) + WAIT_RATE * w \
-        + planner.settings.wait_penalty + rest.cost
+    cost = t_from + WAIT_RATE * w + planner.settings.wait_penalty + rest.cost  # (the way to the stand: its time)
     return cost, replace(rest, footprints=fps, expanded=alone.expanded + rest.expanded,
                          generated=alone.generated + rest.generated, seconds=alone.seconds + rest.seconds,
                          cost=cost, waits=((i, float(w)),))
