@@ -167,7 +167,8 @@ class PlanResult:
                        "seconds": round(self.seconds, 4), "field_seconds": round(self.field_seconds, 4),
                        "cost": round(self.cost, 4)},
             # (where: the report's "waypoints" rows, a "stand" per stand on the way, by frame)
-            **({"stands": [{"seconds": round(w, 3), "at_start": i == 0} for i, w in self.waits]} if self.waits else {}),
+            # (each stand's "pause": seconds of the animation the character stands, as a waypoint's pause)
+            **({"stands": [{"pause": round(w, 3), "at_start": i == 0} for i, w in self.waits]} if self.waits else {}),
         }
 
 

@@ -268,9 +268,9 @@ def test_head_on_in_a_corridor_one_stands_aside_and_lets_the_other_through(fp, t
     (stand,) = doc_b["stands"]
     rows = doc_b["waypoints"]
     if stand["at_start"]:
-        assert rows[0]["waited"] == stand["seconds"] > 0, rows
+        assert rows[0]["waited"] == stand["pause"] > 0, rows
     else:
-        assert rows[0]["name"] == "stand 1" and rows[0]["stops"] and rows[0]["pause"] == stand["seconds"] > 0, rows
+        assert rows[0]["name"] == "stand 1" and rows[0]["stops"] and rows[0]["pause"] == stand["pause"] > 0, rows
     assert "stands" not in doc_a
     for doc in (doc_a, doc_b):
         assert doc["quality"]["goal"]["distance_m"] <= 0.3
