@@ -153,19 +153,20 @@ def goal_of(scene, name: str | None):
 
 def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
          traversable=(), obstacles=(), route=None, frame_start: float | None = None,
-         not_around=()) -> tuple[PlanResult, PlanSetup]:
+         not_around=(), shot=None) -> tuple[PlanResult, PlanSetup]:
     """The footprints from the start (``start_marker``, else where the character stands) to
     ``goal``, arriving facing ``goal_heading`` (a Z rotation, rad, see ``FACING``) when
     one is given; or, with ``route``, ``route(setup, start footprints, goal heading in the
     planner's frame)``'s (an edited plan, a way through waypoints). With
     ``Settings.avoid_characters``, around the other characters the planner baked in the
     scene (but those named in ``not_around``) as they play from ``frame_start`` (default:
-    the current frame) on: ``others_in_time``."""
+    the current frame) on: ``others_in_time`` (in ``shot``'s space and time, a
+    ``together.Shot``, when given)."""
     settings = settings or Settings()
     others = None
     if settings.avoid_characters:
         first = scene.frame_current if frame_start is None else frame_start
-        others = others_in_time(scene, ob, int(round(first)), not_around, obstacles)
+        others = others_in_time(scene, ob, int(round(first)), not_around, obstacles, shot)
     setup = plan_setup(scene, ob, settings, traversable, obstacles, others)
     start = marker_footprints(start_marker, setup) if start_marker is not None else character_footprints(ob, setup)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
@@ -199,15 +200,15 @@ def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=
 
 def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
                         traversable=(), obstacles=(), route=None, frame_start: float | None = None,
-                        not_around=()) -> Planned:
+                        not_around=(), shot=None) -> Planned:
     """Plan the footprints to ``goal`` and perform them (``core.perform.run.perform_plan``:
     a route through waypoints, ``directing.ViaRoute``, that stops at some or has arrival
     frames, scene frames from ``frame_start``, default the current one, is performed leg by
     leg; with ``Settings.avoid_characters`` around the other characters baked in the scene
-    but ``not_around``: ``plan``); the overlay shows the result."""
+    but ``not_around``, in ``shot``'s when given: ``plan``); the overlay shows the result."""
     settings = settings or Settings()
     result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles, route,
-                         frame_start, not_around)
+                         frame_start, not_around, shot)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     first = float(scene.frame_current if frame_start is None else frame_start)
     planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
@@ -255,7 +256,7 @@ SPLICE_SKATE_MM = 1.0
 
 
 def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTiming, goal,
-            body_on: str = "OBJECT", played: dict | None = None, obstacles=()) -> dict:
+            body_on: str = "OBJECT", played: dict | None = None, obstacles=(), shot=None) -> dict:
     """The quality of the scene as Blender plays it (``bake.evaluate_played``: the bake
     with every other track and the active action as they are) over the bake's ``timing``
     (its ``planted`` when the bake's timing is not the synthesis's: a re-bake's splice),
@@ -269,7 +270,8 @@ def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTimi
     one footprint (``core.report.crowd.pair_figures``); where an obstacle (tagged, or named
     in ``obstacles`` for this run) moves over the bake (its transform: keys, a parent,
     constraints, drivers), its ``"moving_obstacles"`` gives how near the body comes to it
-    (``crowd.obstacle_figures``): the planner avoided it where it stood when planning."""
+    (``crowd.obstacle_figures``). In a closed ``together.Shot`` the frames are read from
+    its one pass, with every character of the shot in it."""
     setup, syn, rig = planned.setup, planned.synthesis, planned.setup.rig
     frames, fps = timing.frames, timing.fps
     root = None
@@ -277,7 +279,8 @@ def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTimi
         root = rig.role_index("hips") if rigify.is_rigify(ob) else baking.root_bone(ob, rig)
     others = other_characters(scene, ob)
     obstacles = tagged_objects(scene, (), obstacles)[1]
-    played_all, moved = baking.played_matrices(scene, [(ob, rig), *others], timing.frame_start, frames, obstacles)
+    passes = baking.played_matrices if shot is None else shot.played_matrices
+    played_all, moved = passes(scene, [(ob, rig), *others], timing.frame_start, frames, obstacles)
     world, body_pos, body_yaw, bone_rot = baking.played_pose(rig, *played_all[0], root)
     if played is not None:  # (for the caller: the body and the bones as played)
         played["body"], played["world"] = body_pos, world
@@ -321,30 +324,33 @@ def other_characters(scene, ob) -> list:
     return out
 
 
-def others_in_time(scene, ob, frame_start: int, not_around=(), obstacles=()) -> Others:
+def others_in_time(scene, ob, frame_start: int, not_around=(), obstacles=(), shot=None) -> Others:
     """The other characters the planner baked in the scene (``other_characters``, but those
     named in ``not_around``) as Blender plays them from ``frame_start`` to the last frame of
     their tracks or the scene's (one pass of ``scene.frame_set``; after it each stands as it
     ends), on the clock of a plan starting there (``core.plan.others.Others``: their bodies,
     and the footprints their feet stand on and when); and the tagged obstacles (and those
     named in ``obstacles``) whose transform changes over those frames (keys, a parent,
-    constraints, drivers), as points along their outline (``outline_points``) in time."""
+    constraints, drivers), as points along their outline (``outline_points``) in time. In a
+    ``together.Shot``, those it baked are as their IK solved them, and the pass of the rest
+    is the shot's (played once for all its jobs)."""
     chars = [(o, r) for o, r in other_characters(scene, ob) if o.name not in set(not_around)]
     fps = scene_fps(scene)
-    movable = [o for o in tagged_objects(scene, (), obstacles)[1] if _might_move(o)]
+    movable = movable_obstacles(scene, obstacles)
     if not chars and not movable:
-        return Others.of((), np.zeros(1), np.zeros((0, 1, 3)), np.zeros(0), np.zeros((0, 2, 1, 3)),
-                         np.zeros((0, 2, 1), bool), np.zeros(0))
+        return crowd.others_of([], 1, fps)
     last = max([st.frame_end for o, _ in chars for tr in baking.owned_tracks(o) for st in tr.strips]
                + [scene.frame_end])
     frames = max(int(np.ceil(last)) - int(frame_start) + 1, 1)
-    played, moved = baking.played_matrices(scene, chars, frame_start, frames, movable)
-    times = np.arange(frames) / fps
-    bodies = [crowd.body_of(o.name, r, baking.played_world(*m), fps) for (o, r), m in zip(chars, played)]
-    others = Others.of([b.name for b in bodies], times, np.array([b.hips for b in bodies]).reshape(-1, frames, 3),
-                       [b.radius for b in bodies], np.array([b.soles for b in bodies]).reshape(-1, 2, frames, 3),
-                       np.array([b.planted for b in bodies], bool).reshape(-1, 2, frames),
-                       [b.foot_length for b in bodies])
+    known = {} if shot is None else shot.bodies(chars, frame_start, frames)
+    play = [c for c in chars if c[0].as_pointer() not in known]
+    played, moved = [], []
+    if play or movable:
+        passes = baking.played_matrices if shot is None else shot.played_matrices
+        played, moved = passes(scene, play, frame_start, frames, movable)
+    bodies = iter(crowd.body_of(o.name, r, baking.played_world(*m), fps) for (o, r), m in zip(play, played))
+    others = crowd.others_of([known[o.as_pointer()] if o.as_pointer() in known else next(bodies)
+                              for o, _ in chars], frames, fps)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     for o, m in zip(movable, moved):
         if not crowd.moves(m):
@@ -354,6 +360,12 @@ def others_in_time(scene, ob, frame_start: int, not_around=(), obstacles=()) -> 
         world = np.einsum("fij,pj->pfi", m[:, :3, :3], pts) + m[None, :, :3, 3]
         others = others.with_movers([o.name] * len(pts), world, 0.5 * OUTLINE_STEP)
     return others
+
+
+def movable_obstacles(scene, obstacles=()) -> list:
+    """The tagged obstacles (and those named in ``obstacles``) that may move: animated or
+    constrained, or under a parent that is (``_might_move``)."""
+    return [o for o in tagged_objects(scene, (), obstacles)[1] if _might_move(o)]
 
 
 def _might_move(ob) -> bool:
@@ -380,7 +392,8 @@ class BakeRequest:
     ``new_track`` beside it under a new name (``bake.new_track_name``). With
     ``Settings.avoid_characters`` the plan goes round the other characters the planner baked
     in the scene, but those named in ``not_around`` (a job list's later jobs, with
-    ``--together``)."""
+    ``--together``); in ``shot`` (a ``together.Shot``), round its earlier jobs as solved, and
+    measured in its one pass once it is closed: ``bake_steps``."""
 
     goal: np.ndarray
     goal_heading: float | None = None
@@ -398,6 +411,7 @@ class BakeRequest:
     force: bool = False
     new_track: bool = False
     not_around: tuple = ()
+    shot: object = None
 
     def options(self, ob, scene, settings: Settings) -> baking.BakeOptions:
         """What ``bake.bake`` writes for this request on ``ob`` in ``scene``: its name (default
@@ -447,13 +461,15 @@ def bake_steps(scene, ob, req: BakeRequest):
     (it may pin footprints) and ``splice.after_bake(action, track, planted, frames,
     frame_start, fps)``: it may change the baked keys before they are measured and returns
     the timing they then have. Every bake records its footprints and their frames
-    (``rebake.record``)."""
+    (``rebake.record``). In a ``together.Shot`` (``req.shot``) the bake joins the shot before
+    the "quality" stage, and its driver stops there until every job has baked and the shot
+    is closed: each is then measured in the shot's one pass."""
     job = _Job(scene, ob, req)
     baking.check_scene(scene, ob, req.body_on)
     yield 0.0, "planning"
     job.planned = planned = plan_and_synthesize(scene, ob, req.goal, req.goal_heading, req.start_marker, job.settings,
                                                 req.traversable, req.obstacles, req.route, job.opts.frame_start,
-                                                req.not_around)
+                                                req.not_around, req.shot)
     baking.check_leg_constraints(ob, planned.setup.rig)
     yield 0.5, "inverse kinematics"
     if req.splice is not None:
@@ -462,6 +478,8 @@ def bake_steps(scene, ob, req: BakeRequest):
                   else solve(planned.synthesis, planned.setup, job.settings))
     yield 0.7, "bake"
     job.bake(req.splice is not None)
+    if req.shot is not None:
+        req.shot.add(ob, planned.setup.rig, job.solved, job.opts.frame_start, job.fps, req.obstacles)
     try:
         yield 0.85, "quality"
         qual = job.measured()
@@ -493,6 +511,7 @@ class _Job:
         with self.timer("bake"):
             self.act, self.track = baking.bake(self.ob, self.scene, planned.setup.rig, solved.ik, solved.spin,
                                                self.opts, planned.result.footprints, syn.planted(), self.replaced)
+        self._grown = (self.scene.frame_start, self.scene.frame_end)
         try:
             planted, frames = syn.planted(), solved.ik.frames
             if spliced:
@@ -518,7 +537,10 @@ class _Job:
             return
         baking.discard(self.ob, self.scene, self.track, self.replaced)
         self.track = None
-        if (self.scene.frame_start, self.scene.frame_end) != self._range:
+        if self.req.shot is not None:
+            self.req.shot.drop(self.ob)
+        now = (self.scene.frame_start, self.scene.frame_end)
+        if now != self._range and now == self._grown:  # (not when a later bake of a shot grew it since)
             self.scene.frame_start, self.scene.frame_end = self._range
         for act, rng in self._records.items():
             try:
@@ -533,7 +555,7 @@ class _Job:
     def _measure(self) -> dict:
         self.played = {}
         return measure(self.scene, self.ob, self.planned, self.solved, self.timing, self.req.goal, self.opts.body_on,
-                       self.played, self.req.obstacles)
+                       self.played, self.req.obstacles, self.req.shot)
 
     def measured(self) -> dict:
         """The bake's quality as Blender plays it; a splice that slides a foot is re-baked

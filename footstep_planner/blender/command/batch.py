@@ -188,18 +188,27 @@ def bake_job(scene, job: dict, common: dict, settings: Settings, plan=None) -> d
     earlier bake of that plan, re-keyed)."""
     from .. import planning
 
+    return planning.run_to_end(bake_job_steps(scene, job, common, settings, plan))
+
+
+def bake_job_steps(scene, job: dict, common: dict, settings: Settings, plan=None, shot=None):
+    """``bake_job`` one stage at a time (``planning.bake_steps``): a generator yielding
+    (fraction done, next stage) and returning the report; in ``shot`` (a
+    ``together.Shot``), round the shot's earlier jobs and measured in its pass."""
+    from .. import planning
+
     ob = bpy.data.objects[job["character"]]
     position, heading, start = goal_and_start(scene, job.get("goal"), job.get("goal_heading"), job.get("start"))
     route, splice = _route(scene, job, plan, ob, position, heading)
     if plan is not None and job.get("goal") is None and plan.goal is not None:
         position = plan.goal
-    doc = planning.run(scene, ob, position, heading, start, settings.replace(**job.get("settings", {})),
-                       common.get("traversable", ()), common.get("obstacles", ()), name=job.get("name"),
-                       frame_start=job.get("frame_start"), markers=bool(common.get("markers")),
-                       body_on=str(job.get("body_on") or common.get("body_on") or "object").upper(),
-                       frame_range=not common.get("keep_frame_range"), route=route, splice=splice,
-                       force=bool(common.get("force")), new_track=bool(common.get("new_track")),
-                       not_around=tuple(common.get("not_around", ())))
+    doc = yield from planning.run_steps(
+        scene, ob, position, heading, start, settings.replace(**job.get("settings", {})),
+        common.get("traversable", ()), common.get("obstacles", ()), name=job.get("name"),
+        frame_start=job.get("frame_start"), markers=bool(common.get("markers")),
+        body_on=str(job.get("body_on") or common.get("body_on") or "object").upper(),
+        frame_range=not common.get("keep_frame_range"), route=route, splice=splice, force=bool(common.get("force")),
+        new_track=bool(common.get("new_track")), not_around=tuple(common.get("not_around", ())), shot=shot)
     _route_report(doc, route, splice, job)
     return doc
 
@@ -265,4 +274,63 @@ def run_job(scene, job: Job, common: dict, settings: Settings, outputs: Outputs,
                                   [p for p in (job.report, job.out) if p])
 
 
-__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "clashing_jobs", "missing_library", "not_in_scene", "goal_and_start", "run_job", "scene_problems"]
+#: The stage at which a job of a shot waits for the others (``planning.bake_steps``).
+SHOT_STAGE = "quality"
+
+
+def run_together(scene, jobs: list[Job], commons: list[dict], settings: Settings, outputs: Outputs, save,
+                 tell=None) -> list[JobOutcome]:
+    """Run ``jobs`` (each with its ``commons`` entry) in one space and time, in the list's
+    order (a ``together.Shot``): each planned and baked round those before it, then all
+    measured in one pass of the scene as Blender plays it, each against every other; then
+    their reports (and scenes) are staged in ``outputs``. A job that fails before it bakes is
+    rolled back there and then (nothing after it has baked yet); one whose bake fails its
+    measure is taken back (``planning.bake_steps``) and the others stand. ``tell(outcome)``
+    is called as each job ends; ``save(path)`` gives what saves the scene at a path (the
+    shot's scene, every character in it, for each job that names an ``out``)."""
+    from .. import planning
+    from ..together import Shot
+
+    shot, going, outcomes = Shot(scene), [], []
+
+    def end(o: JobOutcome) -> None:
+        outcomes.append(o)
+        if tell is not None:
+            tell(o)
+
+    for job, common in zip(jobs, commons):
+        ob = bpy.data.objects[job.fields["character"]]
+        snap, t0 = Snapshot(scene, ob), time.perf_counter()
+        steps = bake_job_steps(scene, job.fields, common, settings.replace(avoid_characters=True), shot=shot)
+        try:
+            while next(steps)[1] != SHOT_STAGE:
+                pass
+        except StopIteration:  # (a bake that ends without a measure: not one of today's)
+            raise RuntimeError(f"{job.label}: the bake ended before its {SHOT_STAGE!r} stage") from None
+        except Exception as ex:  # one job's failure, whatever it is, stops only that job
+            steps.close()
+            snap.restore()
+            end(JobOutcome(job.number, job.label, "failed", time.perf_counter() - t0, error=_failure(ex)))
+            continue
+        going.append((job, steps, time.perf_counter() - t0))
+    shot.close(planning.other_characters(scene, None), planning.movable_obstacles(scene))
+    for job, steps, spent in going:
+        t0, staged = time.perf_counter(), []
+        try:
+            doc = planning.run_to_end(steps)
+            if job.report:
+                staged.append(outputs.write_json(job.report, doc))
+        except Exception as ex:  # (its bake taken back by the stage itself; the others stand)
+            for tmp in staged:
+                outputs.unstage(tmp)
+            end(JobOutcome(job.number, job.label, "failed", spent + time.perf_counter() - t0, error=_failure(ex)))
+            continue
+        end(JobOutcome.from_report(job.number, job.label, doc, spent + time.perf_counter() - t0,
+                                   [p for p in (job.report, job.out) if p]))
+    for job in jobs:  # (each job's scene: the shot as it was baked, every character in it)
+        if job.out and any(o.number == job.number and o.status == "baked" for o in outcomes):
+            outputs.stage(job.out, save(job.out))
+    return outcomes
+
+
+__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "clashing_jobs", "missing_library", "not_in_scene", "goal_and_start", "run_job", "run_together", "scene_problems"]

@@ -465,13 +465,14 @@ def _bake_jobs(args, raw: list, settings: Settings, outs: Outputs, out: str | No
 
     if args.ray:
         outcomes += _on_ray(args, jobs, outs, tell)
+    elif args.together:  # (each job round those before it, not the later ones' earlier bakes)
+        commons = [dict(_common(args, names=True), not_around=tuple(j.fields["character"] for j in jobs[k + 1:]))
+                   for k in range(len(jobs))]
+        outcomes += batch.run_together(bpy.context.scene, jobs, commons, settings, outs, blend_writer, tell)
     else:
-        for k, job in enumerate(jobs):
-            common = _common(args, names=True)
-            if args.together:  # (each job round those before it, not the later ones' earlier bakes)
-                common["not_around"] = tuple(j.fields["character"] for j in jobs[k + 1:])
-            tell(batch.run_job(bpy.context.scene, job, common, settings.replace(avoid_characters=True)
-                               if args.together else settings, outs, blend_writer(job.out or "")))
+        for job in jobs:
+            tell(batch.run_job(bpy.context.scene, job, _common(args, names=True), settings, outs,
+                               blend_writer(job.out or "")))
         outcomes += done
     outcomes.sort(key=lambda o: o.number)
     if out and not args.ray and any(o.status == "baked" for o in outcomes):

@@ -23,7 +23,7 @@ import numpy as np
 from ..clips.body import body_scale
 from ..clips.clip import SIDES
 from ..clips.rig import Rig
-from ..plan.others import BODY_RADIUS
+from ..plan.others import BODY_RADIUS, Others
 from ..plan.surface import Ground
 
 #: m/s: a foot whose ankle and ball move slower than this (a human's) is planted.
@@ -118,6 +118,25 @@ def body_of(name: str, rig: Rig, world: np.ndarray, fps: float) -> PlayedBody:
         reach = max(reach, float(np.linalg.norm(ball_local[:3])))
     return PlayedBody(name, hips, head, BODY_RADIUS * scale, feet, planted_feet(feet, fps, scale),
                       FOOT_OVER_ANKLE_BALL * reach)
+
+
+def held(body: PlayedBody, start: int, first: int, frames: int) -> PlayedBody:
+    """``body``, played from scene frame ``start``, over ``frames`` frames from scene frame
+    ``first``: standing as it starts before its own frames and as it ends after them (a
+    bake's strip holds its last frame)."""
+    i = np.clip(np.arange(int(frames)) + (int(first) - int(start)), 0, len(body.hips) - 1)
+    return PlayedBody(body.name, body.hips[i], body.head[i], body.radius, body.feet[:, i], body.planted[:, i],
+                      body.foot_length)
+
+
+def others_of(bodies: list[PlayedBody], frames: int, fps: float) -> Others:
+    """``core.plan.others.Others`` of ``bodies`` played over the same ``frames`` frames
+    (``held``) at ``fps``, the first at time 0: the characters a search goes round."""
+    return Others.of([b.name for b in bodies], np.arange(frames) / float(fps),
+                     np.array([b.hips for b in bodies]).reshape(-1, frames, 3), [b.radius for b in bodies],
+                     np.array([b.soles for b in bodies]).reshape(-1, 2, frames, 3),
+                     np.array([b.planted for b in bodies], bool).reshape(-1, 2, frames),
+                     [b.foot_length for b in bodies])
 
 
 def pair_figures(a: PlayedBody, b: PlayedBody, frame_start: int) -> dict:

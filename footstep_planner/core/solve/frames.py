@@ -20,6 +20,7 @@ from ..plan.setup import PlanSetup
 from ..plan.surface import SupportLimits, footprint_support, ground_heights
 from ..synth.pipeline import Synthesis
 from .ik import IKResult, solve_ik
+from .legs import body_frames
 from .pose import blend_pose, pose_bases
 from .targets import BodyMotion, FootPoints, Footprints
 from .toes import toe_tip
@@ -33,6 +34,13 @@ class Solved:
     spin: float
     pose_seconds: float
     ik_seconds: float
+
+
+def solved_world(rig: Rig, solved: Solved) -> np.ndarray:
+    """(F, B, 4, 4) the bones' world matrices (metres) of the IK's result: what its bake
+    plays (the body on the object, turned by the spin; the bones' bases under it)."""
+    ik = solved.ik
+    return body_frames(ik.body_pos, solved.spin + ik.body_heading)[:, None] @ forward_kinematics(rig, ik.basis)
 
 
 def body_spin(forward, analyses) -> float:

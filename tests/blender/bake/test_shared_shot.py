@@ -228,6 +228,10 @@ def test_a_job_list_planned_together_keeps_the_bodies_apart_as_played(fp, tmp_pa
     assert fig["least_distance_m"] > 0.1 and fig["frames_overlapping"] == 0, fig
     assert fig["frames_on_one_footprint"] == 0, fig
     assert doc_b["quality"]["goal"]["distance_m"] <= 0.3
+    # measured at the end in the shot's one pass: the first job against the later one too
+    (back,) = doc_a["quality"]["others"]
+    assert back["character"] == names[1]
+    assert {k: v for k, v in back.items() if k != "character"} == {k: v for k, v in fig.items() if k != "character"}
 
     # the saved scene as Blender plays it: the same, from the bodies read there
     bodies, first = _played_pair(fp, out, doc_b, (names[1], names[0]))
@@ -330,10 +334,16 @@ def test_four_characters_crossing_a_square_through_its_middle_keep_apart_and_arr
     docs = [json.loads((tmp_path / f"r{k}.json").read_text()) for k in range(5)]
     far = docs.pop()
     assert min(o["least_distance_m"] for o in far["quality"]["others"]) > 10.0
-    pairs = [(d["character"], o) for d in docs for o in d["quality"].get("others", [])]
+    pairs = [(d["character"], o) for d in docs for o in d["quality"].get("others", [])
+             if o["character"] != far["character"]]
     print("the square's pairs:", [(a, o["character"], o["least_distance_m"], o["least_distance_frame"])
                                   for a, o in pairs])
-    assert len(pairs) == 6  # (each job against every one before it: every pair once)
+    # (measured in the shot's one pass, each job against every other: every pair twice, alike)
+    assert len(pairs) == 12
+    seen = {}
+    for who, o in pairs:
+        seen.setdefault(frozenset((who, o["character"])), []).append({k: v for k, v in o.items() if k != "character"})
+    assert len(seen) == 6 and all(a == b for a, b in seen.values())
     clearance = import_module(fp.__name__ + ".core.base.settings").Settings().character_clearance
     for who, o in pairs:
         assert o["least_distance_m"] >= clearance and o["frames_overlapping"] == 0, (who, o)

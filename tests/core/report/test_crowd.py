@@ -8,7 +8,8 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from footstep_planner.core.report.crowd import PlayedBody, pair_figures, planted_feet, segment_distance
+from footstep_planner.core.report.crowd import (PlayedBody, held, others_of, pair_figures, planted_feet,
+                                                segment_distance)
 
 HYP = dict(deadline=None, database=None)
 coords = arrays(np.float64, (4, 3), elements=st.floats(-5.0, 5.0, allow_nan=False, width=32))
@@ -150,3 +151,29 @@ def test_inside_a_box_is_inside_its_bounds_and_never_for_an_open_mesh(p):
     sure = np.abs(margin) > 1e-6
     assert np.array_equal(got[sure], (margin > 0)[sure])
     assert not inside(MeshGround(plane(-1, 1, -1, 1)), p).any()
+
+
+@settings(max_examples=60, **HYP)
+@given(st.integers(2, 30), st.integers(-40, 40), st.integers(1, 60))
+def test_a_body_held_over_other_frames_stands_as_it_starts_and_ends(length, start, frames):
+    """A body played from scene frame ``start`` read over other frames (from frame 0) is
+    itself where the frames meet, and stands as it starts before them and as it ends after."""
+    f = np.arange(length, dtype=float)
+    hips = np.stack([f, np.zeros(length), np.ones(length)], axis=1)
+    feet = np.broadcast_to(hips[None, :, None], (2, length, 2, 3)).copy()
+    planted = np.zeros((2, length), bool)
+    planted[:, -1] = True
+    body = PlayedBody("a", hips, hips + [0, 0, 0.7], 0.2, feet, planted, 0.26)
+    got = held(body, start, 0, frames)
+    want = np.clip(np.arange(frames) - start, 0, length - 1)
+    assert np.array_equal(got.hips[:, 0], want) and got.feet.shape == (2, frames, 2, 3)
+    assert np.array_equal(got.planted[0], want == length - 1)
+    others = others_of([got, got], frames, 30.0)
+    assert others.hips.shape == (2, frames, 3) and np.allclose(others.times, np.arange(frames) / 30.0)
+
+
+def test_others_of_no_bodies_keeps_the_frames_for_obstacles_that_move():
+    """With no character but over F frames, an obstacle's outline is added at each frame."""
+    others = others_of([], 5, 10.0)
+    moved = others.with_movers(["door"], np.zeros((1, 5, 3)), 0.05)
+    assert len(others.times) == 5 and moved.hips.shape == (1, 5, 3)
