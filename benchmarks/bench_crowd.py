@@ -2,7 +2,7 @@
 middle from its four sides (two lanes a side past four), baked as a job list with
 ``bake --job JOBS.json --together`` (the command line's own entry, in this process), and
 measured as Blender plays the saved scene (each job's report: ``quality.others``, that
-job's body against every character baked before it).
+job's body against every other character of the shot, measured in one pass at the end).
 
     .venv/bin/python benchmarks/bench_crowd.py [--counts 1,2,4,8] [--size 12] [--out DIR]
 
@@ -93,10 +93,14 @@ def bake(path: str, names: list[str], out: str, together: bool) -> tuple[float, 
 
 
 def figures(docs: list[dict]) -> dict:
-    """The shot's pair figures from its reports (each job against the ones before it)."""
-    least, pair, frame, overlap, shared = math.inf, "-", "-", 0, 0
+    """The shot's pair figures from its reports (each job against every other: each pair
+    counted once)."""
+    least, pair, frame, overlap, shared, seen = math.inf, "-", "-", 0, 0, set()
     for d in docs:
         for o in d["quality"].get("others", []):
+            if frozenset((d["character"], o["character"])) in seen:
+                continue
+            seen.add(frozenset((d["character"], o["character"])))
             overlap += o["frames_overlapping"]
             shared += o["frames_on_one_footprint"]
             if o["least_distance_m"] < least:
