@@ -279,8 +279,7 @@ def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTimi
         root = rig.role_index("hips") if rigify.is_rigify(ob) else baking.root_bone(ob, rig)
     others = other_characters(scene, ob)
     obstacles = tagged_objects(scene, (), obstacles)[1]
-    passes = baking.played_matrices if shot is None else shot.played_matrices
-    played_all, moved = passes(scene, [(ob, rig), *others], timing.frame_start, frames, obstacles)
+    played_all, moved = _passes(shot)(scene, [(ob, rig), *others], timing.frame_start, frames, obstacles)
     world, body_pos, body_yaw, bone_rot = baking.played_pose(rig, *played_all[0], root)
     if played is not None:  # (for the caller: the body and the bones as played)
         played["body"], played["world"] = body_pos, world
@@ -346,8 +345,7 @@ def others_in_time(scene, ob, frame_start: int, not_around=(), obstacles=(), sho
     play = [c for c in chars if c[0].as_pointer() not in known]
     played, moved = [], []
     if play or movable:
-        passes = baking.played_matrices if shot is None else shot.played_matrices
-        played, moved = passes(scene, play, frame_start, frames, movable)
+        played, moved = _passes(shot)(scene, play, frame_start, frames, movable)
     bodies = iter(crowd.body_of(o.name, r, baking.played_world(*m), fps) for (o, r), m in zip(play, played))
     others = crowd.others_of([known[o.as_pointer()] if o.as_pointer() in known else next(bodies)
                               for o, _ in chars], frames, fps)
@@ -360,6 +358,12 @@ def others_in_time(scene, ob, frame_start: int, not_around=(), obstacles=(), sho
         world = np.einsum("fij,pj->pfi", m[:, :3, :3], pts) + m[None, :, :3, 3]
         others = others.with_movers([o.name] * len(pts), world, 0.5 * OUTLINE_STEP)
     return others
+
+
+def _passes(shot):
+    """What plays the scene's frames for a read: ``bake.played_matrices``, or in a
+    ``together.Shot`` its own (its passes kept, its one pass once closed)."""
+    return baking.played_matrices if shot is None else shot.played_matrices
 
 
 def movable_obstacles(scene, obstacles=()) -> list:
