@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from ..core.report import crowd
 from ..core.solve.frames import Solved, solved_world
+from .read.surfaces import tagged_objects
 from .write import bake as baking
 
 
@@ -30,17 +31,16 @@ class Shot:
     def __init__(self, scene):
         self.scene = scene
         self._solved: dict[int, tuple] = {}  # object pointer -> (object, body, first frame, frames)
-        self._obstacles: set = set()
+        self._obstacles: dict = {}  # the obstacles the jobs named (names, in order)
         self._passes: dict[tuple, tuple] = {}  # (first frame, characters, objects) -> (frames, matrices)
         self._final = None
-        self.closed = False
 
     def add(self, ob, rig, solved: Solved, frame_start: int, fps: float, obstacles=()) -> None:
         """``ob``'s bake in the shot: its body as ``solved`` (played from ``frame_start``),
         which the later jobs go round; ``obstacles`` the objects its job named as such."""
         body = crowd.body_of(ob.name, rig, solved_world(rig, solved), fps)
         self._solved[ob.as_pointer()] = (ob, body, int(frame_start), solved.ik.frames)
-        self._obstacles.update(obstacles)
+        self._obstacles.update(dict.fromkeys(obstacles))
 
     def drop(self, ob) -> None:
         """``ob``'s bake taken back: no later job goes round it."""
@@ -60,16 +60,16 @@ class Shot:
         """The last frame a bake of the shot plays (0 when it has none)."""
         return max((f + n - 1 for _, _, f, n in self._solved.values()), default=0)
 
-    def close(self, characters, objects) -> None:
+    def close(self, characters) -> None:
         """Every job baked: the measures from now on read the one pass of ``characters``
-        ((object, Rig): every character the planner baked in the scene) and ``objects``
-        (the obstacles that may move, with those the jobs named) over the shot's frames."""
-        self.closed = True
+        ((object, Rig): every character the planner baked in the scene) and the obstacles
+        (the tagged ones and those the jobs named, as each measure reads them) over the
+        shot's frames."""
         if not self._solved:
             return
         first = min(f for _, _, f, _ in self._solved.values())
         frames = self.last_frame() - first + 1
-        objects = list(dict.fromkeys([*objects, *self._obstacles]))
+        objects = tagged_objects(self.scene, (), tuple(self._obstacles))[1]
         played, moved = baking.played_matrices(self.scene, characters, first, frames, objects)
         self._final = (first, frames, {ob.as_pointer(): m for (ob, _), m in zip(characters, played)},
                        {ob.as_pointer(): m for ob, m in zip(objects, moved)})

@@ -313,7 +313,7 @@ def run_together(scene, jobs: list[Job], commons: list[dict], settings: Settings
             end(JobOutcome(job.number, job.label, "failed", time.perf_counter() - t0, error=_failure(ex)))
             continue
         going.append((job, steps, time.perf_counter() - t0))
-    shot.close(planning.other_characters(scene, None), planning.movable_obstacles(scene))
+    shot.close(planning.other_characters(scene, None))
     for job, steps, spent in going:
         t0, staged = time.perf_counter(), []
         try:

@@ -361,6 +361,28 @@ def test_four_characters_crossing_a_square_through_its_middle_keep_apart_and_arr
     assert far["footprints"] == alone["footprints"]
 
 
+def _crossing_by_a_pillar(fp):
+    """The crossing with two sample characters and a pillar off their ways, in a collection
+    of its own and not tagged (a job list names it an obstacle)."""
+    scene, a, b = _crossing(fp)
+    ss = import_module(fp.__name__ + ".blender.sample.sample_scenes")
+    props = ss._collection(scene, "Props", "NONE")
+    ss._box(props, "Pillar", 5.5, 6.0, 5.5, 6.0, 0.0, 2.0)
+    return scene, a, b
+
+
+def test_a_job_list_together_with_an_obstacle_named_for_the_run_bakes_and_measures_each_pair(fp, tmp_path):
+    """``--together --obstacles Pillar``: an object named an obstacle for the run (not
+    tagged) stands in the shot's one measure like a tagged one; both jobs bake, and each
+    report has the other character's figures."""
+    a, b, doc_a, doc_b, _, _ = _job_list(fp, tmp_path, None, "--together", "--obstacles", "Pillar",
+                                         scene=_crossing_by_a_pillar)
+    assert [o["character"] for o in doc_a["quality"]["others"]] == [b]
+    assert [o["character"] for o in doc_b["quality"]["others"]] == [a]
+    assert doc_b["quality"]["others"][0]["frames_overlapping"] == 0
+    assert "moving_obstacles" not in doc_a["quality"]  # (the pillar stands)
+
+
 def _played_obstacle(fp, path: str, name: str, obstacle: str, doc: dict):
     """(the body of character ``name``, the obstacle's world matrices (F, 4, 4), its
     ``crowd.obstacle_figures``) as Blender plays the scene saved (a copy) at ``path`` over
