@@ -578,7 +578,10 @@ class Planner(StepRules, Refusals):
         """(N,) per footprint of ``path`` whether the step onto it keeps clear of the other
         characters (``_clear_of_others``' test: the body from between the two footprints
         before to between the last and it, and the foot over its stance), its times from
-        ``start_time`` and ``later`` s; the first (the start) True."""
+        ``start_time`` and ``later`` s; the first (the start) True. The last also stands
+        clear there to the end of the others' frames (``stand_clear``, the body over it): a
+        character stands where its path ends (a bake holds its last pose), and one coming
+        by later would walk into it."""
         n, others = len(path), self.others
         ok = np.ones(n, bool)
         if others is None or others.empty or n < 2:
@@ -589,6 +592,11 @@ class Planner(StepRules, Refusals):
         before = np.vstack([pos[:1], mid[:-1]])
         body = self._bodies_apart(before[:, :2], mid[:, :2], t[:-1], t[1:], mid[:, 2])
         ok[1:] = body & self._feet_clear(pos[1:], t[1:], t[1:] + STANCE_STEPS * np.maximum(t[1:] - t[:-1], 0.0))
+        lead, rate = others.clock
+        end = (float(others.times[-1]) - lead) / rate - self.start_time  # (the others' last frame, from start_time)
+        arrive = t[-1] - self.start_time
+        if ok[-1] and end > arrive:  # (it ends standing with the other foot brought beside the last)
+            ok[-1] = self.stand_clear(pos[[-1, -1]], arrive, end)
         return ok
 
     def stand_clear(self, feet: np.ndarray, t0: float, t1: float) -> bool:

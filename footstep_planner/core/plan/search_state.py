@@ -1,4 +1,5 @@
-"""One search's vocabulary and state: ``PlanError`` (no path, and why), ``SearchNode``
+"""One search's vocabulary and state: ``PlanError`` (no path, and why; ``BlockedError``
+where only the other characters stop it), ``SearchNode``
 (a footprint the search reached), ``_Batch`` (one expansion's successors, not yet
 checked) and ``_Search`` (the open list, its weights and counts), with the stall limits
 (``STALL``, ``MAX_REROUTES``). The planner (``navgraph``) and its refusals both use it.
@@ -24,6 +25,16 @@ class PlanError(FootstepError):
         super().__init__(message)
         self.expanded = expanded
         self.explored = explored or []
+
+
+class BlockedError(PlanError):
+    """No path round the other characters where alone there is one: they block the way
+    and no stand lets them pass (``stands.plan_round``). ``others`` names them. A shot
+    planned together plans a blocked character before them (``batch.together_steps``)."""
+
+    def __init__(self, message: str, expanded: int = 0, explored: list | None = None, others: tuple = ()):
+        super().__init__(message, expanded, explored)
+        self.others = tuple(others)
 
 
 class SearchNode(NamedTuple):

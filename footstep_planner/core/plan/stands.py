@@ -27,6 +27,7 @@ import numpy as np
 
 from ..footprint import STAND_HALF_WIDTH, STAND_LABEL, PathFootprint, beside_position
 from .navgraph import PlanError, PlanResult, Planner
+from .search_state import BlockedError
 
 #: s: the stands tried at one spot, shortest first (the longest a character stands there).
 STAND_TIMES = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 16.0)
@@ -47,8 +48,8 @@ PlanFn = Callable[[Planner, list], PlanResult]
 def plan_round(planner: Planner, start: list[PathFootprint], plan: PlanFn) -> PlanResult:
     """``plan(planner, start)`` round ``planner.others``, standing on the way where that
     costs less than going round or ahead of them (see the module). Without others, or
-    where the way alone meets none, that way. Raises PlanError when neither a stand nor a
-    way round is found (the way round's refusal)."""
+    where the way alone meets none, that way. Raises BlockedError when neither a stand nor
+    a way round is found (the way round's refusal, and that alone there is a way)."""
     others = planner.others
     if others is None or others.empty:
         return plan(planner, start)
@@ -61,12 +62,21 @@ def plan_round(planner: Planner, start: list[PathFootprint], plan: PlanFn) -> Pl
     share = planner.settings.replace(max_expansions=max(1, int(planner.settings.max_expansions * ROUND_SHARE)))
     try:
         way = plan(planner if best is None else replace(planner, settings=share, cost_limit=best[0]), start)
-    except PlanError:
+    except PlanError as ex:
         if best is None:
-            raise
+            names = tuple(dict.fromkeys(others.names))
+            raise BlockedError(f"{ex}; alone it has a way there ({len(alone.footprints)} footprints) but "
+                               f"{', '.join(names) or 'the others'} block it, and standing up to "
+                               f"{max(STAND_TIMES):g} s on the way does not let them pass", ex.expanded, ex.explored,
+                               names) from None
         return best[1]
-    if best is not None and best[0] < way.cost:
+    if best is not None and (best[0] < way.cost or not planner.clear_in_time(way.footprints)[-1]):
         return best[1]
+    if not planner.clear_in_time(way.footprints)[-1]:  # (it ends where another comes by later)
+        names = tuple(dict.fromkeys(others.names))
+        raise BlockedError(f"the way there round {', '.join(names)} ends where one of them comes by later, and "
+                           f"standing up to {max(STAND_TIMES):g} s on the way does not let them pass first",
+                           way.expanded, way.explored, names)
     return way
 
 

@@ -172,6 +172,45 @@ def test_bodies_apart_is_the_distance_at_the_times_within_the_slack(x, y, t, r, 
         assert not ok
 
 
+@hsettings(max_examples=80, deadline=None)
+@given(hs.floats(-3, 3), hs.floats(-1, 1), hs.floats(0.5, 4.0), hs.floats(-np.pi, np.pi), hs.floats(0, 0.5))
+def test_a_long_way_past_a_standing_body_is_refused_by_its_nearest_point(x, y, length, angle, clearance):
+    """A body going ``length`` m in a straight line (a run's step, a jump) past another that
+    stands still at the origin the whole time: refused exactly where the way's nearest point
+    to it comes within the radii and clearance, wherever along the way that is (a way
+    checked at its ends and middle alone went 0.36 m from a body it needed 0.55 from)."""
+    times = np.arange(0, 10, 1 / FPS)
+    others = _others(_walker("Stander", times, np.zeros((len(times), 2))), times=times)
+    a = np.array([x, y])
+    b = a + length * np.array([np.cos(angle), np.sin(angle)])
+    ok = others.bodies_apart(a[None], b[None], np.array([2.0]), np.array([2.5]), np.array([HIPS_HEIGHT]),
+                             BODY_RADIUS, clearance)[0]
+    u = np.clip(-a @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+    d = np.linalg.norm(a + u * (b - a))
+    need = 2 * BODY_RADIUS + clearance
+    if d > need + 1e-9:
+        assert ok, (d, need)
+    elif d < need - 1e-9:
+        assert not ok, (d, need)
+
+
+def test_a_path_that_ends_where_another_comes_by_later_is_not_clear():
+    """A path whose last footprint is clear when it arrives, but where another walks through
+    a second later (a bake holds its last pose: the character stands there): its last
+    footprint is not clear; ending 2 m aside of that, or where the other never comes, it is."""
+    times = np.arange(0, 10, 1 / FPS)
+    xy = np.c_[np.full(len(times), 3.0), 4.0 - times]  # (down x = 3 from y = 4: there at 4 s)
+    others = _others(_walker("Passer", times, xy), times=times)
+    g = MeshGround(plane(-2, 12, -3, 3))
+    pl = Planner(g, None, steps(), FWD, settings=FASTEST, others=others)
+    path = pl.plan(standing(0, 0, EAST, FWD), np.array([3.0, 0.0, 0.0])).footprints
+    assert path[-1].time < 3.0  # (there before the passer)
+    assert not pl.clear_in_time(path)[-1]
+    far = Planner(g, None, steps(), FWD, settings=FASTEST, others=_others(
+        _walker("Passer", times, xy + [2.0, 0.0]), times=times))
+    assert far.clear_in_time(path)[-1]
+
+
 @hsettings(max_examples=30, deadline=None)
 @given(hs.floats(0.2, 3.0), hs.floats(0.05, 2.0), hs.floats(0.1, 2.5))
 def test_an_obstacles_outline_is_points_along_its_sides_no_further_apart_than_the_step(w, d, h):
