@@ -225,7 +225,7 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
         result = again
         planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
     syn = planned.synthesis
-    overlay.remember(scene, planned.result.footprints, *syn.footprints, setup.forward, setup.planner.foot,
+    overlay.remember(scene, ob, planned.result.footprints, *syn.footprints, setup.forward, setup.planner.foot,
                      syn.body_position, planned.result.explored_positions if planned.result.explored else None)
     return planned
 

@@ -17,6 +17,7 @@ import bpy
 from ...core.base.errors import FootstepError
 from ...core.base.files import Outputs, describe_os_error
 from ...core.jobs import JobOutcome, check_job, job_label, normalised
+from ...core.plan.search_state import BlockedError
 from ...core.base.settings import Settings
 
 BUG_LINE = ("footstep: this is a bug in Footstep Planner, not a problem with your files: please report "
@@ -278,59 +279,149 @@ def run_job(scene, job: Job, common: dict, settings: Settings, outputs: Outputs,
 SHOT_STAGE = "quality"
 
 
+def together_steps(scene, jobs: list[Job], commons: list[dict], settings: Settings, end):
+    """``run_together``'s shot one stage at a time: a generator yielding (fraction done, what
+    it is doing) and returning when every job has ended; ``end(job, doc, error, seconds)`` is
+    called as each ends (its report, or the exception that stopped it).
+
+    The jobs are planned in the list's order as priority. Where the earlier ones block a
+    job (``BlockedError``: alone it has a way, round them none, and no stand lets them pass)
+    the shot is planned again once with the blocked jobs first (prioritized planning with
+    repair); the order that bakes more jobs is kept (the list's on a tie), and each report's
+    ``shot`` says the order planned and why. Closing it before the end (Esc in the panel)
+    takes back every bake it made, the latest first, and leaves the scene as it was."""
+    n = max(len(jobs), 1)
+    listed = list(range(len(jobs)))
+    tried = yield from _shot_pass(scene, jobs, commons, settings, listed, n)
+    blocked = [i for i, ex, _ in tried[2] if isinstance(ex, BlockedError)]
+    order = listed
+    if blocked:
+        again = blocked + [i for i in listed if i not in blocked]
+        _take_back(tried)
+        yield n / (n + 1), "planning again with " + ", ".join(jobs[i].label for i in blocked) + " first"
+        retried = yield from _shot_pass(scene, jobs, commons, settings, again, n)
+        if len(retried[1]) > len(tried[1]):
+            tried, order = retried, again
+        else:  # (no better: the list's order again, as it was)
+            _take_back(retried)
+            tried = yield from _shot_pass(scene, jobs, commons, settings, listed, n)
+    shot, going, failed = tried
+    why = {i: f"{jobs[i].label} was blocked by those before it in the list (alone it has a way)"
+           for i in blocked} if order is not listed else {}
+
+    def with_order(i: int, doc: dict) -> dict:
+        doc["shot"] = {"listed": i + 1, "planned": order.index(i) + 1, "of": len(jobs),
+                       **({"moved_ahead": why[i]} if i in why else {})}
+        return doc
+
+    try:
+        for i, ex, spent in failed:
+            end(jobs[i], None, ex, spent)
+        yield n / (n + 1), "measuring the shot as played"
+        from .. import planning
+
+        shot.close(planning.other_characters(scene, None))
+        while going:
+            i, steps, spent = going[0]
+            t0 = time.perf_counter()
+            try:
+                doc = planning.run_to_end(steps)
+            except Exception as ex:  # (its bake taken back by the stage itself; the others stand)
+                going.pop(0)
+                end(jobs[i], None, ex, spent + time.perf_counter() - t0)
+                continue
+            going.pop(0)
+            end(jobs[i], with_order(i, doc), None, spent + time.perf_counter() - t0)
+    except GeneratorExit:
+        _take_back(tried)
+        raise
+
+
+def _shot_pass(scene, jobs: list[Job], commons: list[dict], settings: Settings, order: list[int], n: int):
+    """Plan and bake ``jobs`` in ``order`` (indices) in a new ``together.Shot``, each round
+    those before it, up to the stage where each waits for the shot's measure: returns
+    (shot, going (index, its stages, s spent), failed (index, exception, s spent)); a job
+    that fails is rolled back there and then. Closed before it returns, it takes back every
+    bake it made."""
+    from ..together import Shot
+
+    shot, going, failed, current = Shot(scene), [], [], None
+    try:
+        for k, i in enumerate(order):
+            job, common = jobs[i], commons[i]
+            ob = bpy.data.objects[job.fields["character"]]
+            snap, t0 = Snapshot(scene, ob), time.perf_counter()
+            steps = bake_job_steps(scene, job.fields, common, settings.replace(avoid_characters=True), shot=shot)
+            current = (steps, snap)
+            try:
+                while True:
+                    fraction, stage = next(steps)
+                    if stage == SHOT_STAGE:
+                        break
+                    yield (k + fraction) / (n + 1), f"{job.label}: {stage}"
+            except StopIteration:  # (a bake that ends without a measure: not one of today's)
+                raise RuntimeError(f"{job.label}: the bake ended before its {SHOT_STAGE!r} stage") from None
+            except Exception as ex:  # one job's failure, whatever it is, stops only that job
+                steps.close()
+                snap.restore()
+                current = None
+                failed.append((i, ex, time.perf_counter() - t0))
+                continue
+            current = None
+            going.append((i, steps, time.perf_counter() - t0))
+    except GeneratorExit:  # (stopped: every bake of this pass taken back, the latest first)
+        if current is not None:
+            current[0].close()
+            current[1].restore()
+        _take_back((shot, going, failed))
+        raise
+    return shot, going, failed
+
+
+def _take_back(tried) -> None:
+    """Every bake of a ``_shot_pass`` that has not ended taken back, the latest first (each
+    job's stages, closed, take back its bake and give back the frame range it grew)."""
+    going = tried[1]
+    while going:
+        going.pop()[1].close()
+
+
 def run_together(scene, jobs: list[Job], commons: list[dict], settings: Settings, outputs: Outputs, save,
                  tell=None) -> list[JobOutcome]:
     """Run ``jobs`` (each with its ``commons`` entry) in one space and time, in the list's
-    order (a ``together.Shot``): each planned and baked round those before it, then all
-    measured in one pass of the scene as Blender plays it, each against every other; then
-    their reports (and scenes) are staged in ``outputs``. A job that fails before it bakes is
-    rolled back there and then (nothing after it has baked yet); one whose bake fails its
-    measure is taken back (``planning.bake_steps``) and the others stand. ``tell(outcome)``
-    is called as each job ends; ``save(path)`` gives what saves the scene at a path (the
-    shot's scene, every character in it, for each job that names an ``out``)."""
-    from .. import planning
-    from ..together import Shot
+    order (``together_steps``, a ``together.Shot``): each planned and baked round those
+    before it, then all measured in one pass of the scene as Blender plays it, each against
+    every other; then their reports (and scenes) are staged in ``outputs``. A job that fails
+    before it bakes is rolled back there and then (nothing after it has baked yet); one whose
+    bake fails its measure is taken back (``planning.bake_steps``) and the others stand.
+    ``tell(outcome)`` is called as each job ends; ``save(path)`` gives what saves the scene at
+    a path (the shot's scene, every character in it, for each job that names an ``out``)."""
+    outcomes = []
 
-    shot, going, outcomes = Shot(scene), [], []
-
-    def end(o: JobOutcome) -> None:
+    def end(job: Job, doc, error, spent: float) -> None:
+        staged = []
+        if doc is not None and job.report:
+            try:
+                staged.append(outputs.write_json(job.report, doc))
+            except Exception as ex:
+                doc, error = None, ex
+        if doc is None:
+            for tmp in staged:
+                outputs.unstage(tmp)
+            o = JobOutcome(job.number, job.label, "failed", spent, error=_failure(error))
+        else:
+            o = JobOutcome.from_report(job.number, job.label, doc, spent, [p for p in (job.report, job.out) if p])
         outcomes.append(o)
         if tell is not None:
             tell(o)
 
-    for job, common in zip(jobs, commons):
-        ob = bpy.data.objects[job.fields["character"]]
-        snap, t0 = Snapshot(scene, ob), time.perf_counter()
-        steps = bake_job_steps(scene, job.fields, common, settings.replace(avoid_characters=True), shot=shot)
-        try:
-            while next(steps)[1] != SHOT_STAGE:
-                pass
-        except StopIteration:  # (a bake that ends without a measure: not one of today's)
-            raise RuntimeError(f"{job.label}: the bake ended before its {SHOT_STAGE!r} stage") from None
-        except Exception as ex:  # one job's failure, whatever it is, stops only that job
-            steps.close()
-            snap.restore()
-            end(JobOutcome(job.number, job.label, "failed", time.perf_counter() - t0, error=_failure(ex)))
-            continue
-        going.append((job, steps, time.perf_counter() - t0))
-    shot.close(planning.other_characters(scene, None))
-    for job, steps, spent in going:
-        t0, staged = time.perf_counter(), []
-        try:
-            doc = planning.run_to_end(steps)
-            if job.report:
-                staged.append(outputs.write_json(job.report, doc))
-        except Exception as ex:  # (its bake taken back by the stage itself; the others stand)
-            for tmp in staged:
-                outputs.unstage(tmp)
-            end(JobOutcome(job.number, job.label, "failed", spent + time.perf_counter() - t0, error=_failure(ex)))
-            continue
-        end(JobOutcome.from_report(job.number, job.label, doc, spent + time.perf_counter() - t0,
-                                   [p for p in (job.report, job.out) if p]))
+    for _ in together_steps(scene, jobs, commons, settings, end):
+        pass
     for job in jobs:  # (each job's scene: the shot as it was baked, every character in it)
         if job.out and any(o.number == job.number and o.status == "baked" for o in outcomes):
             outputs.stage(job.out, save(job.out))
     return outcomes
 
 
-__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "clashing_jobs", "missing_library", "not_in_scene", "goal_and_start", "run_job", "run_together", "scene_problems"]
+__all__ = ["BUG_LINE", "Job", "Snapshot", "bake_job", "check_jobs", "clashing_jobs", "missing_library", "not_in_scene", "goal_and_start", "run_job", "run_together", "scene_problems",
+           "together_steps"]

@@ -13,6 +13,7 @@ import bpy
 import numpy as np
 
 from ...core.report import overlay as geo
+from ...core.report.overlay import CHARACTER_COLOURS, COLOUR_NAMES
 from ...core.plan.surface import FootShape
 
 
@@ -69,10 +70,8 @@ def review_sheet(scene, ob, doc, out_dir: str, name: str, foot: FootShape | None
 
 #: the top view's caption on a one-character sheet
 ONE_LEGEND = "top view: footprints (left blue, right red, jump landings yellow), body path (orange)"
-#: each character's colour on a shot's sheet (``crowd_sheet``), in job order
-PALETTE = ((0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.84, 0.15, 0.16),
-           (0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.89, 0.47, 0.76), (0.5, 0.5, 0.5),
-           (0.74, 0.74, 0.13), (0.09, 0.75, 0.81))
+#: each character's colour on a shot's sheet (``crowd_sheet``), in job order: the overlay's
+PALETTE = CHARACTER_COLOURS
 
 
 def crowd_sheet(scene, shot: list, out_dir: str, name: str, frames: list[int],
@@ -110,7 +109,7 @@ def crowd_sheet(scene, shot: list, out_dir: str, name: str, frames: list[int],
 
 
 def _colour_name(k: int) -> str:
-    return ("blue", "orange", "green", "red", "purple", "brown", "pink", "grey", "olive", "cyan")[k % len(PALETTE)]
+    return COLOUR_NAMES[k % len(COLOUR_NAMES)]
 
 
 def _compose_labelled(top: str, shots: list[str], captions: list[str], title: str, out: str,
@@ -276,7 +275,7 @@ def _draw_footprints(scene, doc, foot: FootShape, tint=None, tag: str = "") -> N
         me.materials.append(mats[key])
         fob = bpy.data.objects.new(f"footprint{i:03d}{tag}", me)
         fob.color = (*col[6 * i, :3], 1.0) if tint is None else \
-            (*(np.asarray(tint) * (0.65 if f["foot"] == "R" else 1.0)), 1.0)
+            (*(np.asarray(tint) * (geo.RIGHT_SHADE if f["foot"] == "R" else 1.0)), 1.0)
         coll.objects.link(fob)
     seg = geo.polyline_segments(np.asarray(doc["synthesis"]["body"]["position"])[::2])
     body = np.concatenate([seg[::2], seg[-1:]])  # the lifted polyline's points again

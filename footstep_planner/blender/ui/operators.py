@@ -65,6 +65,16 @@ class _Stepped:
         wm.modal_handler_add(self)
         return {"RUNNING_MODAL"}
 
+    def _stepping(self, context):
+        """Start ``self._start(context)``'s stages, one a timer tick (``modal``), or report
+        the expected problem that stops it before the first."""
+        try:
+            self._steps = self._start(context)
+        except FootstepError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        return self._begin(context, 100)
+
     def _end(self, context):
         wm = context.window_manager
         if self._timer is not None:
@@ -473,12 +483,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
         self._before = set(_owned(ob))
         self._range = (context.scene.frame_start, context.scene.frame_end)
         self._written = False
-        try:
-            self._steps = self._start(context)
-        except FootstepError as ex:
-            self.report({"ERROR"}, str(ex))
-            return {"CANCELLED"}
-        return self._begin(context, 100)
+        return self._stepping(context)
 
     def modal(self, context, event):
         if event.type == "ESC":
@@ -674,8 +679,11 @@ class FOOTSTEP_OT_clear(_OnCharacter, bpy.types.Operator):
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
+        from . import overlay
+
         n = clear(character(context), context.scene)
         clear_handles(character(context))
+        overlay.forget(context.scene, character(context))
         self.report({"INFO"}, f"removed {n} planner track(s)" if n else "nothing of the planner's to remove")
         return {"FINISHED"}
 

@@ -1,4 +1,5 @@
-"""The viewport overlay for review: the planned footprints coloured by foot and clip, the
+"""The viewport overlay for review: the planned footprints coloured by foot and clip (each
+character in its own colour when several are shown: a shot baked together), the
 body trajectory, optionally the footprints the search sampled, and arrows for the way
 the Start (or the character) and the Goal face. The geometry comes from
 ``core/report/overlay.py``; this module only keeps the last run's arrays and draws them."""
@@ -17,16 +18,46 @@ _HANDLE = None
 _TEXT = None
 
 
-def remember(scene, path, positions, headings, forward, foot, body=None, sampled=None) -> None:
-    tri, col = geo.footprint_triangles(positions, headings, forward, foot, [f.foot for f in path],
-                                       [f.label for f in path], [f.jump for f in path])
-    LAST[scene.name] = {
+def remember(scene, ob, path, positions, headings, forward, foot, body=None, sampled=None) -> None:
+    """Show ``ob``'s plan or bake (its footprints, body path, and the footprints the search
+    sampled) until its next one: each character of the scene keeps its own, so a shot
+    baked together shows every character, each in its colour (``geo.character_tint``, in
+    the order they were first shown; one character alone in the classic colours). Found by
+    identity (the object), never by name."""
+    feet, labels, jumps = [f.foot for f in path], [f.label for f in path], [f.jump for f in path]
+    data = LAST.setdefault(scene.name, {})
+    shown = data.setdefault("characters", {})
+    key = ob.as_pointer()
+    tint = geo.character_tint(list(shown).index(key) if key in shown else len(shown))
+    tri, col = geo.footprint_triangles(positions, headings, forward, foot, feet, labels, jumps)
+    shown[key] = {
         "triangles": tri.astype(np.float32), "colours": col.astype(np.float32),
+        "tinted": geo.footprint_colours(feet, labels, jumps, tint).repeat(6, axis=0).astype(np.float32),
+        "tint": (*tint, 1.0),
         "body": geo.polyline_segments(body).astype(np.float32) if body is not None else np.zeros((0, 3), np.float32),
-        "sampled": geo.crosses(sampled).astype(np.float32) if sampled is not None else np.zeros((0, 3), np.float32),
-        "path": list(path), "forward": np.asarray(forward, float),  # (for the footprint handles)
     }
+    data.update({
+        "sampled": geo.crosses(sampled).astype(np.float32) if sampled is not None else np.zeros((0, 3), np.float32),
+        "path": list(path), "forward": np.asarray(forward, float),  # (the last plan's, for the footprint handles)
+    })
     _redraw()
+
+
+def forget(scene, ob) -> None:
+    """``ob``'s footprints and body path out of the overlay (its bake cleared)."""
+    (LAST.get(scene.name) or {}).get("characters", {}).pop(ob.as_pointer(), None)
+    _redraw()
+
+
+def shown(scene) -> list[dict]:
+    """The footprints and body path of each character of ``scene`` the overlay shows, in the
+    order they were first shown: their triangles, colours (each in its own colour when
+    there are several) and body segments, with the colour its body path is drawn in."""
+    live = {o.as_pointer() for o in scene.objects}
+    chars = [c for k, c in (LAST.get(scene.name) or {}).get("characters", {}).items() if k in live]
+    many = len(chars) > 1
+    return [{"triangles": c["triangles"], "colours": c["tinted"] if many else c["colours"], "body": c["body"],
+             "body_colour": c["tint"] if many else geo.BODY} for c in chars]
 
 
 def _redraw():
@@ -48,16 +79,20 @@ def _draw():
         return
     gpu.state.blend_set("ALPHA")
     gpu.state.depth_test_set("LESS_EQUAL")
-    if len(data["triangles"]):
+    chars = shown(scene)
+    tri = [c for c in chars if len(c["triangles"])]
+    if tri:
         sh = gpu.shader.from_builtin("SMOOTH_COLOR")
-        batch_for_shader(sh, "TRIS", {"pos": data["triangles"], "color": data["colours"]}).draw(sh)
+        batch_for_shader(sh, "TRIS", {"pos": np.concatenate([c["triangles"] for c in tri]),
+                                      "color": np.concatenate([c["colours"] for c in tri])}).draw(sh)
     sh = gpu.shader.from_builtin("UNIFORM_COLOR")
-    for key, colour in (("body", geo.BODY), ("sampled", geo.SAMPLED)):
-        if key == "sampled" and not fs.show_sampled:
-            continue
-        if len(data[key]):
+    lines = [(c["body"], c["body_colour"]) for c in chars]
+    if fs.show_sampled:
+        lines.append((data.get("sampled", ()), geo.SAMPLED))
+    for points, colour in lines:
+        if len(points):
             sh.uniform_float("color", colour)
-            batch_for_shader(sh, "LINES", {"pos": data[key]}).draw(sh)
+            batch_for_shader(sh, "LINES", {"pos": points}).draw(sh)
     for points, colour in _marks(scene, data):
         sh.uniform_float("color", colour)
         batch_for_shader(sh, "LINES", {"pos": points}).draw(sh)

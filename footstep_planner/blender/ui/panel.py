@@ -21,6 +21,17 @@ class FOOTSTEP_UL_clips(bpy.types.UIList):
             row.prop(item, "exit_gait", text="")
 
 
+class FOOTSTEP_UL_cast(bpy.types.UIList):
+    """The characters baked together: each row's character, goal and waypoints."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        row = layout.row(align=True)
+        row.prop(item, "character", text="", icon="OUTLINER_OB_ARMATURE")
+        row.prop(item, "goal", text="", icon="EMPTY_ARROWS")
+        if item.waypoints is not None:
+            row.label(text="", icon="OUTLINER_COLLECTION")
+
+
 class FOOTSTEP_PT_main(bpy.types.Panel):
     """The planner's tab: the character, then a sub-panel for each step (as Rigify and the
     glTF exporter lay theirs out), the rarely used ones closed."""
@@ -110,6 +121,32 @@ class FOOTSTEP_PT_plan(_OnCharacterPanel, bpy.types.Panel):
         _draw_report(layout, fs)
 
 
+class FOOTSTEP_PT_together(_OnCharacterPanel, bpy.types.Panel):
+    """Several characters in one space and time: each row's character goes to its goal
+    round those above it (their order is their priority)."""
+
+    bl_label = "Characters Together"
+    bl_idname = "FOOTSTEP_PT_together"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout, fs = self.layout, context.scene.footstep
+        row = layout.row()
+        row.template_list("FOOTSTEP_UL_cast", "", fs, "cast", fs, "cast_index", rows=3)
+        col = row.column(align=True)
+        col.operator("footstep.cast_add", icon="ADD", text="")
+        col.operator("footstep.cast_remove", icon="REMOVE", text="")
+        col.separator()
+        col.operator("footstep.cast_move", icon="TRIA_UP", text="").direction = "UP"
+        col.operator("footstep.cast_move", icon="TRIA_DOWN", text="").direction = "DOWN"
+        if 0 <= fs.cast_index < len(fs.cast):
+            item = fs.cast[fs.cast_index]
+            col = layout.column(align=True)
+            for name in ("character", "goal", "start", "waypoints", "delay"):
+                col.prop(item, name)
+        layout.operator("footstep.bake_together", icon="COMMUNITY")
+
+
 class FOOTSTEP_PT_directing(_OnCharacterPanel, bpy.types.Panel):
     bl_label = "Directing"
     bl_idname = "FOOTSTEP_PT_directing"
@@ -159,7 +196,7 @@ SETTINGS_PANELS = tuple(_settings_panel(i, label) for i, (label, _) in enumerate
 
 #: The planner tab's panels, parents before their sub-panels
 TAB_PANELS = (FOOTSTEP_PT_main, FOOTSTEP_PT_character, FOOTSTEP_PT_roles, FOOTSTEP_PT_goal, FOOTSTEP_PT_plan,
-              FOOTSTEP_PT_directing, FOOTSTEP_PT_settings, *SETTINGS_PANELS)
+              FOOTSTEP_PT_together, FOOTSTEP_PT_directing, FOOTSTEP_PT_settings, *SETTINGS_PANELS)
 
 
 def _draw_footprint_edit(layout, fs) -> None:
@@ -374,7 +411,7 @@ def _menu_animation(self, context):
     self.layout.menu(FOOTSTEP_MT_animation.bl_idname, icon="TRACKING")
 
 
-CLASSES = (FOOTSTEP_UL_clips, *TAB_PANELS, FOOTSTEP_PT_object_surface, FOOTSTEP_PT_collection_surface,
+CLASSES = (FOOTSTEP_UL_clips, FOOTSTEP_UL_cast, *TAB_PANELS, FOOTSTEP_PT_object_surface, FOOTSTEP_PT_collection_surface,
            FOOTSTEP_MT_animation)
 
 

@@ -69,6 +69,22 @@ def _is_armature(self, ob):
     return ob.type == "ARMATURE"
 
 
+class FOOTSTEP_PG_cast(bpy.types.PropertyGroup):
+    """One character of the shot the panel bakes together (Bake Together): who goes where."""
+
+    character: PointerProperty(name="Character", type=bpy.types.Object, poll=_is_armature,
+                               description="The armature this row animates")
+    goal: PointerProperty(name="Goal", type=bpy.types.Object, description="Walk to this object")
+    start: PointerProperty(name="Start", type=bpy.types.Object,
+                           description="Start standing at this object (empty: where the character's feet are "
+                                       "now)")
+    waypoints: PointerProperty(name="Waypoints", type=bpy.types.Collection,
+                               description="Pass through the objects of this collection on the way to the goal, "
+                                           "in the order of their names (their pauses and arrival frames too)")
+    delay: IntProperty(name="Delay", min=0, soft_max=600, default=0,
+                       description="Frames after the current frame this character sets off")
+
+
 class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
     character: PointerProperty(name="Character", type=bpy.types.Object, poll=_is_armature,
                                description="The armature the planner animates")
@@ -93,6 +109,10 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
                                description="Pass through the objects of this collection on the way to the "
                                            "goal, in the order of their names (an empty with its heading, "
                                            "else facing the next; a curve: each of its points)")
+    cast: CollectionProperty(type=FOOTSTEP_PG_cast, name="Characters",
+                             description="The characters Bake Together plans in one space and time, in this "
+                                         "order as priority: each goes round those above it")
+    cast_index: IntProperty(name="Active character row")
     edit_footprints: BoolProperty(name="Editable footprints", default=True,
                                   description="After Plan and Bake, show each footprint as a small empty "
                                               "(in the collection 'Footprints: <character>') to move, turn, "
@@ -173,7 +193,7 @@ def _armature_class():
 FOOTSTEP_PG_armature = _armature_class()
 
 
-CLASSES = (FOOTSTEP_PG_settings, FOOTSTEP_PG_scene, FOOTSTEP_PG_surface, FOOTSTEP_PG_clip,
+CLASSES = (FOOTSTEP_PG_settings, FOOTSTEP_PG_cast, FOOTSTEP_PG_scene, FOOTSTEP_PG_surface, FOOTSTEP_PG_clip,
            FOOTSTEP_PG_armature)
 
 

@@ -4,7 +4,9 @@
 - footprints: one quad (two triangles) each, coloured by foot (left blue, right red),
   shaded by the clip that carries the foot there, jumps yellow;
 - sampled footprints (optional): small crosses where the search tested a footprint;
-- the body trajectory: a polyline a little above the ground, orange.
+- the body trajectory: a polyline a little above the ground, orange;
+- several characters at once (a shot baked together): each in its own colour
+  (``character_tint``), its left foot lighter than its right, its body path in its colour.
 """
 
 from __future__ import annotations
@@ -40,12 +42,37 @@ def clip_shades(labels) -> dict[str, float]:
     return {k: 1.0 - 0.45 * i / max(n - 1, 1) for i, k in enumerate(keys)}
 
 
-def footprint_colours(feet, labels, jumps) -> np.ndarray:
-    """(N, 4) RGBA per footprint."""
+#: each character's colour when several are shown (a shot: the overlay, the review sheet),
+#: in the order they were planned, and its name for captions
+CHARACTER_COLOURS = ((0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.84, 0.15, 0.16),
+                     (0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.89, 0.47, 0.76), (0.5, 0.5, 0.5),
+                     (0.74, 0.74, 0.13), (0.09, 0.75, 0.81))
+COLOUR_NAMES = ("blue", "orange", "green", "red", "purple", "brown", "pink", "grey", "olive", "cyan")
+#: a character's right foot is its colour this dark (its left foot its colour)
+RIGHT_SHADE = 0.65
+
+
+def character_tint(i: int) -> tuple[float, float, float]:
+    """The colour of the ``i``-th character (from 0) of several shown at once."""
+    return CHARACTER_COLOURS[i % len(CHARACTER_COLOURS)]
+
+
+def _feet_of(tint) -> tuple:
+    """(left, right, jump) base colours: the classic blue, red, yellow, or a character's
+    ``tint`` for the left foot and ``RIGHT_SHADE`` of it for the right, a jump halfway to
+    yellow."""
+    if tint is None:
+        return LEFT, RIGHT, JUMP
+    return tuple(tint), tuple(RIGHT_SHADE * c for c in tint), tuple(0.5 * (a + b) for a, b in zip(tint, JUMP))
+
+
+def footprint_colours(feet, labels, jumps, tint=None) -> np.ndarray:
+    """(N, 4) RGBA per footprint; in a character's ``tint`` (RGB) when given."""
     shade = clip_shades(labels)
+    left, right, jump = _feet_of(tint)
     out = np.empty((len(feet), 4))
     for i, (f, lab, j) in enumerate(zip(feet, labels, jumps)):
-        base = JUMP if j else (LEFT if f == 0 else RIGHT)
+        base = jump if j else (left if f == 0 else right)
         h, l_, s = colorsys.rgb_to_hls(*base)
         r, g, b = colorsys.hls_to_rgb(h, min(1.0, l_ * shade[str(lab).split("@")[0]] + 0.1), s)
         out[i] = (r, g, b, 0.9)
@@ -53,8 +80,9 @@ def footprint_colours(feet, labels, jumps) -> np.ndarray:
 
 
 def footprint_triangles(pos, heading, forward, foot: FootShape = FootShape(), feet=None, labels=None,
-                        jumps=None) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices (N*6, 3), colours (N*6, 4)): two triangles per footprint, lifted by LIFT."""
+                        jumps=None, tint=None) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (N*6, 3), colours (N*6, 4)): two triangles per footprint, lifted by LIFT;
+    in a character's ``tint`` when given (``footprint_colours``)."""
     pos = np.atleast_2d(np.asarray(pos, float))
     n = len(pos)
     if n == 0:
@@ -67,7 +95,7 @@ def footprint_triangles(pos, heading, forward, foot: FootShape = FootShape(), fe
     feet = np.zeros(n, int) if feet is None else np.asarray(feet)
     labels = [""] * n if labels is None else list(labels)
     jumps = np.zeros(n, bool) if jumps is None else np.asarray(jumps, bool)
-    col = np.repeat(footprint_colours(feet, labels, jumps), 6, axis=0)
+    col = np.repeat(footprint_colours(feet, labels, jumps, tint), 6, axis=0)
     return tri.reshape(-1, 3), col
 
 

@@ -9,31 +9,14 @@ from importlib import import_module
 import numpy as np
 
 from conftest import cmu_armature, needs_cmu
+from crowd_scenes import crossing, played_bodies
 
 FPS = 30
 
 
 def _crossing(fp, cmu_b: bool = False):
-    """An open floor where A (the sample character) walks east along y = 0 and B north
-    along x = 0, both 5 m from the crossing: at about one pace they meet there. B is
-    another sample character, or with ``cmu_b`` the CMU library's (real motion capture,
-    imported from its BVH files)."""
-    import bpy
-
-    bpy.ops.wm.read_homefile(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.fps = FPS
-    ss = import_module(fp.__name__ + ".blender.sample.sample_scenes")
-    floor = ss._collection(scene, "Traversable", "TRAVERSABLE")
-    ss._box(floor, "Floor", -8.0, 8.0, -8.0, 8.0, -0.2, 0.0)
-    east, north = math.pi / 2, math.pi
-    for name, at, heading in (("StartA", (-5.0, 0.0, 0.0), east), ("GoalA", (5.0, 0.0, 0.0), east),
-                              ("StartB", (0.0, -5.0, 0.0), north), ("GoalB", (0.0, 5.0, 0.0), north)):
-        ss._marker(scene, name, at, heading)
-    man = import_module(fp.__name__ + ".blender.sample.mannequin")
-    a, _ = man.add_to_scene(scene, "StartA")
-    b = cmu_armature(fp) if cmu_b else man.add_to_scene(scene, "StartB")[0]
-    return scene, a, b
+    """The crossing (``crowd_scenes.crossing``): A east, B north, meeting in the middle."""
+    return crossing(fp, cmu_b)
 
 
 def _corridor(fp):
@@ -440,11 +423,5 @@ def _played_pair(fp, out: str, doc: dict, names) -> tuple[list, int]:
 
     bpy.ops.wm.open_mainfile(filepath=out)
     scene = bpy.context.scene
-    bake = import_module(fp.__name__ + ".blender.write.bake")
-    crowd = import_module(fp.__name__ + ".core.report.crowd")
-    read = import_module(fp.__name__ + ".blender.read.scene")
     first, n = doc["frame_start"], doc["frame_end"] - doc["frame_start"] + 1
-    obs = [scene.objects[n_] for n_ in names]
-    rigs = [read.rig_from_armature(o) for o in obs]
-    played, _ = bake.played_matrices(scene, list(zip(obs, rigs)), first, n)
-    return [crowd.body_of(o.name, r, bake.played_world(*m), FPS) for o, r, m in zip(obs, rigs, played)], first
+    return played_bodies(fp, scene, [scene.objects[n_] for n_ in names], first, n), first

@@ -56,15 +56,19 @@ def _footstep_operators():
 
 def test_every_greyed_operator_says_why(fp, empty_scene):
     """With no character, every operator that is not available raises with its poll's own
-    reason (what Blender shows on the greyed button), never 'context is incorrect'."""
+    reason (what Blender shows on the greyed button), never 'context is incorrect': no
+    character, or for the list of characters baked together, the empty list."""
     greyed = [op for op in _footstep_operators() if not op.poll()]
-    assert len(greyed) >= 7  # plan, bake, clear, re-plan, analyze, build graph, lock, generate
+    assert len(greyed) >= 10  # plan, bake, clear, re-plan, analyze, build graph, lock, generate; the list's
     for op in greyed:
         with pytest.raises(RuntimeError) as err:
             op()
         msg = str(err.value)
         assert "context is incorrect" not in msg, msg
-        assert "no character" in msg and "armature" in msg, msg
+        if op.idname_py().startswith(("footstep.cast_", "footstep.bake_together")):
+            assert "the list of characters to bake together is empty" in msg, msg
+        else:
+            assert "no character" in msg and "armature" in msg, msg
 
 
 def test_the_reason_names_a_character_that_is_no_armature(fp, empty_scene):
@@ -151,7 +155,7 @@ class _Modal:
     Esc), on an object standing in for the running operator."""
 
     METHODS = ("invoke", "modal", "_begin", "_end", "_start", "_finish", "_cancel", "_stopped", "_analysed", "_apply",
-               "_refused", "_files", "_imported", "execute")
+               "_refused", "_files", "_imported", "execute", "_stepping")
 
     def __init__(self, fp, cls, context, monkeypatch, window=None, invoke=True, **props):
         ops = _mod(fp, "ui.operators")
