@@ -152,27 +152,25 @@ class Others:
                      radius: float, clearance: float, scale: float = 1.0) -> np.ndarray:
         """(K,) whether a body whose hips go from ``a`` to ``b`` (K, 2) over the times ``t0`` to
         ``t1`` (K,) s, its hips at height ``hips_z`` (K,), with ``radius`` m, keeps
-        ``clearance`` m clear of every other body, where both are on one level. The way is
-        taken in three parts (its first quarter, middle half, last quarter), each at its
-        time (start, middle, end) against the other bodies within ``slack`` of then, by the
-        nearest point of the part: a long step (a run's, a jump's) passes no one between
-        two of its points."""
+        ``clearance`` m clear of every other body at points along the way no further apart
+        than ``SAMPLE_SPACING`` (at its start, middle and end for a walk's step; a run's
+        step or a jump at more: it passes no one between two of them), each against the
+        other bodies within ``slack`` of its time, where both are on one level."""
         k = len(a)
         if self.empty or not k:
             return np.ones(k, bool)
         t0, t1 = self._shot(t0), self._shot(t1)
-        s = np.array([0.0, 0.5, 1.0])
-        t = (t0[:, None] + (t1 - t0)[:, None] * s[None, :]).reshape(-1)
         d = b - a
-        p0 = (a[:, None, :] + d[:, None, :] * np.array([0.0, 0.25, 0.75])[None, :, None]).reshape(-1, 2)
-        part = (d[:, None, :] * np.array([0.25, 0.5, 0.25])[None, :, None]).reshape(-1, 2)  # (K*3, 2)
-        near = self._hips_near(t)  # (N, K*3, W, 3)
-        rel = near[..., :2] - p0[None, :, None, :]
-        u = np.einsum("nkwi,ki->nkw", rel, part) / np.maximum(np.einsum("ki,ki->k", part, part), 1e-12)[None, :, None]
-        gap = np.linalg.norm(rel - np.clip(u, 0.0, 1.0)[..., None] * part[None, :, None, :], axis=-1)
-        level = np.abs(near[..., 2] - np.repeat(hips_z, 3)[None, :, None]) < LEVEL_APART * scale
+        n = np.maximum(np.ceil(np.linalg.norm(d, axis=1) / (SAMPLE_SPACING * scale)).astype(np.int64), 2)
+        s = np.minimum(np.arange(int(n.max()) + 1)[None, :] / n[:, None], 1.0)  # (K, S): the last repeated
+        m = s.shape[1]
+        pos = a[:, None, :] + d[:, None, :] * s[..., None]  # (K, S, 2)
+        t = (t0[:, None] + (t1 - t0)[:, None] * s).reshape(-1)
+        near = self._hips_near(t)  # (N, K*S, W, 3)
+        gap = np.linalg.norm(near[..., :2] - pos.reshape(-1, 2)[None, :, None, :], axis=-1)
+        level = np.abs(near[..., 2] - np.repeat(hips_z, m)[None, :, None]) < LEVEL_APART * scale
         need = (self.radius + radius + clearance)[:, None, None]
-        hit = (level & (gap < need)).any(axis=(0, 2)).reshape(k, 3)
+        hit = (level & (gap < need)).any(axis=(0, 2)).reshape(k, m)
         return ~hit.any(axis=1)
 
     def feet_clear(self, at: np.ndarray, t0: np.ndarray, t1: np.ndarray, foot_length: float) -> np.ndarray:
@@ -190,6 +188,11 @@ class Others:
         level = np.abs(self.prints[None, :, 2] - np.asarray(at, float)[:, None, 2]) < 0.5 * reach[None, :]
         return ~(meet & level & (d < reach[None, :])).any(axis=1)
 
+
+#: m: a body's way between two footprints is checked against the others at points no
+#: further apart than this (a human's; ``bodies_apart``): a walk's step at its start,
+#: middle and end, a run's step or a jump at more.
+SAMPLE_SPACING = 0.4
 
 #: The fitted clock's rate is kept within these (a synthesis never plays a path at twice
 #: or half the pace the search timed it at).
