@@ -5,6 +5,12 @@ measured as Blender plays the saved scene (each job's report: ``quality.others``
 job's body against every other character of the shot, measured in one pass at the end).
 
     .venv/bin/python benchmarks/bench_crowd.py [--counts 1,2,4,8] [--size 12] [--out DIR]
+    .venv/bin/python benchmarks/bench_crowd.py --layout plaza --counts 50 --size 40
+
+``--layout plaza``: the issue's plaza instead, ``count`` characters crossing a square
+``size`` m across from its four sides in lanes spread along each side (each straight over
+to the opposite side; the lanes of opposite sides between each other's), all setting off
+at once: flows that cross everywhere, not only in the middle.
 
 Per count: the wall and CPU seconds of the job list, against the count times the first
 character's bake alone on the same scene (the issue: 8 characters in under 8 times one's
@@ -44,7 +50,33 @@ def lanes(count: int, size: float) -> list[tuple[tuple, tuple, float]]:
     return out
 
 
-def build(path: str, count: int, size: float) -> list[str]:
+def plaza(count: int, size: float) -> list[tuple[tuple, tuple, float]]:
+    """(start (x, y), goal (x, y), heading rad) of ``count`` characters crossing a plaza
+    ``size`` m across: in turn from the W, S, E and N sides, each side's lanes spread evenly
+    along it 1 m in from its corners, those of the E and N sides half a lane between the W
+    and S sides' (no two walk one lane head-on)."""
+    half = 0.5 * size - 1.0
+    per = -(-count // 4)
+    gap = (2 * half - 2.0) / max(per, 1)
+    out = []
+    for k in range(count):
+        side, lane = k % 4, k // 4
+        off = -half + 1.0 + gap * (lane + (0.25 if side < 2 else 0.75))
+        ang = side * math.pi / 2
+        d = (math.cos(ang), math.sin(ang))
+        n = (-d[1], d[0])
+        if side >= 2:  # (the lane's place measured the same way as the opposite side's)
+            off = -off
+        start = (-half * d[0] + off * n[0], -half * d[1] + off * n[1])
+        goal = (half * d[0] + off * n[0], half * d[1] + off * n[1])
+        out.append((start, goal, ang + math.pi / 2))
+    return out
+
+
+LAYOUTS = {"square": lanes, "plaza": plaza}
+
+
+def build(path: str, count: int, size: float, layout: str = "square") -> list[str]:
     """The square, its markers and ``count`` sample characters, saved at ``path``; their names."""
     import bpy
 
@@ -57,7 +89,7 @@ def build(path: str, count: int, size: float) -> list[str]:
     h = 0.5 * size
     sample_scenes._box(floor, "Square", -h, h, -h, h, -0.2, 0.0)
     names = []
-    for k, (start, goal, heading) in enumerate(lanes(count, size)):
+    for k, (start, goal, heading) in enumerate(LAYOUTS[layout](count, size)):
         sample_scenes._marker(scene, f"Start{k}", (*start, 0.0), heading)
         sample_scenes._marker(scene, f"Goal{k}", (*goal, 0.0), heading)
         ob, _ = mannequin.add_to_scene(scene, f"Start{k}")
@@ -127,6 +159,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--counts", default="1,2,4,8")
     ap.add_argument("--size", type=float, default=12.0)
+    ap.add_argument("--layout", choices=sorted(LAYOUTS), default="square")
     ap.add_argument("--out", default=None)
     ap.add_argument("--sheet", action="store_true",
                     help="the review sheet of the largest shot (top view, each character in its colour; the frame "
@@ -140,15 +173,19 @@ def main(argv=None) -> int:
     rows = []
     for count in [int(c) for c in args.counts.split(",")]:
         path = os.path.join(out, f"square{count}.blend")
-        names = build(path, count, args.size)
+        names = build(path, count, args.size, args.layout)
         alone_wall, alone_cpu, _ = bake(path, names[:1], os.path.join(out, f"alone{count}.blend"), together=False)
         wall, cpu, docs = bake(path, names, os.path.join(out, f"together{count}.blend"), together=True)
         fig = figures(docs)
         rows.append((count, len(docs), wall, cpu, alone_wall, cpu / max(count * alone_cpu, 1e-9), fig))
         last = (count, os.path.join(out, f"together{count}.blend"), docs, fig)
         print(f"  {count} characters: {wall:.1f} s wall, {cpu:.1f} s CPU (alone {alone_wall:.1f} s)", flush=True)
-    print(f"\n{args.size:g} m square, sample characters crossing its middle, bake --job --together "
-          f"(load {os.getloadavg()[0]:.1f})")
+    import resource
+
+    what = "crossing its middle" if args.layout == "square" else "crossing it in lanes from its four sides"
+    print(f"\n{args.size:g} m {args.layout}, sample characters {what}, bake --job --together "
+          f"(load {os.getloadavg()[0]:.1f}; this process's peak memory "
+          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20:.2f} GB)")
     head = ("chars", "baked", "wall s", "CPU s", "alone s", "CPU / n alone", "least m", "frame", "pair",
             "overlap fr", "one fp fr", "goal m", "stands")
     print("  ".join(f"{h:>10}" for h in head))
