@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import textwrap
 
 import bpy
 import numpy as np
@@ -96,7 +97,13 @@ def crowd_sheet(scene, shot: list, out_dir: str, name: str, frames: list[int],
         shots.append(_render_character(scene, ob, f, os.path.join(out_dir, f"{name}_frame{f:04d}.png"), foot.scale))
         captions.append(f"frame {f}: {ob.name}" + (f" and {near['character']}, {near['least_distance_m']:.2f} m apart"
                                                     if near else ""))
-    legend = "top view: " + ", ".join(f"{ob.name} {_colour_name(k)}" for k, (ob, _) in enumerate(shot))
+    if len(shot) <= len(COLOUR_NAMES):
+        legend = "top view: " + ", ".join(f"{ob.name} {_colour_name(k)}" for k, (ob, _) in enumerate(shot))
+    else:  # (too many to name: the colours repeat in job order)
+        legend = (f"top view: {len(shot)} characters, each in its colour by job order, the colours repeating every "
+                  f"{len(COLOUR_NAMES)} ({', '.join(COLOUR_NAMES)}): {shot[0][0].name} "
+                  f"{_colour_name(0)}, {shot[1][0].name} {_colour_name(1)}, ...")
+    legend = "\n".join(textwrap.wrap(legend, 110))
     least = min((x["least_distance_m"] for _, d in shot for x in d["quality"].get("others", [])), default=None)
     title = (f"{scene.name}: {len(shot)} characters planned together" +
              (f"; bodies {least:.2f} m apart at the nearest" if least is not None else ""))
