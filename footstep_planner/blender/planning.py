@@ -167,6 +167,8 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     if settings.avoid_characters:
         first = scene.frame_current if frame_start is None else frame_start
         others = others_in_time(scene, ob, int(round(first)), not_around, obstacles, shot)
+        if shot is not None and shot.clock is not None:  # (the clock the shot's last synthesis kept)
+            others = others.on_clock(*shot.clock)
     setup = plan_setup(scene, ob, settings, traversable, obstacles, others)
     start = marker_footprints(start_marker, setup) if start_marker is not None else character_footprints(ob, setup)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
@@ -212,6 +214,7 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     first = float(scene.frame_current if frame_start is None else frame_start)
     planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
+    tried = [(planned, setup.planner.others)]
     for _ in range(CLOCK_TRIES):
         others = _again(setup, result, planned)
         if others is None:
@@ -224,7 +227,13 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
             break
         result = again
         planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)
+        tried.append((planned, others))
+    else:  # (never settled, the last unchecked: the clocks of two plans can send each to the other)
+        if len(tried) > 1:
+            planned, setup.planner.others = max(tried, key=lambda t: _synthesized_gap(setup, t[0], t[1]))
     syn = planned.synthesis
+    if shot is not None:  # (a later job of the shot starts its search on this clock: fewer searched again)
+        shot.clock = fit_clock(planned.result.footprints, syn.plan, syn.planted()) or shot.clock
     overlay.remember(scene, ob, planned.result.footprints, *syn.footprints, setup.forward, setup.planner.foot,
                      syn.body_position, planned.result.explored_positions if planned.result.explored else None)
     return planned
@@ -244,11 +253,19 @@ def _again(setup: PlanSetup, result: PlanResult, planned: Planned):
     old = others.clock
     if clock is not None and abs((clock[0] + clock[1] * end) - (old[0] + old[1] * end)) > CLOCK_MOVED:
         return others.on_clock(*clock)
-    cfg = setup.planner.settings  # (the character's: its lengths for its size)
-    hips = syn.body_position + [0.0, 0.0, cfg.length(HIPS_HEIGHT)]
-    if others.least_gap(syn.t, hips, cfg.length(BODY_RADIUS), cfg.body_scale) < cfg.character_clearance:
+    if _synthesized_gap(setup, planned, others) < setup.planner.settings.character_clearance:
         return others.widened()
     return None
+
+
+def _synthesized_gap(setup: PlanSetup, planned: Planned, others: Others) -> float:
+    """m: how near the synthesized body comes to another's, less both radii
+    (``Others.least_gap``, on the synthesis's own times: no clock in it)."""
+    if others is None or others.empty:
+        return np.inf
+    cfg, syn = setup.planner.settings, planned.synthesis  # (the character's: its lengths for its size)
+    hips = syn.body_position + [0.0, 0.0, cfg.length(HIPS_HEIGHT)]
+    return others.least_gap(syn.t, hips, cfg.length(BODY_RADIUS), cfg.body_scale)
 
 
 #: mm: a re-bake whose splice lets a planted foot slide more than this is baked whole

@@ -34,6 +34,9 @@ class Shot:
         self._obstacles: dict = {}  # the obstacles the jobs named (names, in order)
         self._passes: dict[tuple, tuple] = {}  # (first frame, characters, objects) -> (frames, matrices)
         self._final = None
+        #: (lead s, rate): the search's clock the shot's last synthesis kept (``others.fit_clock``),
+        #: which the next job's search starts on (a job's own re-plans then fit its own)
+        self.clock: tuple | None = None
 
     def add(self, ob, rig, solved: Solved, frame_start: int, fps: float, obstacles=()) -> None:
         """``ob``'s bake in the shot: its body as ``solved`` (played from ``frame_start``),
