@@ -297,13 +297,13 @@ def together_steps(scene, jobs: list[Job], commons: list[dict], settings: Settin
     order = listed
     if blocked:
         again = blocked + [i for i in listed if i not in blocked]
-        _take_back(tried)
+        _take_back(tried[1])
         yield n / (n + 1), "planning again with " + ", ".join(jobs[i].label for i in blocked) + " first"
         retried = yield from _shot_pass(scene, jobs, commons, settings, again, n)
         if len(retried[1]) > len(tried[1]):
             tried, order = retried, again
         else:  # (no better: the list's order again, as it was)
-            _take_back(retried)
+            _take_back(retried[1])
             tried = yield from _shot_pass(scene, jobs, commons, settings, listed, n)
     shot, going, failed = tried
     why = {i: f"{jobs[i].label} was blocked by those before it in the list (alone it has a way)"
@@ -333,7 +333,7 @@ def together_steps(scene, jobs: list[Job], commons: list[dict], settings: Settin
             going.pop(0)
             end(jobs[i], with_order(i, doc), None, spent + time.perf_counter() - t0)
     except GeneratorExit:
-        _take_back(tried)
+        _take_back(going)
         raise
 
 
@@ -373,15 +373,15 @@ def _shot_pass(scene, jobs: list[Job], commons: list[dict], settings: Settings, 
         if current is not None:
             current[0].close()
             current[1].restore()
-        _take_back((shot, going, failed))
+        _take_back(going)
         raise
     return shot, going, failed
 
 
-def _take_back(tried) -> None:
-    """Every bake of a ``_shot_pass`` that has not ended taken back, the latest first (each
-    job's stages, closed, take back its bake and give back the frame range it grew)."""
-    going = tried[1]
+def _take_back(going: list) -> None:
+    """Every bake of a ``_shot_pass``'s ``going`` (index, its stages, s) taken back, the
+    latest first (each job's stages, closed, take back its bake and give back the frame
+    range it grew)."""
     while going:
         going.pop()[1].close()
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import bpy
 
 from ...core.base.errors import FootstepError
-from .operators import _settings, _Stepped, _status, character
+from .operators import _settings, _Stepped, _status, character, panel_doc, route_fields
 
 
 def _row_job(context, row) -> dict:
@@ -24,16 +24,13 @@ def _row_job(context, row) -> dict:
         job["goal"] = row.goal.name
     if row.start is not None:
         job["start"] = row.start.name
-    ways = [scene.objects[n] for n in sorted(o.name for o in row.waypoints.all_objects) if n in scene.objects] \
-        if row.waypoints is not None else []
-    if ways:
-        job["via"] = [o.name for o in ways]
-        pause = {o.name: float(o.footstep.pause) for o in ways if o.footstep.pause > 0}
-        if pause:
-            job["pause"] = pause
-    arrive = {o.name: int(o.footstep.arrive) for o in ways + ([row.goal] if row.goal else []) if o.footstep.use_arrive}
+    names, pause, arrive = route_fields(scene, row.waypoints, row.goal)
+    if names:
+        job["via"] = names
+    if pause:
+        job["pause"] = {n: float(v) for n, v in pause.items()}
     if arrive:
-        job["arrive"] = arrive
+        job["arrive"] = {n: int(v) for n, v in arrive.items()}
     if fs.body_on != "OBJECT":
         job["body_on"] = fs.body_on.lower()
     return job
@@ -217,8 +214,6 @@ class FOOTSTEP_OT_bake_together(_Stepped, bpy.types.Operator):
     def _finish(self, context):
         """The run's summary in the panel: each row baked (its nearest other character) or
         why not; the panel's character's report in the panel's figures."""
-        import json
-
         fs = context.scene.footstep
         lines, baked = [], 0
         for job, doc, error in sorted(self._ended, key=lambda e: e[0].number):
@@ -236,9 +231,7 @@ class FOOTSTEP_OT_bake_together(_Stepped, bpy.types.Operator):
                 f" (planned {order['planned']} of {order['of']}: {order['moved_ahead']})"
                 if order.get("moved_ahead") else ""))
             if fs.character is not None and job.fields["character"] == fs.character.name:
-                fs.plan_json = json.dumps({k: doc[k] for k in (
-                    "footprints", "search", "character", "stages", "quality", "name", "track", "action",
-                    "frame_start", "frame_end", "waypoints", "turns_in_place", "stands", "shot") if k in doc})
+                fs.plan_json = panel_doc(doc)
         fs.last_report = f"{baked} of {len(self._jobs)} characters baked together. " + "; ".join(lines)
         self.report({"INFO"} if baked == len(self._jobs) else {"WARNING"}, fs.last_report)
         return {"FINISHED"} if baked else {"CANCELLED"}

@@ -362,6 +362,31 @@ def _goal(context):
     return planning.goal_of(context.scene, fs.goal.name if fs.goal else None)
 
 
+def route_fields(scene, waypoints, goal) -> tuple[list[str], dict, dict]:
+    """(names, pauses, arrival frames) of a route as the panel sets it: the objects of the
+    ``waypoints`` collection in the scene, in name order; each one's pause (s) where it has
+    one (name -> s); the arrival frame of each of them and of ``goal`` that asks for one
+    (name -> frame)."""
+    names = [n for n in sorted(o.name for o in waypoints.all_objects) if n in scene.objects] \
+        if waypoints is not None else []
+    objs = [scene.objects[n] for n in names]
+    pauses = {o.name: o.footstep.pause for o in objs if o.footstep.pause > 0}
+    arrive = {o.name: o.footstep.arrive for o in objs + ([goal] if goal else []) if o.footstep.use_arrive}
+    return names, pauses, arrive
+
+
+#: the report's parts the panel keeps of a bake (``plan_json``: its figures, the handles' footprints)
+PANEL_KEYS = ("footprints", "search", "character", "stages", "quality", "name", "track", "action", "frame_start",
+              "frame_end", "waypoints", "turns_in_place", "stands", "shot")
+
+
+def panel_doc(doc: dict) -> str:
+    """A bake's report as the panel keeps it (``PANEL_KEYS``), JSON."""
+    import json
+
+    return json.dumps({k: doc[k] for k in PANEL_KEYS if k in doc})
+
+
 def _via(context, goal, heading):
     """The route through the panel's Waypoints collection (objects in name order), or None;
     the overlay rings the waypoints."""
@@ -369,10 +394,7 @@ def _via(context, goal, heading):
     from .directing import via_route
 
     fs = context.scene.footstep
-    names = sorted(o.name for o in fs.waypoints.all_objects) if fs.waypoints is not None else []
-    objs = [context.scene.objects[n] for n in names] + ([fs.goal] if fs.goal else [])
-    pauses = {o.name: o.footstep.pause for o in objs[:len(names)] if o.footstep.pause > 0}
-    arrive = {o.name: o.footstep.arrive for o in objs if o.footstep.use_arrive}
+    names, pauses, arrive = route_fields(context.scene, fs.waypoints, fs.goal)
     route = via_route(context.scene, names, fs.goal.name if fs.goal else "the 3D cursor", goal, heading,
                       pauses, arrive)
     wps = route.waypoints[:-1] if route is not None else []
@@ -445,12 +467,8 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
                                   force=self.force, new_track=self.new_track)
 
     def _finish(self, context, doc):
-        import json
-
         fs = context.scene.footstep
-        fs.plan_json = json.dumps({k: doc[k] for k in ("footprints", "search", "character", "stages", "quality",
-                                                       "name", "track", "action", "frame_start", "frame_end",
-                                                       "waypoints", "turns_in_place") if k in doc})
+        fs.plan_json = panel_doc(doc)
         q, st = doc["quality"], doc["stages"]
         fs.last_report = (f"{doc['frames'] if 'frames' in doc else st['frames']} frames baked into "
                           f"{doc['track']!r}; skate {q['foot_skate']['max_mm']:.1f} mm max, goal "

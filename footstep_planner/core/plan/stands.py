@@ -64,20 +64,24 @@ def plan_round(planner: Planner, start: list[PathFootprint], plan: PlanFn) -> Pl
         way = plan(planner if best is None else replace(planner, settings=share, cost_limit=best[0]), start)
     except PlanError as ex:
         if best is None:
-            names = tuple(dict.fromkeys(others.names))
-            raise BlockedError(f"{ex}; alone it has a way there ({len(alone.footprints)} footprints) but "
-                               f"{', '.join(names) or 'the others'} block it, and standing up to "
-                               f"{max(STAND_TIMES):g} s on the way does not let them pass", ex.expanded, ex.explored,
-                               names) from None
+            raise _blocked(others, f"{ex}; alone it has a way there ({len(alone.footprints)} footprints) but {{}} "
+                           "block it", ex) from None
         return best[1]
-    if best is not None and (best[0] < way.cost or not planner.clear_in_time(way.footprints)[-1]):
+    ends_clear = planner.clear_in_time(way.footprints)[-1]  # (or it ends where another comes by later)
+    if best is not None and (best[0] < way.cost or not ends_clear):
         return best[1]
-    if not planner.clear_in_time(way.footprints)[-1]:  # (it ends where another comes by later)
-        names = tuple(dict.fromkeys(others.names))
-        raise BlockedError(f"the way there round {', '.join(names)} ends where one of them comes by later, and "
-                           f"standing up to {max(STAND_TIMES):g} s on the way does not let them pass first",
-                           way.expanded, way.explored, names)
+    if not ends_clear:
+        raise _blocked(others, "the way there round {} ends where one of them comes by later", way)
     return way
+
+
+def _blocked(others, why: str, search) -> BlockedError:
+    """The BlockedError of a plan round ``others``: ``why`` with their names put in, that
+    no stand lets them pass, and ``search``'s (a PlanError's or a PlanResult's) expanded
+    and explored footprints."""
+    names = tuple(dict.fromkeys(others.names))
+    return BlockedError(why.format(", ".join(names) or "the others") + f", and standing up to {max(STAND_TIMES):g} "
+                        "s on the way does not let them pass", search.expanded, search.explored, names)
 
 
 def _stand(planner: Planner, start, plan: PlanFn, alone: PlanResult, k: int) -> tuple[float, PlanResult] | None:

@@ -206,7 +206,8 @@ def test_a_path_that_ends_where_another_comes_by_later_is_not_clear():
     g = MeshGround(plane(-2, 12, -3, 3))
     pl = Planner(g, None, steps(), FWD, settings=FASTEST, others=others)
     path = pl.plan(standing(0, 0, EAST, FWD), np.array([3.0, 0.0, 0.0])).footprints
-    assert path[-1].time < 3.0  # (there before the passer)
+    passes = times[np.argmin(np.abs(xy[:, 1]))]  # (the animation's time the passer crosses y = 0)
+    assert path[-1].time < passes  # (the path's last footprint is stood on before that, in the same animation)
     assert not pl.clear_in_time(path)[-1]
     far = Planner(g, None, steps(), FWD, settings=FASTEST, others=_others(
         _walker("Passer", times, xy + [2.0, 0.0]), times=times))
