@@ -23,8 +23,12 @@ Before its first frame and after its last, another character stands as it stood 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
+from itertools import chain
 
 import numpy as np
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
+from scipy.spatial import cKDTree
 
 #: m: a human's half shoulder width, the radius of a body's capsule (times its size).
 BODY_RADIUS = 0.2
@@ -144,9 +148,23 @@ class Others:
     def _hips_near(self, t: np.ndarray) -> np.ndarray:
         """(N, Q, W, 3) each body's hips at the frames within ``slack`` of each time
         ``t`` (Q,) (clamped to the shot: before it and after it, as it stood)."""
+        return self.hips[:, self._window(t)]
+
+    def _window(self, t: np.ndarray) -> np.ndarray:
+        """(Q, W) the frames within ``slack`` of each time ``t`` (Q,), clamped to the shot."""
         w = int(np.ceil(self.slack / self._dt))
-        at = np.clip(self._frame(t)[:, None] + np.arange(-w, w + 1)[None, :], 0, len(self.times) - 1)
-        return self.hips[:, at]
+        return np.clip(self._frame(t)[:, None] + np.arange(-w, w + 1)[None, :], 0, len(self.times) - 1)
+
+    @cached_property
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(lo, hi) (N, F, 3): the box each body's hips keep within over the frames within
+        ``slack`` of each frame (as ``_window`` clamps them): a body whose box is further
+        than a need from a point is further than it at every one of those frames. Then
+        (all_lo, all_hi) (1, F, 3): the box of all of them."""
+        size = 2 * int(np.ceil(self.slack / self._dt)) + 1
+        lo = minimum_filter1d(self.hips, size, axis=1, mode="nearest")
+        hi = maximum_filter1d(self.hips, size, axis=1, mode="nearest")
+        return lo, hi, lo.min(axis=0, keepdims=True), hi.max(axis=0, keepdims=True)
 
     def bodies_apart(self, a: np.ndarray, b: np.ndarray, t0: np.ndarray, t1: np.ndarray, hips_z: np.ndarray,
                      radius: float, clearance: float, scale: float = 1.0) -> np.ndarray:
@@ -155,7 +173,11 @@ class Others:
         ``clearance`` m clear of every other body at points along the way no further apart
         than ``SAMPLE_SPACING`` (at its start, middle and end for a walk's step; a run's
         step or a jump at more: it passes no one between two of them), each against the
-        other bodies within ``slack`` of its time, where both are on one level."""
+        other bodies within ``slack`` of its time, where both are on one level.
+
+        Each point is first held against the box of all the bodies over that time, then
+        against each body's (``_bounds``); only a body whose box comes within reach is
+        looked at frame by frame: bodies far from the way cost one test a point."""
         k = len(a)
         if self.empty or not k:
             return np.ones(k, bool)
@@ -164,29 +186,66 @@ class Others:
         n = np.maximum(np.ceil(np.linalg.norm(d, axis=1) / (SAMPLE_SPACING * scale)).astype(np.int64), 2)
         s = np.minimum(np.arange(int(n.max()) + 1)[None, :] / n[:, None], 1.0)  # (K, S): the last repeated
         m = s.shape[1]
-        pos = a[:, None, :] + d[:, None, :] * s[..., None]  # (K, S, 2)
+        pos = (a[:, None, :] + d[:, None, :] * s[..., None]).reshape(-1, 2)  # (K*S, 2)
         t = (t0[:, None] + (t1 - t0)[:, None] * s).reshape(-1)
-        near = self._hips_near(t)  # (N, K*S, W, 3)
-        gap = np.linalg.norm(near[..., :2] - pos.reshape(-1, 2)[None, :, None, :], axis=-1)
-        level = np.abs(near[..., 2] - np.repeat(hips_z, m)[None, :, None]) < LEVEL_APART * scale
-        need = (self.radius + radius + clearance)[:, None, None]
-        hit = (level & (gap < need)).any(axis=(0, 2)).reshape(k, m)
-        return ~hit.any(axis=1)
+        z = np.repeat(np.asarray(hips_z, float), m)
+        need = self.radius + radius + clearance  # (N,)
+        level = LEVEL_APART * scale
+        lo, hi, all_lo, all_hi = self._bounds
+        at = np.clip(self._frame(t), 0, len(self.times) - 1)
+        q = np.flatnonzero(_within(all_lo[:, at], all_hi[:, at], need.max(), pos, z, level)[0])  # (near any)
+        if not len(q):
+            return np.ones(k, bool)
+        who, i = np.nonzero(_within(lo[:, at[q]], hi[:, at[q]], need[:, None], pos[q], z[q], level))
+        q = q[i]
+        if not len(q):
+            return np.ones(k, bool)
+        near = self.hips[who[:, None], self._window(t[q])]  # (P, W, 3): the bodies within reach, frame by frame
+        gap = np.linalg.norm(near[..., :2] - pos[q][:, None, :], axis=-1)
+        close = ((np.abs(near[..., 2] - z[q][:, None]) < level) & (gap < need[who][:, None])).any(axis=1)
+        hit = np.zeros(len(t), bool)
+        hit[q[close]] = True
+        return ~hit.reshape(k, m).any(axis=1)
+
+    @cached_property
+    def _print_tree(self) -> cKDTree:
+        """The footprints' middles across (``prints``), for ``feet_clear``'s nearest."""
+        return cKDTree(self.prints[:, :2])
 
     def feet_clear(self, at: np.ndarray, t0: np.ndarray, t1: np.ndarray, foot_length: float) -> np.ndarray:
         """(K,) whether a foot standing at ``at`` (K, 3) from ``t0`` to ``t1`` (K,) s keeps off
         every footprint another foot stands on at any time of it (within ``slack``):
-        their middles a foot's length apart (the longer foot's)."""
+        their middles a foot's length apart (the longer foot's). Only the footprints
+        within the longest foot's length across are looked at (``_print_tree``): a shot's
+        thousands of footprints cost a step the few near it."""
         k = len(at)
         if not len(self.prints) or not k:
             return np.ones(k, bool)
+        at = np.asarray(at, float)
         t0, t1 = self._shot(t0), self._shot(t1)
-        span = self.print_span
-        meet = (span[None, :, 0] <= (t1 + self.slack)[:, None]) & (span[None, :, 1] >= (t0 - self.slack)[:, None])
-        reach = np.maximum(self.foot_length[self.print_owner], foot_length)
-        d = np.linalg.norm(self.prints[None, :, :2] - np.asarray(at, float)[:, None, :2], axis=-1)
-        level = np.abs(self.prints[None, :, 2] - np.asarray(at, float)[:, None, 2]) < 0.5 * reach[None, :]
-        return ~(meet & level & (d < reach[None, :])).any(axis=1)
+        near = self._print_tree.query_ball_point(at[:, :2], r=max(float(self.foot_length.max()), foot_length))
+        count = np.fromiter(map(len, near), np.int64, k)
+        if not count.sum():
+            return np.ones(k, bool)
+        q = np.repeat(np.arange(k), count)
+        j = np.fromiter(chain.from_iterable(near), np.int64, int(count.sum()))
+        span, where = self.print_span[j], self.prints[j]
+        meet = (span[:, 0] <= t1[q] + self.slack) & (span[:, 1] >= t0[q] - self.slack)
+        reach = np.maximum(self.foot_length[self.print_owner[j]], foot_length)
+        d = np.linalg.norm(where[:, :2] - at[q, :2], axis=1)
+        on = meet & (np.abs(where[:, 2] - at[q, 2]) < 0.5 * reach) & (d < reach)
+        hit = np.zeros(k, bool)
+        hit[q[on]] = True
+        return ~hit
+
+
+def _within(lo: np.ndarray, hi: np.ndarray, need: np.ndarray, pos: np.ndarray, z: np.ndarray,
+            level: float) -> np.ndarray:
+    """(R, Q) whether each box ``lo``..``hi`` (R, Q, 3) comes within ``need`` (broadcast to
+    (R, Q)) m of its point ``pos`` (Q, 2) across and within ``level`` m of ``z`` (Q,) in
+    height."""
+    out = np.maximum(np.maximum(lo[..., :2] - pos[None], pos[None] - hi[..., :2]), 0.0)
+    return ((out ** 2).sum(axis=-1) < need ** 2) & (lo[..., 2] < z + level) & (hi[..., 2] > z - level)
 
 
 #: m: a body's way between two footprints is checked against the others at points no

@@ -196,6 +196,97 @@ def test_a_long_way_past_a_standing_body_is_refused_by_its_nearest_point(x, y, l
         assert not ok, (d, need)
 
 
+def _apart_frame_by_frame(others, a, b, t0, t1, hips_z, radius, clearance, scale=1.0):
+    """``bodies_apart`` the long way: every point of every way against every body at every
+    frame within the slack of its time (what the boxes only spare it)."""
+    t0, t1 = others._shot(t0), others._shot(t1)
+    n = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1) / (SAMPLE_SPACING * scale)).astype(np.int64), 2)
+    s = np.minimum(np.arange(int(n.max()) + 1)[None, :] / n[:, None], 1.0)
+    pos = a[:, None, :] + (b - a)[:, None, :] * s[..., None]
+    t = t0[:, None] + (t1 - t0)[:, None] * s
+    ok = np.ones(len(a), bool)
+    for i in range(len(a)):
+        for j in range(s.shape[1]):
+            near = others._hips_near(t[i, j:j + 1])[:, 0]  # (N, W, 3)
+            gap = np.linalg.norm(near[..., :2] - pos[i, j], axis=-1)
+            level = np.abs(near[..., 2] - hips_z[i]) < 1.2 * scale
+            if (level & (gap < (others.radius + radius + clearance)[:, None])).any():
+                ok[i] = False
+    return ok
+
+
+@hsettings(max_examples=40, deadline=None)
+@given(hs.integers(0, 2**32 - 1), hs.integers(1, 6), hs.floats(0.0, 0.6), hs.floats(0.3, 2.0))
+def test_bodies_apart_is_the_frame_by_frame_check(seed, bodies, clearance, scale):
+    """Over random bodies wandering at several heights (some moving obstacles' outline
+    points among them) and random ways at random times, before, within and after the shot
+    and on clocks shifted and stretched: ``bodies_apart`` answers exactly what checking
+    each point against each body at each frame within the slack answers."""
+    rng = np.random.default_rng(seed)
+    times = np.arange(0, 4, 1 / FPS)
+    walkers = []
+    for i in range(bodies):
+        start, v = rng.uniform(-3, 3, 2), rng.normal(0, 1.0, 2)
+        z = rng.choice([0.0, 0.0, 0.8, 1.5])
+        walkers.append(_walker(f"W{i}", times, start + np.outer(times, v), z=z, radius=rng.uniform(0.05, 0.3)))
+    others = _others(*walkers, times=times)
+    if rng.random() < 0.5:
+        pts = rng.uniform(-2, 2, (5, 1, 3)) + np.outer(times, rng.normal(0, 0.5, 3))[None]
+        pts[..., 2] = rng.uniform(0, 2)
+        others = others.with_movers(["Cart"] * 5, pts, 0.05)
+    others = others.on_clock(rng.uniform(-1, 1), rng.uniform(0.5, 2.0)).widened(rng.uniform(0.5, 3.0))
+    k = 25
+    a = rng.uniform(-3, 3, (k, 2))
+    t0 = rng.uniform(-2, 6, k)
+    near = rng.random(k) < 0.5  # (half the ways set off beside a body where it is then)
+    frame = np.clip(others._frame(others._shot(t0)), 0, len(times) - 1)
+    a[near] = others.hips[rng.integers(0, len(others.hips), near.sum()), frame[near], :2] + rng.normal(0, 0.4, (near.sum(), 2))
+    b = a + rng.normal(0, 0.8, (k, 2))
+    t1 = t0 + rng.uniform(0, 0.8, k)
+    z = rng.choice([0.0, 0.8, 1.5], k) + HIPS_HEIGHT
+    got = others.bodies_apart(a, b, t0, t1, z, BODY_RADIUS, clearance, scale)
+    want = _apart_frame_by_frame(others, a, b, t0, t1, z, BODY_RADIUS, clearance, scale)
+    assert (got == want).all(), np.nonzero(got != want)
+
+
+@hsettings(max_examples=40, deadline=None)
+@given(hs.integers(0, 2**32 - 1), hs.integers(1, 5), hs.floats(0.15, 0.35))
+def test_feet_clear_is_the_check_of_every_footprint(seed, bodies, foot):
+    """Over random walkers planting their feet at random (several heights, feet of several
+    lengths) and random feet at random times on shifted clocks: ``feet_clear`` answers
+    what holding each foot against every footprint of the shot answers."""
+    rng = np.random.default_rng(seed)
+    times = np.arange(0, 4, 1 / FPS)
+    walkers, feet = [], []
+    for i in range(bodies):
+        z = rng.choice([0.0, 0.0, 0.3, 1.5])
+        walkers.append(_walker(f"W{i}", times, rng.uniform(-2, 2, 2) + np.outer(times, rng.normal(0, 0.5, 2)), z=z))
+        for k in (0, 1):
+            for a in rng.integers(0, len(times), 3):
+                feet.append((i, k, slice(a, a + int(rng.integers(1, 20))), [*rng.uniform(-2, 2, 2), z]))
+    names, hips, radius, soles, planted = zip(*walkers)
+    soles, planted = np.array(soles), np.array(planted)
+    for n, k, frames, at in feet:
+        soles[n, k, frames], planted[n, k, frames] = at, True
+    others = Others.of(names, times, np.array(hips), np.array(radius), soles, planted,
+                       rng.uniform(0.2, 0.3, bodies)).on_clock(rng.uniform(-1, 1), rng.uniform(0.5, 2.0))
+    k = 40
+    pick = rng.integers(0, len(others.prints), k)
+    at = others.prints[pick] + np.c_[rng.normal(0, 0.25, (k, 2)), np.zeros(k)]
+    at[::4, 2] += rng.choice([0.0, 0.3, 1.5], len(at[::4]))
+    t0 = rng.uniform(-1, 5, k)
+    t1 = t0 + rng.uniform(0, 1.0, k)
+    got = others.feet_clear(at, t0, t1, foot)
+    s0, s1 = others._shot(t0), others._shot(t1)
+    span = others.print_span
+    reach = np.maximum(others.foot_length[others.print_owner], foot)
+    want = np.array([not any(span[j, 0] <= s1[i] + others.slack and span[j, 1] >= s0[i] - others.slack
+                             and abs(others.prints[j, 2] - at[i, 2]) < 0.5 * reach[j]
+                             and np.linalg.norm(others.prints[j, :2] - at[i, :2]) < reach[j]
+                             for j in range(len(span))) for i in range(k)])
+    assert (got == want).all(), np.nonzero(got != want)
+
+
 def test_a_path_that_ends_where_another_comes_by_later_is_not_clear():
     """A path whose last footprint is clear when it arrives, but where another walks through
     a second later (a bake holds its last pose: the character stands there): its last
