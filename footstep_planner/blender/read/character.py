@@ -19,9 +19,10 @@ from ...core.clips.library import Library, LibraryError, SpecialClip, TurnGroup,
 from ...core.clips.mirror import MIRRORED_KINDS, MirrorError, is_mirror, mirrored_jumps, mirrored_name
 from ...core.clips.clip import SIDES, ClipMotion, clip_motion
 from ...core.clips.rig import Rig, RigError, forward_kinematics
+from ...core.base.memo import Memo, digest
 from ...core.base.settings import Settings
-from .scene import (SOURCE_FPS_PROP, action_frame_range, armature_actions, clip_from_action, rig_from_armature,
-                    sample_basis, scene_fps)
+from .scene import (SOURCE_FPS_PROP, action_digest, action_frame_range, armature_actions, clip_from_action,
+                    object_scale, rig_from_armature, sample_basis, scene_fps)
 
 
 @dataclass
@@ -98,19 +99,53 @@ def _add_mirrors(ob, result: CharacterClips) -> None:
 CHUNK = 4096
 
 
+#: Clips read from their actions in this process (``read_clip``), by what their samples are
+#: made of: the action's keys (``scene.action_digest``), the rig, the bones' rotation modes,
+#: the object's scale and the frames. A re-bake, a re-plan or the next job of a batch (the
+#: same character, or another with the same rig and clips) reads each clip once while its
+#: keys are unchanged; a clip whose keys do not tell its pose alone (curve modifiers,
+#: several slots) and a Rigify rig's (read through the depsgraph, its own memo) are read
+#: each time. Their arrays are kept read only.
+_READ = Memo(kept=64, max_bytes=256 << 20)
+
+
 def read_clip(ob, action, rig: Rig, fps: float | None = None) -> ClipMotion:
     """``action`` on armature ``ob`` sampled at ``fps`` (default: the scene's rate) over its
     frame range, as ``scene.clip_from_action`` gives it; a clip longer than ``CHUNK``
-    samples is read a chunk at a time (``_chunked_clip``), to the same result."""
+    samples is read a chunk at a time (``_chunked_clip``), to the same result. Read once
+    while what it is made of is unchanged (``_READ``)."""
     from .. import rigify
 
     sfps = scene_fps()
     step = sfps / float(fps or sfps)
     start, end = action_frame_range(action)
     frames = start + step * np.arange(int(round((end - start) / step)) + 1)
-    if len(frames) <= CHUNK or rigify.is_rigify(ob):
+    if rigify.is_rigify(ob):
         return clip_from_action(ob, action, rig, fps=fps)
-    return _chunked_clip(ob, action, rig, frames, float(fps or sfps))
+    key = _read_key(ob, action, rig, frames, float(fps or sfps), sfps)
+    motion = None if key is None else _READ.get(key)
+    if motion is None:
+        motion = (clip_from_action(ob, action, rig, fps=fps) if len(frames) <= CHUNK
+                  else _chunked_clip(ob, action, rig, frames, float(fps or sfps)))
+        if key is not None:
+            _READ.put(key, motion)
+    return motion
+
+
+def _read_key(ob, action, rig: Rig, frames: np.ndarray, fps: float, sfps: float):
+    """What ``read_clip``'s samples of ``action`` on ``ob`` are made of, or None where the
+    action's keys do not tell its pose alone."""
+    keys = action_digest(action)
+    if keys is None:
+        return None
+    modes = tuple((pb.name, pb.rotation_mode) for pb in ob.pose.bones)
+    return keys, digest(rig, modes, object_scale(ob), frames, fps, sfps)
+
+
+def forget_read_clips() -> None:
+    """Forget every clip ``read_clip`` kept (each is then read afresh): for a benchmark that
+    times the reading itself."""
+    _READ.clear()
 
 
 def _chunked_clip(ob, action, rig: Rig, frames: np.ndarray, fps: float) -> ClipMotion:

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from footstep_planner.core.base.memo import Memo, freeze
+from footstep_planner.core.base.memo import Memo, digest, freeze
 from footstep_planner.core.base.settings import Settings
 from footstep_planner.core.clips import analysis
 from footstep_planner.core.clips.analysis import AnalysisError, _analyze_clip, analyze_clip, motion_digest
@@ -99,3 +99,21 @@ def test_a_refusal_is_given_again_as_a_refusal():
             analyze_clip(short)
     assert short.name in str(err.value)
     assert len(analysis._ANALYSED) <= analysis._ANALYSED.kept
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(-1e3, 1e3, allow_nan=False), min_size=1, max_size=30), st.integers(0, 29),
+       st.sampled_from(["float64", "float32"]))
+def test_a_digest_tells_values_by_what_they_hold(values, at, dtype):
+    """Equal values (other objects) have one digest; a changed number, shape, type, field or
+    order gives another."""
+    a = np.array(values, dtype)
+    held = _Held(a, [a.reshape(1, -1), {"k": (1, "x")}])
+    assert digest(held, 2.0) == digest(_Held(a.copy(), [a.copy().reshape(1, -1), {"k": (1, "x")}]), 2.0)
+    changed = a.copy()
+    changed[at % len(a)] += 1.0
+    others = [_Held(changed, held.parts), _Held(a, [a.reshape(-1, 1) if len(a) > 1 else a, {"k": (1, "x")}]),
+              _Held(a.astype("float16" if dtype == "float32" else "float32"), held.parts),
+              _Held(a, [a.reshape(1, -1), {"k": (2, "x")}])]
+    assert all(digest(o, 2.0) != digest(held, 2.0) for o in others)
+    assert digest(held, 2.0) != digest(2.0, held) and digest(held, 2.0) != digest(held, 2)
