@@ -306,18 +306,31 @@ def clip_from_action(ob, action, rig: Rig | None = None, fps: float | None = Non
 #: unchanged (the latest kept).
 _RIGIFY_CLIPS = Memo(kept=32, max_bytes=256 << 20)
 
+def _interpolations() -> dict[str, int]:
+    """Keyframe interpolation names to the numbers ``foreach_get`` reads (from Blender's own
+    enum: they are not in the order the interface lists them)."""
+    return {i.identifier: i.value for i in bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items}
+
+
+_INTERP = _interpolations()
 #: The keyframe fields a curve's value at a time depends on, read with ``foreach_get``
-#: (name, values per key): where each key is, its handles, its interpolation and easing,
-#: and the Back and Elastic interpolations' shapes.
-_KEY_FIELDS = (("co", 2), ("handle_left", 2), ("handle_right", 2), ("interpolation", 1), ("easing", 1),
-               ("back", 1), ("amplitude", 1), ("period", 1))
+#: (name, values per key, the interpolations they shape; None: every one): where each key
+#: is and its interpolation; its handles where a key is Bezier; its easing where one eases
+#: (neither constant, linear nor Bezier); the Back and Elastic interpolations' shapes where
+#: a key has them.
+_KEY_FIELDS = (("co", 2, None), ("interpolation", 1, None),
+               ("handle_left", 2, {_INTERP["BEZIER"]}), ("handle_right", 2, {_INTERP["BEZIER"]}),
+               ("easing", 1, set(_INTERP.values()) - {_INTERP[n] for n in ("CONSTANT", "LINEAR", "BEZIER")}),
+               ("back", 1, {_INTERP["BACK"]}), ("amplitude", 1, {_INTERP["ELASTIC"]}),
+               ("period", 1, {_INTERP["ELASTIC"]}))
 
 
 def action_digest(action) -> str | None:
     """A digest of what ``action``'s pose at any time is made of: its frame range, and each
-    of its curves' path, index, muting, extrapolation and keys (``_KEY_FIELDS``); None for
-    an action whose pose its keys alone do not tell (curve modifiers, several slots,
-    layers or strips), which is then read again each time."""
+    of its curves' path, index, muting, extrapolation and keys (``_KEY_FIELDS``: of a
+    linear curve, where its keys are); None for an action whose pose its keys alone do not
+    tell (curve modifiers, several slots, layers or strips), which is then read again each
+    time."""
     if len(action.slots) > 1 or len(action.layers) > 1 or any(len(ly.strips) > 1 for ly in action.layers):
         return None
     h = hashlib.sha1(repr((action.name, action.use_frame_range, tuple(action.frame_range), action.use_cyclic,
@@ -331,10 +344,15 @@ def action_digest(action) -> str | None:
                     n = len(fc.keyframe_points)
                     group_mute = fc.group is not None and fc.group.mute
                     h.update(repr((fc.data_path, fc.array_index, fc.mute, group_mute, fc.extrapolation, n)).encode())
-                    for attr, k in _KEY_FIELDS:
-                        buf = np.empty(n * k, np.float32)
+                    used = set()
+                    for attr, k, shapes in _KEY_FIELDS:
+                        if shapes is not None and not used & shapes:
+                            continue
+                        buf = np.empty(n * k, np.int32 if attr == "interpolation" else np.float32)
                         fc.keyframe_points.foreach_get(attr, buf)
                         h.update(buf.tobytes())
+                        if attr == "interpolation":
+                            used = set(np.unique(buf).tolist())
     return h.hexdigest()
 
 

@@ -31,10 +31,10 @@ def _same(a, b) -> bool:
                else getattr(a, f.name) == getattr(b, f.name) for f in fields(a))
 
 
-def _fresh(fp, ob, act, rig):
+def _fresh(fp, ob, act, rig, fps=None):
     character = _mods(fp)[0]
     character.forget_read_clips()
-    return character.read_clip(ob, act, rig)
+    return character.read_clip(ob, act, rig, fps=fps)
 
 
 def _walk(ob):
@@ -76,6 +76,31 @@ def test_an_edited_key_a_rotation_mode_a_rig_a_scale_or_a_rate_reads_afresh(fp):
         not np.array_equal(edited.root_pos, first.root_pos) or not np.array_equal(edited.hips_in_root, first.hips_in_root)
     assert _same(edited, _fresh(fp, ob, act, rig))
     kp.co[1] -= 0.05
+
+    # the keys of a curve made Bezier, then one handle moved, then eased: each reads afresh
+    # (a linear curve's digest reads only where its keys are; a Bezier one's its handles too),
+    # read at twice the keys' rate: between them, where handles and easing shape the curve
+    linear = character.read_clip(ob, act, rig, fps=60.0)
+    fc = next(fc for ly in act.layers for st in ly.strips for cb in st.channelbags for fc in cb.fcurves
+              if "rotation_quaternion" in fc.data_path and fc.array_index == 1 and np.ptp([k.co[1] for k in fc.keyframe_points]) > 0.05)
+    for k in fc.keyframe_points:
+        k.interpolation = "BEZIER"
+    bezier = character.read_clip(ob, act, rig, fps=60.0)
+    assert bezier is not linear and _same(bezier, _fresh(fp, ob, act, rig, fps=60.0))
+    kp = fc.keyframe_points[len(fc.keyframe_points) // 3]
+    kp.handle_right_type = "FREE"
+    kp.handle_right[1] += 0.5
+    handled = character.read_clip(ob, act, rig, fps=60.0)
+    assert handled is not bezier and not np.array_equal(handled.local_rot, bezier.local_rot)
+    assert _same(handled, _fresh(fp, ob, act, rig, fps=60.0))
+    for k in fc.keyframe_points:
+        k.interpolation = "QUAD"
+    quad = character.read_clip(ob, act, rig, fps=60.0)
+    kp.easing = "EASE_IN"
+    eased = character.read_clip(ob, act, rig, fps=60.0)
+    assert eased is not quad and _same(eased, _fresh(fp, ob, act, rig, fps=60.0))
+    for k in fc.keyframe_points:
+        k.interpolation = "LINEAR"
 
     # another rotation mode on a bone the action keys in quaternions: its keys no longer apply
     base = character.read_clip(ob, act, rig)
