@@ -28,10 +28,17 @@ import numpy as np
 
 from .roles import RoleMapping, map_roles
 from ..base.errors import FootstepError
+from ..base.memo import Memo, digest
 
 
 class RigError(FootstepError):
     """A rig that cannot be used; the message names the armature and the bones at fault."""
+
+
+#: Rigs built in this process (``Rig.build``), by their name, bones, rest and role
+#: overrides: a character read again (each job of a shot reads every other character's
+#: rig, a re-plan its own) is given the rig built the first time, its arrays read only.
+_BUILT = Memo(kept=256)
 
 
 @dataclass(frozen=True)
@@ -69,6 +76,15 @@ class Rig:
         tails = np.asarray(tails, dtype=np.float64).reshape(-1, 3)
         if not (len(names) == len(parents) == len(rest) == len(tails)):
             raise RigError(f"armature {name!r}: inconsistent bone arrays")
+        key = digest(name, names, parents, rest, tails, dict(overrides or {}))
+        built = _BUILT.get(key)
+        if built is None:
+            built = _BUILT.put(key, Rig._build(name, names, parents, rest, tails, overrides))
+        return built
+
+    @staticmethod
+    def _build(name, names, parents, rest, tails, overrides) -> "Rig":
+        """``build``'s work, on its arrays."""
         own_order = topological_order(parents)
         roles = map_roles(names, parents, rest[:, :3, 3], tails, overrides=overrides)
         plan = planner_parents(names, parents, roles)
