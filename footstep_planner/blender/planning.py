@@ -313,14 +313,22 @@ def measure(scene, ob, planned: Planned, solved: Solved, timing: report.BakeTimi
     if others or movers:
         me = crowd.body_of(ob.name, rig, world, fps)
     if others:  # (the other characters baked in the scene, played in the same frames)
-        quality["others"] = [crowd.pair_figures(me, crowd.body_of(o.name, r, baking.played_world(*m), fps),
-                                                timing.frame_start) for (o, r), m in zip(others, played_all[1:])]
+        quality["others"] = [crowd.pair_figures(me, crowd.body_of(o.name, r, _world_of(shot, o, timing.frame_start, m),
+                                                                 fps), timing.frame_start)
+                             for (o, r), m in zip(others, played_all[1:])]
     if movers:  # (obstacles whose transform changes over the bake: planned where they stood)
         depsgraph = bpy.context.evaluated_depsgraph_get()
         quality["moving_obstacles"] = [
             crowd.obstacle_figures(me, o.name, BvhGround(local_mesh(o.name, o.evaluated_get(depsgraph))), m,
                                    timing.frame_start) for o, m in movers]
     return quality
+
+
+def _world_of(shot, ob, frame_start: int, m) -> np.ndarray:
+    """(F, B, 4, 4) the world matrices of ``ob``'s bones as played in ``m`` (its
+    ``played_matrices`` from ``frame_start``); in a ``together.Shot``, its own (once closed,
+    made once from its one pass for every job measured against ``ob``)."""
+    return baking.played_world(*m) if shot is None else shot.played_world(ob, frame_start, m)
 
 
 def other_characters(scene, ob) -> list:

@@ -34,6 +34,7 @@ class Shot:
         self._obstacles: dict = {}  # the obstacles the jobs named (names, in order)
         self._passes: dict[tuple, tuple] = {}  # (first frame, characters, objects) -> (frames, matrices)
         self._final = None
+        self._worlds: dict[int, object] = {}  # object pointer -> its bones' world matrices over the one pass
         #: (lead s, rate): the search's clock the shot's last synthesis kept (``others.fit_clock``),
         #: which the next job's search starts on (a job's own re-plans then fit its own)
         self.clock: tuple | None = None
@@ -74,8 +75,24 @@ class Shot:
         frames = self.last_frame() - first + 1
         objects = tagged_objects(self.scene, (), tuple(self._obstacles))[1]
         played, moved = baking.played_matrices(self.scene, characters, first, frames, objects)
+        self._worlds.clear()
         self._final = (first, frames, {ob.as_pointer(): m for (ob, _), m in zip(characters, played)},
                        {ob.as_pointer(): m for ob, m in zip(objects, moved)})
+
+    def played_world(self, ob, frame_start: int, m):
+        """``bake.played_world`` of ``ob``'s ``m`` (its ``played_matrices`` from
+        ``frame_start``): once closed, of the one pass, made once for every job measured
+        against ``ob`` and given over each job's frames."""
+        frame_start, frames = int(frame_start), len(m[0])
+        if self._final is not None and ob.as_pointer() in self._final[2]:
+            first, length, chars, _ = self._final
+            a = frame_start - first
+            if 0 <= a and a + frames <= length:
+                world = self._worlds.get(ob.as_pointer())
+                if world is None:
+                    world = self._worlds[ob.as_pointer()] = baking.played_world(*chars[ob.as_pointer()])
+                return world[a:a + frames]
+        return baking.played_world(*m)
 
     def played_matrices(self, scene, characters, frame_start: int, frames: int, objects=()) -> tuple[list, list]:
         """``bake.played_matrices`` of these in ``scene`` (the shot's), from the shot's one pass where it holds them all
