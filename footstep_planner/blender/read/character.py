@@ -101,9 +101,9 @@ CHUNK = 4096
 
 #: Clips read from their actions in this process (``read_clip``), by what their samples are
 #: made of: the action's keys (``scene.action_digest``), the rig, the bones' rotation modes,
-#: the object's scale and the frames. A re-bake, a re-plan or the next job of a batch (the
-#: same character, or another with the same rig and clips) reads each clip once while its
-#: keys are unchanged; a clip whose keys do not tell its pose alone (curve modifiers,
+#: the object's scale and the frames, not the action's name. A re-bake, a re-plan or the
+#: next job of a batch (the same character, or another with the same rig and clips under
+#: other names: each its own name) reads each clip once while its keys are unchanged; a clip whose keys do not tell its pose alone (curve modifiers,
 #: several slots) and a Rigify rig's (read through the depsgraph, its own memo) are read
 #: each time. Their arrays are kept read only.
 _READ = Memo(kept=64, max_bytes=256 << 20)
@@ -129,7 +129,7 @@ def read_clip(ob, action, rig: Rig, fps: float | None = None) -> ClipMotion:
                   else _chunked_clip(ob, action, rig, frames, float(fps or sfps)))
         if key is not None:
             _READ.put(key, motion)
-    return motion
+    return motion if motion.name == action.name else replace(motion, name=action.name)
 
 
 def _read_key(ob, action, rig: Rig, frames: np.ndarray, fps: float, sfps: float):

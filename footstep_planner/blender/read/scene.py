@@ -326,14 +326,14 @@ _KEY_FIELDS = (("co", 2, None), ("interpolation", 1, None),
 
 
 def action_digest(action) -> str | None:
-    """A digest of what ``action``'s pose at any time is made of: its frame range, and each
-    of its curves' path, index, muting, extrapolation and keys (``_KEY_FIELDS``: of a
-    linear curve, where its keys are); None for an action whose pose its keys alone do not
+    """A digest of what ``action``'s pose at any time is made of (not its name): its frame
+    range, and each of its curves' path, index, muting, extrapolation and keys
+    (``_KEY_FIELDS``: of a linear curve, where its keys are); None for an action whose pose its keys alone do not
     tell (curve modifiers, several slots, layers or strips), which is then read again each
     time."""
     if len(action.slots) > 1 or len(action.layers) > 1 or any(len(ly.strips) > 1 for ly in action.layers):
         return None
-    h = hashlib.sha1(repr((action.name, action.use_frame_range, tuple(action.frame_range), action.use_cyclic,
+    h = hashlib.sha1(repr((action.use_frame_range, tuple(action.frame_range), action.use_cyclic,
                            action.get(SOURCE_FPS_PROP))).encode())
     for layer in action.layers:
         for strip in layer.strips:

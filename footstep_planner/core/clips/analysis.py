@@ -194,25 +194,28 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
     s = (settings or Settings()).for_body(motion.body_scale)
     key = (motion_digest(motion), s)
     kept = _ANALYSED.get(key)
-    if kept is None:
-        try:
+    if kept is None or (isinstance(kept[0], AnalysisError) and kept[2] != motion.name):
+        try:  # (a refusal names its clip: another name's is made again)
             made = _analyze_clip(motion, s)
         except AnalysisError as ex:
             made = ex
         # (a travelling clip's analysis holds the very motion it was given: each caller's own)
         own = isinstance(made, ClipAnalysis) and made.motion is motion
-        kept = _ANALYSED.put(key, (replace(made, motion=None) if own else made, own))
-    made, own = kept
+        kept = _ANALYSED.put(key, (replace(made, motion=None) if own else made, own, motion.name))
+    made, own, name = kept
     if isinstance(made, AnalysisError):
         raise AnalysisError(str(made))
-    return replace(made, motion=motion) if own else made
+    if own:
+        return replace(made, name=motion.name, motion=motion)
+    return made if name == motion.name else replace(made, name=motion.name, motion=replace(made.motion, name=motion.name))
 
 
 #: Clips analysed in this process, by their samples (``motion_digest``) and the settings:
-#: a re-plan, a re-bake or the next job of a batch of one character is given the same
-#: analyses (their arrays read only; a travelling clip's with the caller's own motion) or
-#: the same refusal. At most this many, and this many bytes of their arrays (a 1,000-sample
-#: clip of a 30-bone rig is about 2.5 MB).
+#: a re-plan, a re-bake or the next job of a batch of one character (or of another with
+#: the same clips under other names: each named as its clip) is given the same analyses
+#: (their arrays read only; a travelling clip's with the caller's own motion) or the same
+#: refusal. At most this many, and this many bytes of their arrays (a 1,000-sample clip of
+#: a 30-bone rig is about 2.5 MB).
 _ANALYSED = Memo(kept=128, max_bytes=512 << 20)
 
 
@@ -223,10 +226,13 @@ def forget_analyses() -> None:
 
 
 def motion_digest(motion: ClipMotion) -> str:
-    """A digest of everything of ``motion`` that its analysis reads: its name, rates and
-    sizes, and every array's values, shape and type."""
+    """A digest of everything of ``motion`` that its analysis reads but its name (a label:
+    a clip of another name is the same clip): its rates and sizes, and every array's
+    values, shape and type."""
     h = hashlib.sha1()
     for f in fields(motion):
+        if f.name == "name":
+            continue
         v = getattr(motion, f.name)
         if isinstance(v, np.ndarray):
             h.update(repr((f.name, v.shape, v.dtype.str)).encode())

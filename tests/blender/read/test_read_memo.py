@@ -149,3 +149,21 @@ def test_another_rig_under_the_same_name_reads_its_own_clip(fp):
     after = character.read_clip(ob, bpy.data.actions[name], longer)
     assert after is not before and _same(after, _fresh(fp, ob, bpy.data.actions[name], longer))
     assert not np.allclose(after.heel, before.heel)
+
+
+def test_a_copy_of_a_clip_under_another_name_reads_as_the_clip_under_its_own_name(fp):
+    """Another character's copy of a clip (the same keys, another action's name) is given
+    the clip read before, named as its own action."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    character = _mods(fp)[0]
+    ob, rig = _mannequin(fp)
+    act = _walk(ob)
+    first = character.read_clip(ob, act, rig)
+    copy = act.copy()
+    copy.name = "another character's walk"
+    again = character.read_clip(ob, copy, rig)
+    assert again.name == copy.name and first.name == act.name
+    fresh = _fresh(fp, ob, copy, rig)
+    assert fresh.name == copy.name and _same(again, fresh)

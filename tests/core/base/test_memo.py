@@ -117,3 +117,23 @@ def test_a_digest_tells_values_by_what_they_hold(values, at, dtype):
               _Held(a, [a.reshape(1, -1), {"k": (2, "x")}])]
     assert all(digest(o, 2.0) != digest(held, 2.0) for o in others)
     assert digest(held, 2.0) != digest(2.0, held) and digest(held, 2.0) != digest(held, 2)
+
+
+def test_a_clip_under_another_name_is_given_the_analysis_under_its_own_name():
+    """The same samples under another name (another character's copy of a clip) are given
+    the kept analysis, named as they are (its motion too); a refusal names its own clip."""
+    for motion in _gaits():
+        first = analyze_clip(motion)
+        other = replace(motion, name=motion.name + " (copy)")
+        again = analyze_clip(other)
+        assert again.name == other.name and again.motion.name == other.name
+        assert _same(replace(again, name=first.name, motion=None), replace(first, motion=None))
+        assert first.name == motion.name  # (the first caller's is left as it was)
+    motion = synthetic_gait()[0]
+    short = replace(motion, times=motion.times[:20], root_pos=motion.root_pos[:20],
+                    root_heading=motion.root_heading[:20], hips_in_root=motion.hips_in_root[:20],
+                    local_rot=motion.local_rot[:20], heel=motion.heel[:, :20], toe=motion.toe[:, :20])
+    for name in ("first take", "second take", "first take"):
+        with pytest.raises(AnalysisError) as err:
+            analyze_clip(replace(short, name=name))
+        assert repr(name) in str(err.value) and ("second" in name) == ("second" in str(err.value))
