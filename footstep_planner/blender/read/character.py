@@ -139,7 +139,7 @@ def _read_key(ob, action, rig: Rig, frames: np.ndarray, fps: float, sfps: float)
     if keys is None:
         return None
     modes = tuple((pb.name, pb.rotation_mode) for pb in ob.pose.bones)
-    return keys, digest(rig, modes, object_scale(ob), frames, fps, sfps)
+    return keys, digest(replace(rig, name=""), modes, object_scale(ob), frames, fps, sfps)  # (the rig's name: a label)
 
 
 def forget_read_clips() -> None:

@@ -149,9 +149,10 @@ def pair_figures(a: PlayedBody, b: PlayedBody, frame_start: int) -> dict:
     i = int(np.argmin(between))
     reach = max(a.foot_length, b.foot_length)
     shared = np.zeros(len(between), bool)
+    sa, sb = a.soles, b.soles
     for ka in range(2):
         for kb in range(2):
-            near = np.linalg.norm(a.soles[ka, :, :2] - b.soles[kb, :, :2], axis=-1) < reach
+            near = np.linalg.norm(sa[ka, :, :2] - sb[kb, :, :2], axis=-1) < reach
             shared |= near & a.planted[ka] & b.planted[kb]
     on = np.flatnonzero(shared)
     return {"character": b.name,

@@ -20,7 +20,7 @@ def _mannequin(fp, name="Footstep Mannequin"):
     character, scene, man = _mods(fp)
     ob, _ = man.build(bpy.context.scene.collection)
     acts = man.generate_clips(ob)
-    ob["walk"] = next(a.name for a in acts if a.name.lower().endswith("walk"))
+    ob["walk"] = acts[0].name  # (the walk: the library's first; a second character's "walk.001")
     return ob, scene.rig_from_armature(ob)
 
 
@@ -167,3 +167,20 @@ def test_a_copy_of_a_clip_under_another_name_reads_as_the_clip_under_its_own_nam
     assert again.name == copy.name and first.name == act.name
     fresh = _fresh(fp, ob, copy, rig)
     assert fresh.name == copy.name and _same(again, fresh)
+
+
+def test_a_second_character_with_the_same_clips_is_given_the_clips_read_for_the_first(fp):
+    """Two characters of one rig with their own copies of one clip library (each its own
+    armature, object name and actions): the second's clips are the first's read, named as
+    its own, and what a fresh read of its own gives."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    character = _mods(fp)[0]
+    ob, rig = _mannequin(fp)
+    first = character.read_clip(ob, _walk(ob), rig)
+    other, other_rig = _mannequin(fp)
+    assert other.name != ob.name and _walk(other) != _walk(ob)
+    second = character.read_clip(other, _walk(other), other_rig)
+    assert second.name == _walk(other).name and np.shares_memory(second.local_rot, first.local_rot)
+    assert _same(second, _fresh(fp, other, _walk(other), other_rig))
