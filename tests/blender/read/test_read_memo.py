@@ -184,3 +184,33 @@ def test_a_second_character_with_the_same_clips_is_given_the_clips_read_for_the_
     second = character.read_clip(other, _walk(other), other_rig)
     assert second.name == _walk(other).name and np.shares_memory(second.local_rot, first.local_rot)
     assert _same(second, _fresh(fp, other, _walk(other), other_rig))
+
+
+def test_an_actions_digest_tells_what_shapes_its_curves_and_not_its_name(fp):
+    """``scene.action_digest`` (the key of the clips kept): another value, a Bezier key's
+    handle, an eased key's easing each give another digest; a linear key's handle (which
+    shapes nothing) and the action's name do not."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = _mods(fp)[1]
+    ob, _ = _mannequin(fp)
+    act = _walk(ob)
+    fc = next(fc for ly in act.layers for st in ly.strips for cb in st.channelbags for fc in cb.fcurves)
+    kp = fc.keyframe_points[1]
+    digests = [scene.action_digest(act)]
+    kp.handle_right_type = "FREE"
+    kp.handle_right[1] += 0.5  # (a linear key's handle: nothing changes)
+    act.name = "renamed walk"
+    assert scene.action_digest(act) == digests[0]
+    kp.interpolation = "BEZIER"
+    digests.append(scene.action_digest(act))
+    kp.handle_right[1] += 0.5
+    digests.append(scene.action_digest(act))
+    kp.interpolation = "QUAD"
+    digests.append(scene.action_digest(act))
+    kp.easing = "EASE_IN"
+    digests.append(scene.action_digest(act))
+    kp.co[1] += 0.01
+    digests.append(scene.action_digest(act))
+    assert len(set(digests)) == len(digests), digests
