@@ -35,7 +35,6 @@ def main():
     from footstep_planner.blender import planning
     from footstep_planner.blender.read.clips import import_clips
     from footstep_planner.blender.sample.sample_scenes import _box, _collection, _marker, _prism, build
-    from footstep_planner.blender.read.character import forget_read_clips
     from footstep_planner.core.clips.analysis import forget_analyses
 
     register()
@@ -49,8 +48,7 @@ def main():
 
     def run(sc, ob):
         goal = np.array(sc.objects["Goal"].location)
-        forget_analyses()  # (the setup as a character's first plan: its clips read and analysed afresh)
-        forget_read_clips()
+        forget_analyses()  # (the setup as a character's first plan: its clips analysed afresh)
         t = time.perf_counter()
         setup = planning.plan_setup(sc, ob)
         t_setup = time.perf_counter() - t

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-import bpy
 import numpy as np
 
 from ...core.clips.analysis import AnalysisError, ClipAnalysis, analyze_clip
@@ -20,10 +19,9 @@ from ...core.clips.library import Library, LibraryError, SpecialClip, TurnGroup,
 from ...core.clips.mirror import MIRRORED_KINDS, MirrorError, is_mirror, mirrored_jumps, mirrored_name
 from ...core.clips.clip import SIDES, ClipMotion, clip_motion
 from ...core.clips.rig import Rig, RigError, forward_kinematics
-from ...core.base.memo import Memo, digest
 from ...core.base.settings import Settings
-from .scene import (SOURCE_FPS_PROP, action_digest, action_frame_range, armature_actions, clip_from_action,
-                    object_scale, rig_from_armature, sample_basis, scene_fps)
+from .scene import (SOURCE_FPS_PROP, action_frame_range, armature_actions, clip_from_action, rig_from_armature,
+                    sample_basis, scene_fps)
 
 
 @dataclass
@@ -100,76 +98,21 @@ def _add_mirrors(ob, result: CharacterClips) -> None:
 CHUNK = 4096
 
 
-#: Clips read from their actions in this process (``read_clip``), by what their samples are
-#: made of: the action's keys (``scene.action_digest``), the rig, the bones' rotation modes,
-#: the object's scale and the frames, not the action's name. A re-bake, a re-plan or the
-#: next job of a batch (the same character, or another with the same rig and clips under
-#: other names: each its own name) reads each clip once while its keys are unchanged,
-#: where keeping it pays (``_worth_keeping``: linear keys no denser than the samples); a clip whose keys do not tell its pose alone (curve modifiers,
-#: several slots) and a Rigify rig's (read through the depsgraph, its own memo) are read
-#: each time. Their arrays are kept read only.
-_READ = Memo(kept=64, max_bytes=256 << 20)
-
-
 def read_clip(ob, action, rig: Rig, fps: float | None = None) -> ClipMotion:
     """``action`` on armature ``ob`` sampled at ``fps`` (default: the scene's rate) over its
     frame range, as ``scene.clip_from_action`` gives it; a clip longer than ``CHUNK``
-    samples is read a chunk at a time (``_chunked_clip``), to the same result. Read once
-    while what it is made of is unchanged (``_READ``)."""
+    samples is read a chunk at a time (``_chunked_clip``), to the same result. (Read each
+    time: a digest of its keys costs about what the read does; its analysis is kept by its
+    samples, ``core.clips.analysis.analyze_clip``.)"""
     from .. import rigify
 
     sfps = scene_fps()
     step = sfps / float(fps or sfps)
     start, end = action_frame_range(action)
     frames = start + step * np.arange(int(round((end - start) / step)) + 1)
-    if rigify.is_rigify(ob):
+    if len(frames) <= CHUNK or rigify.is_rigify(ob):
         return clip_from_action(ob, action, rig, fps=fps)
-    key = _read_key(ob, action, rig, frames, float(fps or sfps), sfps)
-    motion = None if key is None else _READ.get(key)
-    if motion is None:
-        motion = (clip_from_action(ob, action, rig, fps=fps) if len(frames) <= CHUNK
-                  else _chunked_clip(ob, action, rig, frames, float(fps or sfps)))
-        if key is not None:
-            _READ.put(key, motion)
-    return motion if motion.name == action.name else replace(motion, name=action.name)
-
-
-def _read_key(ob, action, rig: Rig, frames: np.ndarray, fps: float, sfps: float):
-    """What ``read_clip``'s samples of ``action`` on ``ob`` are made of, or None where the
-    action's keys do not tell its pose alone, or where reading them all would cost more
-    than reading the clip (``_worth_keeping``)."""
-    if not _worth_keeping(action, len(frames)):
-        return None
-    keys = action_digest(action)
-    if keys is None:
-        return None
-    modes = tuple((pb.name, pb.rotation_mode) for pb in ob.pose.bones)
-    return keys, digest(replace(rig, name=""), modes, object_scale(ob), frames, fps, sfps)  # (the rig's name: a label)
-
-
-def _worth_keeping(action, samples: int) -> bool:
-    """Whether ``action`` is worth keeping once read at ``samples`` samples: its curves are
-    linear (or constant) and keyed no more densely than it is sampled. Its digest reads
-    every key (about 0.3 us a key, where a Bezier one's handles double it), the read about
-    0.1 us a curve and sample: CMU's 120 fps captures read at 30 cost more to digest than
-    to read again, the sample character's clips (24 fps keys read at 30) a third less.
-    Told from its first curve, as clips are keyed alike."""
-    fc = next((fc for ly in action.layers for st in ly.strips for cb in st.channelbags for fc in cb.fcurves), None)
-    if fc is None or len(fc.keyframe_points) > samples:
-        return False
-    interp = np.empty(len(fc.keyframe_points), np.int32)
-    fc.keyframe_points.foreach_get("interpolation", interp)
-    return bool(np.isin(interp, _LINEAR).all())
-
-
-_LINEAR = [i.value for i in bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items
-           if i.identifier in ("CONSTANT", "LINEAR")]
-
-
-def forget_read_clips() -> None:
-    """Forget every clip ``read_clip`` kept (each is then read afresh): for a benchmark that
-    times the reading itself."""
-    _READ.clear()
+    return _chunked_clip(ob, action, rig, frames, float(fps or sfps))
 
 
 def _chunked_clip(ob, action, rig: Rig, frames: np.ndarray, fps: float) -> ClipMotion:

@@ -352,7 +352,7 @@ def action_digest(action) -> str | None:
                         fc.keyframe_points.foreach_get(attr, buf)
                         h.update(buf.tobytes())
                         if attr == "interpolation":
-                            used = set(np.unique(buf).tolist())
+                            used = set(np.flatnonzero(np.bincount(buf)).tolist())
     return h.hexdigest()
 
 

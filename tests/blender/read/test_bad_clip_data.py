@@ -171,7 +171,6 @@ def test_a_long_clip_read_in_chunks_analyses_as_it_does_whole(fp, empty_scene, m
     for fps in (None, 30):
         whole = scene_mod.clip_from_action(ob, act, rig, fps=fps)
         monkeypatch.setattr(character, "CHUNK", 37)
-        character.forget_read_clips()  # (read afresh, in chunks: not the clip kept from a read before)
         chunked = character.read_clip(ob, act, rig, fps=fps)
         monkeypatch.undo()
         assert chunked.n == whole.n and chunked.local_rot.dtype == np.float32
