@@ -207,7 +207,9 @@ def analyze_clip(motion: ClipMotion, settings: Settings | None = None) -> ClipAn
         raise AnalysisError(str(made))
     if own:
         return replace(made, name=motion.name, motion=motion)
-    return made if name == motion.name else replace(made, name=motion.name, motion=replace(made.motion, name=motion.name))
+    if name == motion.name:
+        return made
+    return replace(made, name=motion.name, motion=replace(made.motion, name=motion.name))  # (an in-place clip's own)
 
 
 #: Clips analysed in this process, by their samples (``motion_digest``) and the settings:

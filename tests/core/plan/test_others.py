@@ -240,7 +240,8 @@ def test_bodies_apart_is_the_frame_by_frame_check(seed, bodies, clearance, scale
     t0 = rng.uniform(-2, 6, k)
     near = rng.random(k) < 0.5  # (half the ways set off beside a body where it is then)
     frame = np.clip(others._frame(others._shot(t0)), 0, len(times) - 1)
-    a[near] = others.hips[rng.integers(0, len(others.hips), near.sum()), frame[near], :2] + rng.normal(0, 0.4, (near.sum(), 2))
+    who = rng.integers(0, len(others.hips), near.sum())
+    a[near] = others.hips[who, frame[near], :2] + rng.normal(0, 0.4, (near.sum(), 2))
     b = a + rng.normal(0, 0.8, (k, 2))
     t1 = t0 + rng.uniform(0, 0.8, k)
     z = rng.choice([0.0, 0.8, 1.5], k) + HIPS_HEIGHT
