@@ -3,7 +3,6 @@ each job in a worker process on its own copy of the scene, its files written ato
 by the driver, a failing job reported and the others baked, a worker that dies retried
 once, then reported. About 40 s on a 2-core machine (Ray's start is 5 s of it)."""
 
-import glob
 import json
 import os
 import tempfile
@@ -60,22 +59,18 @@ def bake(fp, rb, scene, jobs, folder, address="local:2", **kw):
     return outcomes, seen
 
 
-def worker_folders() -> set:
-    return set(glob.glob(os.path.join(tempfile.gettempdir(), "footstep-ray-*")))
+def reported_folders(rb, monkeypatch) -> list:
+    """The temporary folders this run's tasks report working in (each result's ``tmp``),
+    as the driver receives them: the run's own folders, by what its workers said, never
+    by a name another run's worker could share."""
+    seen, outcome = [], rb._Batch.outcome
 
+    def recording(self, number, label, result, tries):
+        seen.append(result["tmp"])
+        return outcome(self, number, label, result, tries)
 
-def left_behind(before: set) -> set:
-    """Worker folders made since ``before`` and still there after a minute (another test
-    run's worker may be using one for a moment, longer on a loaded machine; a folder left
-    behind stays). Most calls return at once: nothing was left."""
-    import time
-
-    for _ in range(120):
-        left = worker_folders() - before
-        if not left:
-            break
-        time.sleep(0.5)
-    return left
+    monkeypatch.setattr(rb._Batch, "outcome", recording)
+    return seen
 
 
 def written(folder) -> list:
@@ -110,9 +105,9 @@ def test_a_bad_or_absent_cluster_is_one_message(fp, rb, batch, address, words):
 
 # -- on a local instance with 2 workers ----------------------------------------------------
 
-def test_eight_jobs_on_two_workers_one_fails_seven_baked(fp, rb, batch, tmp_path, capfd):
+def test_eight_jobs_on_two_workers_one_fails_seven_baked(fp, rb, batch, tmp_path, capfd, monkeypatch):
     scene, jobs = batch
-    before, was_up = worker_folders(), ray.is_initialized()
+    folders, was_up = reported_folders(rb, monkeypatch), ray.is_initialized()
     outcomes, seen = bake(fp, rb, scene, jobs, tmp_path)
     out, err = capfd.readouterr()
     assert out == "", "stdout must stay clean for the command's results"
@@ -129,7 +124,8 @@ def test_eight_jobs_on_two_workers_one_fails_seven_baked(fp, rb, batch, tmp_path
         assert o.outputs == [str(tmp_path / f"job_{o.number}.json"), str(tmp_path / f"job_{o.number}.blend")]
     assert written(tmp_path) == sorted([f"job_{n}.{e}" for n in range(1, 8) for e in ("blend", "json")]), \
         "the failing job wrote nothing, and no temporary file is left"
-    assert not left_behind(before), "each worker removes its temporary folder"
+    assert len(folders) == 8 and all("footstep-ray-" in f for f in folders), folders
+    assert not [f for f in folders if os.path.exists(f)], "each worker removes its temporary folder"
     _baked_scene_has_its_track(tmp_path / "job_3.blend", outcomes[2].frames)
 
 
