@@ -79,31 +79,35 @@ class Shot:
         self._final = (first, frames, {ob.as_pointer(): m for (ob, _), m in zip(characters, played)},
                        {ob.as_pointer(): m for ob, m in zip(objects, moved)})
 
+    def _in_final(self, frame_start: int, frames: int) -> int | None:
+        """Where ``frames`` frames from ``frame_start`` begin in the one pass (closed), or
+        None where the pass does not hold them."""
+        if self._final is None:
+            return None
+        a = int(frame_start) - self._final[0]
+        return a if 0 <= a and a + int(frames) <= self._final[1] else None
+
     def played_world(self, ob, frame_start: int, m):
         """``bake.played_world`` of ``ob``'s ``m`` (its ``played_matrices`` from
         ``frame_start``): once closed, of the one pass, made once for every job measured
         against ``ob`` and given over each job's frames."""
-        frame_start, frames = int(frame_start), len(m[0])
-        if self._final is not None and ob.as_pointer() in self._final[2]:
-            first, length, chars, _ = self._final
-            a = frame_start - first
-            if 0 <= a and a + frames <= length:
-                world = self._worlds.get(ob.as_pointer())
-                if world is None:
-                    world = self._worlds[ob.as_pointer()] = baking.played_world(*chars[ob.as_pointer()])
-                return world[a:a + frames]
-        return baking.played_world(*m)
+        frames, a = len(m[0]), self._in_final(frame_start, len(m[0]))
+        if a is None or ob.as_pointer() not in self._final[2]:
+            return baking.played_world(*m)
+        world = self._worlds.get(ob.as_pointer())
+        if world is None:
+            world = self._worlds[ob.as_pointer()] = baking.played_world(*self._final[2][ob.as_pointer()])
+        return world[a:a + frames]
 
     def played_matrices(self, scene, characters, frame_start: int, frames: int, objects=()) -> tuple[list, list]:
         """``bake.played_matrices`` of these in ``scene`` (the shot's), from the shot's one pass where it holds them all
         over those frames (once ``close``d), else from a pass of their own, kept for the shot
         (the characters before it and the obstacles that move, read once)."""
         frame_start, frames = int(frame_start), int(frames)
-        if self._final is not None:
-            first, length, chars, objs = self._final
-            a = frame_start - first
-            if 0 <= a and a + frames <= length and all(ob.as_pointer() in chars for ob, _ in characters) \
-                    and all(ob.as_pointer() in objs for ob in objects):
+        a = self._in_final(frame_start, frames)
+        if a is not None:
+            chars, objs = self._final[2], self._final[3]
+            if all(ob.as_pointer() in chars for ob, _ in characters) and all(ob.as_pointer() in objs for ob in objects):
                 return ([tuple(m[a:a + frames] for m in chars[ob.as_pointer()]) for ob, _ in characters],
                         [objs[ob.as_pointer()][a:a + frames] for ob in objects])
         key = (frame_start, tuple(ob.as_pointer() for ob, _ in characters), tuple(ob.as_pointer() for ob in objects))
