@@ -2,9 +2,10 @@
 kept exactly; the way is searched again only between the nearest locked footprints
 around what changed: around each moved footprint, and around a footprint that no longer
 works (off every surface, in an obstacle, beyond the reach of every step of the library
-from the footprint before it). The first footprint, where the character stands, always
-counts as locked; past the last lock the way to the goal is searched again. Everything
-outside those spans stays exactly as it was.
+from the footprint before it, or, round other characters (``Planner.others``), a step
+onto it that meets one of them in time: ``Planner.clear_in_time``). The first footprint,
+where the character stands, always counts as locked; past the last lock the way to the
+goal is searched again. Everything outside those spans stays exactly as it was.
 """
 
 from __future__ import annotations
@@ -61,11 +62,19 @@ def problems_of(planner: Planner, fps: list[PathFootprint]) -> list[str]:
     """Per footprint: why it can't be stepped on ('' when it can): off the surface, in an
     obstacle, or no step of the library reaches it from the footprint before (a turn in
     place's pivot step needs none)."""
+    stand, reach = _problems(planner, fps)
+    return [s or r for s, r in zip(stand, reach)]
+
+
+def _problems(planner: Planner, fps: list[PathFootprint]) -> tuple[list[str], list[str]]:
+    """(per footprint, why a foot can't stand on it; why no step of the library reaches
+    it from the footprint before), '' where it can (``problems_of``)."""
     pos = np.array([f.position for f in fps], float)
     head = np.array([f.heading for f in fps], float)
     sup = footprint_support(planner.ground, planner.obstacles, pos, head, planner.forward, planner.foot,
                             planner.support_limits)
-    out = [f"it is {r}" if not ok else "" for ok, r in zip(sup.ok, sup.reason)]
+    stand = [f"it is {r}" if not ok else "" for ok, r in zip(sup.ok, sup.reason)]
+    reach = [""] * len(fps)
     st = planner.steps
     for i, (fwd, left, turn) in enumerate(step_offsets(fps, planner.forward), 1):
         side = planner.settings.length
@@ -75,16 +84,15 @@ def problems_of(planner: Planner, fps: list[PathFootprint]) -> list[str]:
             continue  # (a turn in place's pivot step: no clip's)
         rows = (st.foot == fps[i - 1].foot) & (st.jump == fps[i].jump)
         if not rows.any():
-            out[i] = out[i] or f"the library has no {'jump' if fps[i].jump else 'step'} from the " \
-                               f"{'LR'[fps[i - 1].foot]} foot"
+            reach[i] = f"the library has no {'jump' if fps[i].jump else 'step'} from the {'LR'[fps[i - 1].foot]} foot"
             continue
         gap = np.hypot(st.fwd[rows] - fwd, st.left[rows] - left)
         dturn = np.abs((st.turn[rows] - turn + np.pi) % (2 * np.pi) - np.pi)
         if not ((gap <= planner.settings.length(REACH_SLACK)) & (dturn <= TURN_SLACK)).any():
-            out[i] = out[i] or (f"no step of the library reaches it from footprint {i - 1} "
-                                f"({np.hypot(fwd, left):.2f} m, turning {np.degrees(turn):.0f}°; the nearest "
-                                f"step is {gap.min():.2f} m off)")
-    return out
+            reach[i] = (f"no step of the library reaches it from footprint {i - 1} "
+                        f"({np.hypot(fwd, left):.2f} m, turning {np.degrees(turn):.0f}°; the nearest "
+                        f"step is {gap.min():.2f} m off)")
+    return stand, reach
 
 
 def _spans(bad: np.ndarray, locked: np.ndarray, moved: np.ndarray) -> list[tuple[int, int | None]]:
@@ -161,18 +169,39 @@ def edited_path(planner: Planner, plan: PlanFile, goal=None, goal_heading=None) 
     moved[0] = False
     locked = np.asarray(plan.locked, bool) | moved
     locked[0] = True
-    problems = problems_of(planner, fps)
+    stand, reach = _problems(planner, fps)
+    problems = [a or b for a, b in zip(stand, reach)]
+    again = moved.copy()  # (the kept footprints the way to and from is searched again)
     for i in np.flatnonzero(locked[1:]) + 1:
-        if problems[i]:
+        if stand[i] or (reach[i] and locked[i - 1]):  # (a step between two kept footprints can't change)
             err = PlanError(f"footprint {i} ({'LR'[fps[i].foot]}) is locked but {problems[i]}: unlock it "
                             "or move it")
             err.footprint = int(i)  # (for the overlay to show which)
             raise err
+        if reach[i]:  # (no clip's step from the footprint before, which the re-plan makes anew)
+            problems[i], again[i] = "", True
+    _in_time(planner, fps, locked, problems)
     bad = np.array([bool(p) for p in problems])
     if goal is None and plan.goal is not None:
         goal = plan.goal
         goal_heading = None if plan.goal_heading is None else plan.goal_heading + yaw(plan.forward) - yaw(planner.forward)
-    return _rebuild(planner, fps, _spans(bad, locked, moved), goal, goal_heading, problems, t0)
+    return _rebuild(planner, fps, _spans(bad, locked, again), goal, goal_heading, problems, t0)
+
+
+#: Why a footprint must go when the step onto it meets another character in time.
+MEETS = "the step onto it meets another character then"
+
+
+def _in_time(planner: Planner, fps: list[PathFootprint], locked: np.ndarray, problems: list[str]) -> None:
+    """Round other characters (``planner.others``), each footprint not locked whose step
+    meets one of them in time (``Planner.clear_in_time``: the body on its way there, the
+    foot on it over its stance, the last one standing there after) given that problem
+    (``MEETS``) in ``problems``, in place. A locked one stays: it is the user's."""
+    others = planner.others
+    if others is None or others.empty or len(fps) < 2:
+        return
+    for i in np.flatnonzero(~planner.clear_in_time(fps) & ~locked).tolist():
+        problems[i] = problems[i] or MEETS
 
 
 def _rebuild(planner: Planner, fps: list[PathFootprint], spans, goal, goal_heading, problems, t0) -> Edited:
@@ -199,4 +228,4 @@ def _rebuild(planner: Planner, fps: list[PathFootprint], spans, goal, goal_headi
                   problems, bool(spans) and spans[-1][1] is None)
 
 
-__all__ = ["Edited", "edited_path", "in_frame", "nearest_steps", "problems_of", "relabel", "step_offsets"]
+__all__ = ["MEETS", "Edited", "edited_path", "in_frame", "nearest_steps", "problems_of", "relabel", "step_offsets"]

@@ -234,3 +234,58 @@ def test_a_moved_footprint_is_kept_and_the_way_around_it_searched_again(planner,
     for i in range(1, n - (k + 3) + 1):
         assert np.array_equal(out[-i].position, res.footprints[-i].position)
     _valid(planner, out[1:])
+
+
+# -- locks and other characters -------------------------------------------------------------------
+
+def test_a_locked_footprint_out_of_reach_of_one_replanned_is_kept_and_the_way_to_it_found(planner, planned):
+    """A footprint moved sideways beyond every step from the footprint before it and locked
+    is kept where it was put when the one before is not locked (the re-plan makes that one
+    anew); with the one before locked too, the step between them can't change: refused."""
+    res, goal = planned
+    k = len(res.footprints) // 2
+    plan = _moved(res, goal, k, (k,))
+    ed = edited_path(planner, plan)
+    out = ed.result.footprints
+    kept = [i for i, f in enumerate(out) if np.array_equal(f.position, plan.footprints[k].position)]
+    assert len(kept) == 1 and out[kept[0]].heading == plan.footprints[k].heading
+    assert any(b == kept[0] for _, b in ed.spans) and any(a == kept[0] for a, _ in ed.spans)
+    _valid(planner, out[1:])
+    with pytest.raises(PlanError, match=f"footprint {k} .* is locked but no step of the library reaches it"):
+        edited_path(planner, _moved(res, goal, k, (k - 1, k)))
+
+
+def _moved(res, goal, k, locks):
+    plan = _plan_file(res, goal, locks)
+    plan.footprints[k].position[1] += 1.0
+    return plan
+
+
+def test_footprints_that_meet_another_character_in_time_are_replanned_between_the_locks(planner, planned):
+    """Round another character standing on the path's middle footprint the whole time, the
+    footprints whose steps meet it (``MEETS``) are searched again between the nearest locks,
+    clear of it in time; the rest stays exactly as planned. Without it nothing changes."""
+    from dataclasses import replace
+
+    from footstep_planner.core.plan.plan_edit import MEETS
+    from test_others import _others, _walker
+
+    res, goal = planned
+    n = len(res.footprints)
+    k = n // 2
+    times = np.arange(0.0, 30.0, 1.0 / 30)
+    here = np.repeat(res.footprints[k].position[None, :2], len(times), axis=0)
+    round_it = replace(planner, others=_others(_walker("Other", times, here), times=times))
+    locks = (k - 4, k + 4)
+    ed = edited_path(round_it, _plan_file(res, goal, locks))
+    assert MEETS in ed.problems[k]
+    assert all(p in ("", MEETS) for p in ed.problems)
+    (a, b), = ed.spans
+    out = ed.result.footprints
+    assert a == k - 4
+    for i in range(k - 3):
+        assert np.array_equal(out[i].position, res.footprints[i].position)
+    for i in range(1, n - (k + 4) + 1):
+        assert np.array_equal(out[-i].position, res.footprints[-i].position)
+    assert round_it.clear_in_time(out)[a + 1:b].all()
+    assert edited_path(planner, _plan_file(res, goal, locks)).spans == []
