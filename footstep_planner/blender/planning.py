@@ -41,7 +41,7 @@ from .read.surfaces import BvhGround, local_mesh, scene_surfaces, tagged_objects
 from .ui import overlay
 from .write import bake as baking
 from .write import rebake
-from .write.owned import RANGE_PROP
+from .write.owned import RANGE_PROP, ROUND_OTHERS_PROP
 
 #: Support answers per scene, foot and gap rule, reused while the scene's tagged geometry
 #: is unchanged: the CACHED_SCENES used last (a session that plans in many scenes, or
@@ -336,7 +336,8 @@ def other_characters(scene, ob) -> list:
     (found by its tracks' tag, ``bake.owned_tracks``), in name order; one whose rig has no
     legs the planner reads is left out."""
     out = []
-    for o in sorted(bpy.context.view_layer.objects, key=lambda o: o.name):
+    # (an object removed since the view layer was last updated, a handle remade: listed as None)
+    for o in sorted((o for o in bpy.context.view_layer.objects if o is not None), key=lambda o: o.name):
         if o.type != "ARMATURE" or o == ob or not baking.owned_tracks(o):
             continue
         try:
@@ -540,6 +541,7 @@ class _Job:
         with self.timer("bake"):
             self.act, self.track = baking.bake(self.ob, self.scene, planned.setup.rig, solved.ik, solved.spin,
                                                self.opts, planned.result.footprints, syn.planted(), self.replaced)
+            self.act[ROUND_OTHERS_PROP] = bool(self.settings.avoid_characters)
         self._grown = (self.scene.frame_start, self.scene.frame_end)
         try:
             planted, frames = syn.planted(), solved.ik.frames

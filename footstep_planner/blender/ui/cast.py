@@ -232,9 +232,39 @@ class FOOTSTEP_OT_bake_together(_Stepped, bpy.types.Operator):
                 if order.get("moved_ahead") else ""))
             if fs.character is not None and job.fields["character"] == fs.character.name:
                 fs.plan_json = panel_doc(doc)
+            _handles(context.scene, job)
         fs.last_report = f"{baked} of {len(self._jobs)} characters baked together. " + "; ".join(lines)
         self.report({"INFO"} if baked == len(self._jobs) else {"WARNING"}, fs.last_report)
         return {"FINISHED"} if baked else {"CANCELLED"}
+
+
+def _handles(scene, job) -> None:
+    """Footprint handles for a character the shot baked (its path as the overlay shows
+    it), each waypoint's footprint locked: edited and re-planned, it leads and those it
+    then meets give way (``directing.rebake_steps``)."""
+    import numpy as np
+
+    from .. import planning
+    from ..read.scene import rotation_heading
+    from . import handles, overlay
+
+    ob = scene.objects.get(job.fields["character"])
+    got = None if ob is None else overlay.path_of(scene, ob)
+    if got is None:
+        return
+    path, forward = got
+    goal, heading = planning.goal_of(scene, job.fields.get("goal"))
+    heading = None if heading is None else rotation_heading(heading, forward)
+    pos = np.array([f.position for f in path], float)
+    locked = np.zeros(len(path), bool)
+    after = 0
+    for name in job.fields.get("via") or []:  # (in order along the path: the nearest after the last)
+        wp = scene.objects.get(name)
+        if wp is None or after >= len(path):
+            continue
+        i = after + int(np.argmin(np.linalg.norm(pos[after:, :2] - np.array(wp.matrix_world.translation)[:2], axis=1)))
+        locked[i], after = True, i + 1
+    handles.make_handles(scene, ob, path, forward, goal, heading, locked)
 
 
 CLASSES = (FOOTSTEP_OT_cast_add, FOOTSTEP_OT_cast_remove, FOOTSTEP_OT_cast_move, FOOTSTEP_OT_bake_together)

@@ -15,6 +15,7 @@ import numpy as np
 from ...core.perform import turn_in_place
 from ...core.perform.directed import MAX_STAND
 from ...core.base.errors import FootstepError
+from ...core.base.settings import Settings
 from ...core.footprint import PIVOT
 from ...core.jobs import MAX_FRAME
 from ...core.plan.plan_edit import Edited, edited_path
@@ -22,6 +23,7 @@ from ...core.plan.plan_file import PlanFile
 from ...core.solve import splice as splicing
 from ...core.perform.waypoints import Waypoint, plan_via
 from ..write import rebake
+from ..write.owned import ROUND_OTHERS_PROP
 
 
 class DirectingError(FootstepError):
@@ -228,18 +230,30 @@ def rebake_handles(scene, ob, settings=None, name: str | None = None, body_on: s
     """Re-plan from the character's handles (locked and moved footprints kept, the way
     around what changed searched again) and re-bake: with an earlier bake of the planner's
     whose stances are recorded, only the re-planned span is re-keyed. The handles then show
-    the new path (locks kept). Returns (report, route, splice)."""
+    the new path (locks kept). Round other characters, those it now meets are re-planned
+    round it (``rebake_steps``). Returns (report, route, splice)."""
     from .. import planning
 
     return planning.run_to_end(rebake_steps(scene, ob, settings, name, body_on, frame_range))
 
 
 def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str = "OBJECT",
-                 frame_range: bool = True):
+                 frame_range: bool = True, others_too: bool = True, baked: list | None = None):
     """``rebake_handles`` one stage at a time: a generator yielding (fraction done, next
     stage) as ``planning.run_steps`` does and returning (report, route, splice). Stopped at
     a yield (closed), it leaves the scene as it was: the bake is taken back before its
-    quality is accepted, and the handles are remade only at the end."""
+    quality is accepted, and the handles are remade only at the end.
+
+    Round other characters (``Settings.avoid_characters``, or a bake of the character
+    made round them, as a shot baked together is: ``ROUND_OTHERS_PROP``) the edited
+    character leads: it is planned round the others but those with footprint handles of
+    their own (they can give way); then each of those it now meets as played (``meets``)
+    is re-planned round every other character, its own footprints that meet one in time
+    searched again between its nearest locks (``core.plan.plan_edit``: the rest of its path
+    and keys stay), and the report's ``others_replanned`` says who, how near they had come
+    and how near they now come. Stopped while one of those is re-planned, the edited
+    character's bake stays and that one's is taken back: each character whose re-bake
+    stands is appended to ``baked`` as it does."""
     from .. import planning
     from ..write.bake import owned_tracks
     from . import handles
@@ -247,9 +261,13 @@ def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str
     plan, moved = handles.read_plan(ob)
     if not plan.footprints:
         raise DirectingError(f"{ob.name!r} has no footprint handles: plan first, then edit the footprints")
+    settings = settings or Settings()
+    tracks = owned_tracks(ob)
+    if not settings.avoid_characters and any(st.action.get(ROUND_OTHERS_PROP) for tr in tracks for st in tr.strips):
+        settings = settings.replace(avoid_characters=True)  # (baked round the others: re-planned round them)
+    yielding = _can_give_way(scene, ob) if settings.avoid_characters and others_too else []
     route = EditedRoute(plan)
     splice = Splice.of(ob, route)
-    tracks = owned_tracks(ob)
     frame_start = int(tracks[0].strips[0].frame_start) if tracks else None
     if name is None and tracks:
         from ..write.bake import bake_name
@@ -257,13 +275,86 @@ def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str
         name = bake_name(tracks[0].strips[0].action)
     goal = plan.goal if plan.goal is not None else plan.footprints[-1].position
     doc = yield from planning.run_steps(scene, ob, goal, None, None, settings, name=name, frame_start=frame_start,
-                                        body_on=body_on, frame_range=frame_range, route=route, splice=splice)
+                                        body_on=body_on, frame_range=frame_range, route=route, splice=splice,
+                                        not_around=tuple(o.name for o in yielding))
     fps = route.edited.result.footprints
     locked = _carried_locks(plan, route.edited, len(fps))
     handles.make_handles(scene, ob, fps, plan.forward, plan.goal, plan.goal_heading, locked)
     _show_replanned(scene, route.edited)
     edit_report(doc, route, splice)
+    if baked is not None:
+        baked.append(ob)
+    if yielding:
+        doc["others_replanned"] = yield from _give_way(scene, ob, doc, settings, yielding, frame_range, baked)
     return doc, route, splice
+
+
+def _can_give_way(scene, ob) -> list:
+    """The other characters the planner baked in the scene that have footprint handles of
+    their own (a re-plan can move them), in ``planning.other_characters``' order."""
+    from .. import planning
+    from . import handles
+
+    return [o for o, _ in planning.other_characters(scene, ob) if handles.owned_collection(o) is not None]
+
+
+def meets(fig: dict, clearance: float) -> bool:
+    """Whether a pair's figures as played (``core.report.crowd.pair_figures``) say the two
+    meet: their bodies nearer than ``clearance`` (m, ``Settings.character_clearance``) or a
+    foot of each on one footprint."""
+    return fig["least_distance_m"] < clearance or fig["frames_on_one_footprint"] > 0
+
+
+def _give_way(scene, ob, doc: dict, settings, yielding: list, frame_range: bool, baked: list | None):
+    """Each of ``yielding`` that ``ob``'s bake (its report ``doc``) now meets, re-planned
+    round every other character (``rebake_steps`` of its handles), one after another; a
+    generator of their stages, returning a row per one re-planned: who, how near the two
+    had come (and on which frame), the spans re-planned and how near it now comes to
+    ``ob``, or why it could not be."""
+    from .. import planning
+    from ..write.bake import owned_tracks
+    from ..write.owned import BODY_PROP
+
+    figures = doc["quality"].get("others") or []
+    others = [o for o, _ in planning.other_characters(scene, ob)]
+    near = {o.as_pointer(): f for o, f in zip(others, figures)}
+    rows = []
+    for other in yielding:
+        fig = near.get(other.as_pointer())
+        if fig is None or not meets(fig, settings.character_clearance):
+            continue
+        row = {"character": other.name, "was_m": fig["least_distance_m"], "was_frame": fig["least_distance_frame"],
+               "was_frames_on_one_footprint": fig["frames_on_one_footprint"]}
+        body_on = next((str(st.action.get(BODY_PROP, "OBJECT")) for tr in owned_tracks(other) for st in tr.strips),
+                       "OBJECT")
+        try:
+            sub, _, _ = yield from _labelled(rebake_steps(scene, other, settings, body_on=body_on,
+                                                          frame_range=frame_range, others_too=False,
+                                                          baked=baked), other.name)
+        except FootstepError as ex:
+            row["error"] = str(ex)
+        else:
+            mine = next((f for f in sub["quality"].get("others") or [] if f["character"] == ob.name), None)
+            row["replanned"] = sub.get("replanned", [])
+            if mine is not None:
+                row["now_m"], row["now_frame"] = mine["least_distance_m"], mine["least_distance_frame"]
+                row["now_frames_on_one_footprint"] = mine["frames_on_one_footprint"]
+        rows.append(row)
+    return rows
+
+
+def _labelled(steps, label: str):
+    """A stage generator's stages with ``label`` before each; its return value returned,
+    and closed with it (a bake not yet measured is taken back)."""
+    try:
+        while True:
+            try:
+                fraction, stage = next(steps)
+            except StopIteration as done:
+                return done.value
+            yield fraction, f"{label}: {stage}"
+    finally:
+        steps.close()
 
 
 def edit_report(doc: dict, route: EditedRoute, splice: "Splice | None") -> None:

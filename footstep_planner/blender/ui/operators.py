@@ -614,21 +614,24 @@ class FOOTSTEP_OT_lock_footprints(_OnCharacter, bpy.types.Operator):
 
 class FOOTSTEP_OT_replan(_OnCharacter, _Stepped, bpy.types.Operator):
     """Re-plan around the footprints you moved (they stay where you put them, as do the
-    locked ones) and re-bake: only the re-planned span is re-keyed (from the UI: stage by
-    stage with progress; Esc cancels and changes nothing)"""
+    locked ones) and re-bake: only the re-planned span is re-keyed. Round other characters,
+    this one leads: those with footprints of their own that it now meets give way round it
+    (from the UI: stage by stage with progress; Esc cancels what is not yet baked)"""
 
     bl_idname = "footstep.replan"
     bl_label = "Re-plan"
     bl_options = {"REGISTER", "UNDO"}
 
     _steps = None
+    _baked: list = []
 
     def _start(self, context):
         from . import directing
 
         fs = context.scene.footstep
+        self._baked = []
         return directing.rebake_steps(context.scene, character(context), _settings(context), body_on=fs.body_on,
-                                      frame_range=fs.grow_frame_range)
+                                      frame_range=fs.grow_frame_range, baked=self._baked)
 
     def execute(self, context):
         from .. import planning
@@ -646,8 +649,14 @@ class FOOTSTEP_OT_replan(_OnCharacter, _Stepped, bpy.types.Operator):
         if event.type == "ESC":
             self._end(context)
             self._steps.close()  # (a bake written but not yet measured is taken back)
-            self.report({"INFO"}, "re-plan cancelled: nothing was changed")
-            return {"CANCELLED"}
+            if not self._baked:
+                self.report({"INFO"}, "re-plan cancelled: nothing was changed")
+                return {"CANCELLED"}
+            names = ", ".join(o.name for o in self._baked)
+            context.scene.footstep.last_report = (f"re-plan stopped: {names} re-planned and kept; the character "
+                                                  "giving way when you stopped it is as it was")
+            self.report({"WARNING"}, context.scene.footstep.last_report)
+            return {"FINISHED"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         try:
@@ -675,9 +684,20 @@ class FOOTSTEP_OT_replan(_OnCharacter, _Stepped, bpy.types.Operator):
         fs.last_report = (f"re-planned {len(route.edited.spans)} span(s); "
                           + (f"re-keyed frames {span[0]}-{span[1]} only; " if span
                              else f"{doc['rebaked_whole']}; " if doc.get("rebaked_whole") else "baked the whole path; ")
-                          + f"skate {doc['quality']['foot_skate']['max_mm']:.1f} mm max")
-        self.report({"INFO"}, fs.last_report)
+                          + f"skate {doc['quality']['foot_skate']['max_mm']:.1f} mm max"
+                          + "".join(f"; {_gave_way(row)}" for row in doc.get("others_replanned") or []))
+        self.report({"WARNING"} if any("error" in r for r in doc.get("others_replanned") or []) else {"INFO"},
+                    fs.last_report)
         return {"FINISHED"}
+
+
+def _gave_way(row: dict) -> str:
+    """One line of a re-plan's summary for another character it met (``directing.rebake_steps``)."""
+    was = f"{row['was_m']:.2f} m at frame {row['was_frame']}"
+    if "error" in row:
+        return f"{row['character']} came within {was} and could not give way: {row['error']}"
+    now = f", now {row['now_m']:.2f} m" if "now_m" in row else ""
+    return f"{row['character']} came within {was}: re-planned round it{now}"
 
 
 class FOOTSTEP_OT_clear(_OnCharacter, bpy.types.Operator):

@@ -35,12 +35,19 @@ def remember(scene, ob, path, positions, headings, forward, foot, body=None, sam
         "tinted": geo.footprint_colours(feet, labels, jumps, tint).repeat(6, axis=0).astype(np.float32),
         "tint": (*tint, 1.0),
         "body": geo.polyline_segments(body).astype(np.float32) if body is not None else np.zeros((0, 3), np.float32),
+        "path": list(path), "forward": np.asarray(forward, float),  # (its footprint handles, after a shot)
     }
     data.update({
         "sampled": geo.crosses(sampled).astype(np.float32) if sampled is not None else np.zeros((0, 3), np.float32),
         "path": list(path), "forward": np.asarray(forward, float),  # (the last plan's, for the footprint handles)
     })
     _redraw()
+
+
+def path_of(scene, ob):
+    """(footprints, forward) of ``ob``'s last plan or bake shown in ``scene``, or None."""
+    got = (LAST.get(scene.name) or {}).get("characters", {}).get(ob.as_pointer())
+    return None if got is None else (got["path"], got["forward"])
 
 
 def forget(scene, ob) -> None:

@@ -21,6 +21,10 @@ REST_PROP = "footstep_rest_matrix"
 BODY_PROP = "footstep_body_on"
 TRACK_PREFIX = "Footstep: "
 MARKER_PREFIX = "FP "
+#: Whether the bake was planned round the other characters baked in the scene
+#: (``Settings.avoid_characters``, as every bake of a shot baked together): a re-plan of
+#: it keeps them apart too.
+ROUND_OTHERS_PROP = "footstep_round_others"
 #: The bake's name (on its action): a bake replaces only the planner's bake of its name.
 BAKE_NAME_PROP = "footstep_bake_name"
 #: The timeline markers the bake made, as JSON [[name, frame], ...]: the only markers
