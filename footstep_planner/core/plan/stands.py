@@ -15,7 +15,10 @@ the latest first, the shortest stand after which the same way, that much later, 
 the way on is then searched again from the stand, at its time (``Planner.start_time``),
 round anyone still near. A plan that goes round or ahead of the others (the search with
 them) is weighed against the stand by cost: a second stood costs ``WAIT_RATE`` of a second
-walked, and ``Settings.wait_penalty`` once.
+walked, and ``Settings.wait_penalty`` once. Where no stand lets them pass, the search round
+them is given ``ROUND_TIMES`` the way alone's expansions (``ROUND_FLOOR`` at least): a
+block they keep (a passage, the goal) is refused without flooding the ground for the
+whole budget.
 """
 
 from __future__ import annotations
@@ -41,6 +44,12 @@ STAND_BACK = (1, 2, 3, 5)
 #: the others once a stand was found (where none is near, it takes few)
 TRY_SHARE = 0.1
 ROUND_SHARE = 0.02
+#: where no stand lets the others pass, the search round them may expand this many times
+#: the footprints the way alone took (at least ROUND_FLOOR, at most the budget): a way
+#: round is a detour the search finds near the way alone; one that takes more floods the
+#: ground before an others' block (a passage or a goal they keep) and is refused
+ROUND_TIMES = 20
+ROUND_FLOOR = 1000
 
 PlanFn = Callable[[Planner, list], PlanResult]
 
@@ -59,9 +68,15 @@ def plan_round(planner: Planner, start: list[PathFootprint], plan: PlanFn) -> Pl
         return alone
     k = int(np.argmin(clear))
     best = _stand(planner, start, plan, alone, k)
-    share = planner.settings.replace(max_expansions=max(1, int(planner.settings.max_expansions * ROUND_SHARE)))
+    cfg = planner.settings
+    if best is None:  # (no stand: a way round near the way alone, or none)
+        cap = min(cfg.max_expansions, max(ROUND_FLOOR, ROUND_TIMES * alone.expanded))
+        round_it = replace(planner, settings=cfg.replace(max_expansions=cap))
+    else:
+        share = cfg.replace(max_expansions=max(1, int(cfg.max_expansions * ROUND_SHARE)))
+        round_it = replace(planner, settings=share, cost_limit=best[0])
     try:
-        way = plan(planner if best is None else replace(planner, settings=share, cost_limit=best[0]), start)
+        way = plan(round_it, start)
     except PlanError as ex:
         if best is None:
             raise _blocked(others, f"{ex}; alone it has a way there ({len(alone.footprints)} footprints) but {{}} "

@@ -186,7 +186,6 @@ def test_a_character_the_one_above_blocks_is_planned_first_and_both_arrive(fp, e
     scene, a, b = dead_end(fp)
     fs = scene.footstep
     fs.character, fs.goal, fs.start = a, scene.objects["GoalA"], scene.objects["StartA"]
-    fs.settings.max_expansions = 3000  # (a search that finds no way round A tries this many footprints)
     _listed(scene, b)
 
     assert bpy.ops.footstep.bake_together() == {"FINISHED"}

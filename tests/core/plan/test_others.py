@@ -326,3 +326,32 @@ def test_an_obstacles_outline_is_points_along_its_sides_no_further_apart_than_th
     rim = np.vstack([np.c_[t * w, 0 * t], np.c_[t * w, 0 * t + d], np.c_[0 * t, t * d], np.c_[0 * t + w, t * d]])
     gap = np.linalg.norm(rim[:, None, :] - pts[None, :, :2], axis=2).min(axis=1)
     assert gap.max() <= OUTLINE_STEP * (0.5 + np.sqrt(0.5)) + 1e-9
+
+
+def test_a_passage_another_keeps_is_refused_without_flooding_the_budget():
+    """The goal at the far end of a dead-end passage 0.9 m wide off an open floor, a
+    bystander standing in its mouth for good: alone the way goes in, no stand lets the
+    bystander pass, and round it there is no way. It is refused as blocked (naming the
+    bystander, saying alone it has a way) after at most ``ROUND_TIMES`` the way alone's
+    expansions (``ROUND_FLOOR`` at least), not the search's whole budget of the floor."""
+    from footstep_planner.core.plan.search_state import BlockedError
+    from footstep_planner.core.plan.stands import ROUND_FLOOR, ROUND_TIMES
+    from footstep_planner.core.plan.surface import TriMesh
+    from conftest import box
+
+    g = MeshGround(plane(-12, 14, -12, 12))
+    walls = MeshGround(TriMesh.concat([box((6, 0.45, -0.1), (10.2, 0.8, 2.0)), box((6, -0.8, -0.1), (10.2, -0.45, 2.0)),
+                                       box((10.0, -0.45, -0.1), (10.2, 0.45, 2.0))]))
+    goal = np.array([9.0, 0.0, 0.0])
+    times = np.arange(0, 40, 1 / FPS)
+    others = _others(_walker("Bystander", times, np.tile([6.3, 0.0], (len(times), 1))), times=times)
+    calm = Settings(max_expansions=200_000)
+    alone = Planner(g, walls, steps(), FWD, settings=calm).plan(standing(0, 0, EAST, FWD), goal)
+    pl = Planner(g, walls, steps(), FWD, settings=calm, others=others)
+    try:
+        plan_round(pl, standing(0, 0, EAST, FWD), lambda p, s: p.plan(s, goal))
+    except BlockedError as ex:
+        assert "Bystander" in str(ex) and "alone it has a way" in str(ex), str(ex)
+        assert ex.expanded <= max(ROUND_FLOOR, ROUND_TIMES * alone.expanded) + 1, ex.expanded
+    else:
+        raise AssertionError("a passage another stands in for good was gone through")
