@@ -3,10 +3,10 @@ calls the core, and writes results back."""
 
 from .command import cli
 from .sample import mannequin
-from .ui import cast, operators, overlay, panel, props, session
+from .ui import cast, live, operators, overlay, panel, props, session
 
 # registration order: properties before the operators and panels that use them
-_MODULES = (props, session, operators, cast, mannequin, panel, overlay, cli)
+_MODULES = (props, session, operators, cast, mannequin, panel, overlay, live, cli)
 
 
 def register():

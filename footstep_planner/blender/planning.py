@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import hashlib
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import bpy
 import numpy as np
@@ -153,7 +153,7 @@ def goal_of(scene, name: str | None):
 
 def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
          traversable=(), obstacles=(), route=None, frame_start: float | None = None,
-         not_around=(), shot=None) -> tuple[PlanResult, PlanSetup]:
+         not_around=(), shot=None, setup: PlanSetup | None = None) -> tuple[PlanResult, PlanSetup]:
     """The footprints from the start (``start_marker``, else where the character stands) to
     ``goal``, arriving facing ``goal_heading`` (a Z rotation, rad, see ``FACING``) when
     one is given; or, with ``route``, ``route(setup, start footprints, goal heading in the
@@ -161,7 +161,9 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
     ``Settings.avoid_characters``, around the other characters the planner baked in the
     scene (but those named in ``not_around``) as they play from ``frame_start`` (default:
     the current frame) on: ``others_in_time`` (in ``shot``'s space and time, a
-    ``together.Shot``, when given)."""
+    ``together.Shot``, when given). A ``setup`` made before by ``plan_setup`` for this
+    character, scene and settings (nothing of them changed since: the live re-plan's,
+    ``ui.live``) is used again, round the others as they are now."""
     settings = settings or Settings()
     others = None
     if settings.avoid_characters:
@@ -169,7 +171,10 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
         others = others_in_time(scene, ob, int(round(first)), not_around, obstacles, shot)
         if shot is not None and shot.clock is not None:  # (the clock the shot's last synthesis kept)
             others = others.on_clock(*shot.clock)
-    setup = plan_setup(scene, ob, settings, traversable, obstacles, others)
+    if setup is None:
+        setup = plan_setup(scene, ob, settings, traversable, obstacles, others)
+    else:
+        setup.planner = replace(setup.planner, others=others)
     start = marker_footprints(start_marker, setup) if start_marker is not None else character_footprints(ob, setup)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     setup.start = start
@@ -202,7 +207,7 @@ def synthesize(scene, result: PlanResult, setup: PlanSetup, settings=None, goal=
 
 def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
                         traversable=(), obstacles=(), route=None, frame_start: float | None = None,
-                        not_around=(), shot=None) -> Planned:
+                        not_around=(), shot=None, setup: PlanSetup | None = None) -> Planned:
     """Plan the footprints to ``goal`` and perform them (``core.perform.run.perform_plan``:
     a route through waypoints, ``directing.ViaRoute``, that stops at some or has arrival
     frames, scene frames from ``frame_start``, default the current one, is performed leg by
@@ -210,7 +215,7 @@ def plan_and_synthesize(scene, ob, goal, goal_heading=None, start_marker=None, s
     but ``not_around``, in ``shot``'s when given: ``plan``); the overlay shows the result."""
     settings = settings or Settings()
     result, setup = plan(scene, ob, goal, goal_heading, start_marker, settings, traversable, obstacles, route,
-                         frame_start, not_around, shot)
+                         frame_start, not_around, shot, setup)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     first = float(scene.frame_current if frame_start is None else frame_start)
     planned = perform_plan(result, setup, settings, scene_fps(scene), goal, heading, route, first)

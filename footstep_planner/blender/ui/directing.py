@@ -258,25 +258,17 @@ def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str
     from ..write.bake import owned_tracks
     from . import handles
 
-    plan, moved = handles.read_plan(ob)
-    if not plan.footprints:
-        raise DirectingError(f"{ob.name!r} has no footprint handles: plan first, then edit the footprints")
-    settings = settings or Settings()
+    edit = edit_of(scene, ob, settings, others_too)
+    plan, settings, yielding, route = edit.plan, edit.settings, edit.yielding, edit.route
     tracks = owned_tracks(ob)
-    if not settings.avoid_characters and any(st.action.get(ROUND_OTHERS_PROP) for tr in tracks for st in tr.strips):
-        settings = settings.replace(avoid_characters=True)  # (baked round the others: re-planned round them)
-    yielding = _can_give_way(scene, ob) if settings.avoid_characters and others_too else []
-    route = EditedRoute(plan)
     splice = Splice.of(ob, route)
-    frame_start = int(tracks[0].strips[0].frame_start) if tracks else None
     if name is None and tracks:
         from ..write.bake import bake_name
 
         name = bake_name(tracks[0].strips[0].action)
-    goal = plan.goal if plan.goal is not None else plan.footprints[-1].position
-    doc = yield from planning.run_steps(scene, ob, goal, None, None, settings, name=name, frame_start=frame_start,
-                                        body_on=body_on, frame_range=frame_range, route=route, splice=splice,
-                                        not_around=tuple(o.name for o in yielding))
+    doc = yield from planning.run_steps(scene, ob, edit.goal, None, None, settings, name=name,
+                                        frame_start=edit.frame_start, body_on=body_on, frame_range=frame_range,
+                                        route=route, splice=splice, not_around=tuple(o.name for o in yielding))
     fps = route.edited.result.footprints
     locked = _carried_locks(plan, route.edited, len(fps))
     handles.make_handles(scene, ob, fps, plan.forward, plan.goal, plan.goal_heading, locked)
@@ -287,6 +279,39 @@ def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str
     if yielding:
         doc["others_replanned"] = yield from _give_way(scene, ob, doc, settings, yielding, frame_range, baked)
     return doc, route, splice
+
+
+@dataclass
+class Edit:
+    """What a re-plan of a character's handles is made of (``edit_of``): its plan read back,
+    the settings (round the others where its bake was), those that may give way to it, the
+    route that makes the plan whole, its goal and its bake's first frame (None: unbaked)."""
+
+    plan: PlanFile
+    settings: Settings
+    yielding: list
+    route: EditedRoute
+    goal: np.ndarray
+    frame_start: int | None
+
+
+def edit_of(scene, ob, settings=None, others_too: bool = True) -> Edit:
+    """The re-plan of ``ob``'s handles as Re-plan makes it (``rebake_steps``) and the live
+    update shows it (``live``): DirectingError when it has none."""
+    from ..write.bake import owned_tracks
+    from . import handles
+
+    plan, _ = handles.read_plan(ob)
+    if not plan.footprints:
+        raise DirectingError(f"{ob.name!r} has no footprint handles: plan first, then edit the footprints")
+    settings = settings or Settings()
+    tracks = owned_tracks(ob)
+    if not settings.avoid_characters and any(st.action.get(ROUND_OTHERS_PROP) for tr in tracks for st in tr.strips):
+        settings = settings.replace(avoid_characters=True)  # (baked round the others: re-planned round them)
+    yielding = _can_give_way(scene, ob) if settings.avoid_characters and others_too else []
+    goal = plan.goal if plan.goal is not None else plan.footprints[-1].position
+    return Edit(plan, settings, yielding, EditedRoute(plan), np.asarray(goal, float),
+                int(tracks[0].strips[0].frame_start) if tracks else None)
 
 
 def _can_give_way(scene, ob) -> list:

@@ -208,6 +208,7 @@ def _draw_footprint_edit(layout, fs) -> None:
     row.operator("footstep.lock_footprints", text="Lock", icon="LOCKED").lock = True
     row.operator("footstep.lock_footprints", text="Unlock", icon="UNLOCKED").lock = False
     row.operator("footstep.replan", icon="FILE_REFRESH")
+    layout.prop(fs, "live_replan")
     if fs.edit_problem:
         col = layout.column(align=True)
         col.alert = True

@@ -117,6 +117,10 @@ class FOOTSTEP_PG_scene(bpy.types.PropertyGroup):
                                   description="After Plan and Bake, show each footprint as a small empty "
                                               "(in the collection 'Footprints: <character>') to move, turn, "
                                               "lock and re-plan around")
+    live_replan: BoolProperty(name="Live re-plan", default=False,
+                              description="While you move or turn a footprint, re-plan around it as soon as "
+                                          "the hand rests and show the new footprints and body path in the "
+                                          "viewport (nothing is baked until Re-plan or Bake)")
 
     # scratch state: this session only, never saved in the user's file
     plan_json = Scratch(doc="The last plan (JSON)")

@@ -54,16 +54,16 @@ def legs(setup: PlanSetup, settings: Settings, fps: float) -> SynthFn:
     snap = surface_snap(pl.ground, pl.obstacles, setup.forward, pl.foot, clearance=pl.clearance,
                         step_height=pl.max_step_height)
     body = standing_body(setup.library, setup.analyses)
-    tracks = {}  # (every clip's track, made at the first leg for them all: a turn's tries and waypoints' legs)
 
     def leg(path, other, goal, heading, lead, hold, pace):
         if other is None:
             other = next((f for f in setup.start or () if f.foot != path[0].foot), None)
         ends = Leg(goal=goal, goal_heading=heading, standing=True, start_other=other, pace=pace, lead=lead, hold=hold)
-        if not tracks:
-            tracks.update(clip_tracks(setup.library, setup.analyses))
+        if setup.tracks is None:  # (every clip's track, made at the first leg for them all, kept on the setup:
+            tracks = clip_tracks(setup.library, setup.analyses)  # a turn's tries, waypoints' legs, a re-plan's)
             freeze(tracks)  # (shared by every leg: read only)
-        return synthesize_leg(path, setup.library, tracks, ends, settings, fps=fps, forward=setup.forward,
+            setup.tracks = tracks
+        return synthesize_leg(path, setup.library, setup.tracks, ends, settings, fps=fps, forward=setup.forward,
                               snap=snap)
 
     def turning(path, other, goal, heading, lead, hold, pace):

@@ -32,6 +32,9 @@ class PlanSetup:
     forward: np.ndarray  # world (x, y) of heading 0
     rig: Rig | None = None
     start: list | None = None  # the standing footprints the plan left from
+    #: clip name -> ClipTrack of every clip of the library, made by the first synthesis that
+    #: needs them (``perform.run.legs``) and kept for the next one of this setup (read only)
+    tracks: dict | None = None
 
 
 def foot_shape(analyses, rig: Rig | None = None, scale: float = 1.0) -> FootShape:

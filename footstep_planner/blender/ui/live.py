@@ -1,0 +1,140 @@
+"""Live re-plan (issue 30): the path follows the hand while a footprint handle is dragged.
+
+With *Live re-plan* on (the panel, beside Re-plan), a depsgraph handler notes each
+character whose footprint handles were moved or turned (a transform update of one); a
+timer, ``DEBOUNCE`` s after the last such update,
+re-plans each one as Re-plan would (``directing.edit_of``: the spans round what changed,
+round the others where its bake was) and performs it, so the overlay shows the new
+footprints and body path at once, the re-planned footprints ringed. Nothing is baked and
+no handle is remade while the hand is on one: **Re-plan** (or Bake) bakes what the overlay
+shows. An edit that can't be honoured rings its footprint in the warning colour and puts
+the reason in the panel; the last good result stays drawn. (Moving a waypoint, the Start
+or the Goal is not followed live: Re-plan or Bake again.)
+
+The first update of a drag reads the scene's surfaces and the character's clips as a plan
+does; the next ones use them again (``_SETUPS``), until anything but a handle changes.
+The handler only notes and the timer does the work: Blender calls timers from its event
+loop, never while it draws, so the viewport is never held up by a plan. In a background
+process there is no event loop: ``update`` is what the timer runs, for one character.
+"""
+
+from __future__ import annotations
+
+import time
+
+import bpy
+import numpy as np
+from bpy.app.handlers import persistent
+
+from ...core.base.errors import FootstepError
+
+#: s after the last moved handle before the re-plan runs (a drag's updates come tens of
+#: milliseconds apart: the re-plan runs when the hand rests, not at every step of it)
+DEBOUNCE = 0.15
+
+#: character (object pointer) -> (time of its last moved handle, scene name, its name)
+_PENDING: dict[int, tuple[float, str, str]] = {}
+#: set while a live re-plan runs (its own depsgraph updates are not the hand's)
+_BUSY: list = []
+#: character (object pointer) -> its last live re-plan's ``PlanSetup`` (surfaces read, clips
+#: analysed, steps, clip tracks), used again by the next update of the same drag; every
+#: entry dropped on any change in the scene but a handle's move (the surfaces, the clips,
+#: the rig, the settings: whatever it was made of may have changed)
+_SETUPS: dict[int, object] = {}
+
+
+def _moved_character(scene, ob):
+    """The character whose footprint handle ``ob`` (an object just moved) is, or None."""
+    from . import handles
+
+    owner = ob.get(handles.OWNED)
+    return scene.objects.get(owner) if owner is not None and ob.get(handles.INDEX) is not None else None
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph) -> None:
+    """Note the characters whose handles the hand moved (see the module); start the timer."""
+    if _BUSY or not getattr(scene, "footstep", None) or not scene.footstep.live_replan:
+        return
+    now = time.monotonic()
+    for u in depsgraph.updates:
+        char = _moved_character(scene, u.id.original) if isinstance(u.id, bpy.types.Object) else None
+        if char is None:  # (something else changed: what the next update reads is read again)
+            if not _is_handles_collection(u.id.original):
+                _SETUPS.clear()
+            continue
+        if u.is_updated_transform:
+            _PENDING[char.as_pointer()] = (now, scene.name, char.name)
+    if _PENDING and not bpy.app.timers.is_registered(_tick):
+        bpy.app.timers.register(_tick, first_interval=DEBOUNCE)
+
+
+def _is_handles_collection(idb) -> bool:
+    """Whether ``idb`` is the planner's collection of a character's handles (updated with
+    them as they move)."""
+    from . import handles
+
+    return isinstance(idb, bpy.types.Collection) and idb.get(handles.OWNED) is not None
+
+
+def _tick():
+    """The timer: re-plan each character whose hand has rested ``DEBOUNCE`` s; again later
+    for those still moving."""
+    now = time.monotonic()
+    for key, (at, scene_name, name) in list(_PENDING.items()):
+        if now - at < DEBOUNCE:
+            continue
+        del _PENDING[key]
+        scene = bpy.data.scenes.get(scene_name)
+        ob = scene.objects.get(name) if scene is not None else None
+        if ob is not None:
+            update(scene, ob)
+    return DEBOUNCE if _PENDING else None
+
+
+def update(scene, ob) -> dict:
+    """Re-plan ``ob`` from its handles now (``directing.edit_of``), perform it and show it in
+    the overlay; nothing baked. Returns {"footprints": the new path's, "spans": re-planned,
+    "seconds"} or, where the edit can't be honoured, {"problem": why} (the footprint ringed
+    in the warning colour, the panel saying why, the last good result still drawn)."""
+    from .. import planning
+    from . import directing, handles, overlay
+    from .operators import _settings
+
+    t0 = time.perf_counter()
+    fs = scene.footstep
+    _BUSY.append(ob)
+    try:
+        edit = directing.edit_of(scene, ob, _settings(bpy.context))
+        planned = planning.plan_and_synthesize(scene, ob, edit.goal, None, None, edit.settings, route=edit.route,
+                                               frame_start=edit.frame_start,
+                                               not_around=tuple(o.name for o in edit.yielding),
+                                               setup=_SETUPS.get(ob.as_pointer()))
+        _SETUPS[ob.as_pointer()] = planned.setup
+    except FootstepError as ex:
+        fs.edit_problem = str(ex)
+        i, hs = getattr(ex, "footprint", None), handles.handles(ob)
+        where = [np.array(hs[i].matrix_world.translation, float)] if i is not None and i < len(hs) else []
+        overlay.mark(scene, refused=np.array(where, float).reshape(-1, 3), replanned=np.zeros((0, 3)))
+        return {"problem": str(ex), "seconds": time.perf_counter() - t0}
+    finally:
+        _BUSY.remove(ob)
+    fs.edit_problem = ""
+    directing._show_replanned(scene, edit.route.edited)
+    overlay.mark(scene, refused=np.zeros((0, 3)))
+    return {"footprints": edit.route.edited.result.footprints, "spans": list(edit.route.edited.spans),
+            "seconds": time.perf_counter() - t0}
+
+
+def register():
+    if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+
+
+def unregister():
+    if on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
+    if bpy.app.timers.is_registered(_tick):
+        bpy.app.timers.unregister(_tick)
+    _PENDING.clear()
+    _SETUPS.clear()

@@ -1,0 +1,71 @@
+"""Live re-plan (issue 30): a footprint handle moved as the viewport moves it (its
+transform changed, then the depsgraph updated) is noted by the planner's handler, and the
+timer's re-plan, once the hand rests, shows the new footprints in the overlay: only within
+the span between the locks round it, every other footprint exactly where it was, nothing
+baked. An edit that can't be honoured keeps the last good result and says why."""
+
+from importlib import import_module
+
+import numpy as np
+
+from test_directing import _move_middle_footprint, turns  # noqa: F401  (the fixture)
+
+
+def _baked(ob) -> list:
+    from fingerprint import _action
+
+    return [_action(st.action) for tr in ob.animation_data.nla_tracks for st in tr.strips]
+
+
+def _drag(live, monkeypatch):
+    """The depsgraph update a drag makes, then the timer once the hand has rested (no event
+    loop runs timers in a background process: it is called as Blender would call it)."""
+    import bpy
+
+    bpy.context.view_layer.update()  # (the handler runs on the update the move tagged)
+    assert live._PENDING, "the moved handle was not noted"
+    monkeypatch.setattr(live, "DEBOUNCE", 0.0)
+    assert live._tick() is None and not live._PENDING
+
+
+def test_a_dragged_footprint_is_replanned_live_within_its_span_only(fp, turns, monkeypatch):  # noqa: F811
+    import bpy
+
+    scene, ob, _ = turns
+    live = import_module(fp.__name__ + ".blender.ui.live")
+    overlay = import_module(fp.__name__ + ".blender.ui.overlay")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
+    assert bpy.app.handlers.depsgraph_update_post.count(live.on_depsgraph_update) == 1
+    before = [f.position.copy() for f in overlay.path_of(scene, ob)[0]]
+    keys = _baked(ob)
+
+    scene.footstep.live_replan = False  # (off: a move is not followed)
+    hs = handles.handles(ob)
+    hs[2].location.x += 0.001
+    bpy.context.view_layer.update()
+    assert not live._PENDING
+    hs[2].location.x -= 0.001
+
+    scene.footstep.live_replan = True
+    k, put = _move_middle_footprint(fp, ob, 0.12)
+    _drag(live, monkeypatch)
+    after = [f.position for f in overlay.path_of(scene, ob)[0]]
+    assert scene.footstep.edit_problem == ""
+    assert any(np.allclose(p, put, atol=1e-6) for p in after)  # (the moved footprint where the hand left it)
+    n_tail = len(before) - (k + 3)
+    for i in range(k - 2):  # before the span, and from the lock after it on: exactly as they were
+        assert np.array_equal(after[i], before[i])
+    for i in range(1, n_tail + 1):
+        assert np.array_equal(after[-i], before[-i])
+    assert any(not np.allclose(a, b) for a, b in zip(after[k - 2:k + 3], before[k - 2:k + 3]))
+    assert _baked(ob) == keys  # (nothing baked: Re-plan bakes what the overlay shows)
+    assert len(handles.handles(ob)) == len(before)  # (no handle remade under the hand)
+
+    # a drag that can't be honoured: the last good result stays, and the panel says why
+    hs = handles.handles(ob)
+    hs[k].location.z -= 3.0
+    _drag(live, monkeypatch)
+    assert "off surface" in scene.footstep.edit_problem
+    now = [f.position for f in overlay.path_of(scene, ob)[0]]
+    assert len(now) == len(after) and all(np.array_equal(a, b) for a, b in zip(now, after))
+    assert _baked(ob) == keys
