@@ -23,7 +23,7 @@ from ..core.clips.body import body_scale, leg_length, scaled_points
 from ..core.clips.steps import library_steps, shortest_stride
 from ..core.footprint import PathFootprint
 from ..core.perform import turn_in_place
-from ..core.perform.run import Planned, perform_plan, synthesize_plan, waypoint_rows
+from ..core.perform.run import Planned, StartedRoute, perform_plan, synthesize_plan, waypoint_rows
 from ..core.plan.navgraph import HIPS_HEIGHT, FootprintCache, PlanError, PlanResult, Planner
 from ..core.plan.others import BODY_RADIUS, OUTLINE_STEP, Others, fit_clock, outline_points
 from ..core.plan import stands
@@ -175,7 +175,12 @@ def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,
         setup = plan_setup(scene, ob, settings, traversable, obstacles, others)
     else:
         setup.planner = replace(setup.planner, others=others)
-    start = marker_footprints(start_marker, setup) if start_marker is not None else character_footprints(ob, setup)
+    if start_marker is not None:
+        start = marker_footprints(start_marker, setup)
+    elif isinstance(route, StartedRoute):  # (an edited plan leaves from where its bake did)
+        start = route.standing(setup)
+    else:
+        start = character_footprints(ob, setup)
     heading = None if goal_heading is None else rotation_heading(goal_heading, setup.forward)
     setup.start = start
     return _search(setup, goal, heading, route), setup

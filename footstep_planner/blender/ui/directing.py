@@ -18,7 +18,7 @@ from ...core.base.errors import FootstepError
 from ...core.base.settings import Settings
 from ...core.footprint import PIVOT
 from ...core.jobs import MAX_FRAME
-from ...core.plan.plan_edit import Edited, edited_path
+from ...core.plan.plan_edit import Edited, edited_path, in_frame
 from ...core.plan.plan_file import PlanFile
 from ...core.solve import splice as splicing
 from ...core.perform.waypoints import Waypoint, plan_via
@@ -40,6 +40,14 @@ class EditedRoute:
     def __call__(self, setup, start, heading):
         self.edited = edited_path(setup.planner, self.plan)
         return self.edited.result
+
+    def standing(self, setup) -> list:
+        """The feet the plan starts standing on: its first footprint and the other beside it
+        (``core.plan.setup.standing_with``), wherever the character's object stands now."""
+        from ...core.plan.setup import standing_with
+
+        return standing_with(in_frame(self.plan, setup.forward)[0], setup,
+                             f"the first footprint of {self.plan.character!r}'s plan")
 
 
 @dataclass

@@ -31,6 +31,15 @@ from .directed import Mark, Performance, SynthFn, TimingError, arrival_frames, a
 
 
 @runtime_checkable
+class StartedRoute(Protocol):
+    """A route that leaves from footprints of its own (an edited plan,
+    ``blender/ui/directing.EditedRoute``: its first footprint, where its bake left from):
+    ``standing(setup)`` the feet it starts standing on."""
+
+    def standing(self, setup: PlanSetup) -> list: ...
+
+
+@runtime_checkable
 class MarkedRoute(Protocol):
     """A route through waypoints (``blender/ui/directing.ViaRoute``): called as
     ``route(setup, start, heading)`` for its path; ``marks(fps, first frame)`` its waypoints'
@@ -195,5 +204,5 @@ def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=No
     return rows
 
 
-__all__ = ["LastSolve", "MarkedRoute", "Planned", "legs", "perform_plan", "stand_marks", "synthesize_plan",
+__all__ = ["LastSolve", "MarkedRoute", "Planned", "StartedRoute", "legs", "perform_plan", "stand_marks", "synthesize_plan",
            "waypoint_rows"]

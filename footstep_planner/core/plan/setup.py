@@ -98,14 +98,9 @@ def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
     left = np.array([-np.sin(ang), np.cos(ang), 0.0])
     p = np.asarray(position, float)[:3]
     cfg = setup.planner.settings
-    straight = cfg.straightens
-    toe = setup.planner.steps.toe_out() if straight else 0.0
-    if width is None:
-        width = cfg.length(STAND_HALF_WIDTH)
-        if straight and setup.planner.steps.stance_width() > 0:
-            lo, hi = (cfg.length(w) for w in STAND_HALF_WIDTH_RANGE)
-            width = float(np.clip(0.5 * setup.planner.steps.stance_width(), lo, hi))
+    toe = setup.planner.steps.toe_out() if cfg.straightens else 0.0
     out = []
+    width = _stand_width(setup) if width is None else width
     for k, sign in ((0, 1), (1, -1)):
         q = p + sign * width * left
         hit = setup.planner.ground.ray_down(np.array([[q[0], q[1], q[2] + cfg.length(0.5)]]), cfg.length(3.0))
@@ -116,5 +111,30 @@ def standing_footprints(position, heading: float, setup: PlanSetup, what: str,
     return out
 
 
+def _stand_width(setup: PlanSetup) -> float:
+    """m either side of the middle a standing foot stands (``standing_footprints``)."""
+    cfg = setup.planner.settings
+    width = cfg.length(STAND_HALF_WIDTH)
+    if cfg.straightens and setup.planner.steps.stance_width() > 0:
+        lo, hi = (cfg.length(w) for w in STAND_HALF_WIDTH_RANGE)
+        width = float(np.clip(0.5 * setup.planner.steps.stance_width(), lo, hi))
+    return width
+
+
+def standing_with(first: PathFootprint, setup: PlanSetup, what: str) -> list[PathFootprint]:
+    """Both feet standing as ``standing_footprints`` stands them, one of them ``first``
+    exactly (an edited plan's first footprint: it leaves from where its bake did, wherever
+    the character's object stands now): the other beside it."""
+    cfg = setup.planner.settings
+    sign = 1.0 if first.foot == 0 else -1.0
+    heading = first.heading - sign * (setup.planner.steps.toe_out() if cfg.straightens else 0.0)
+    ang = heading + np.arctan2(setup.forward[1], setup.forward[0])
+    left = np.array([-np.sin(ang), np.cos(ang), 0.0])
+    pair = standing_footprints(np.asarray(first.position, float) - sign * _stand_width(setup) * left, heading,
+                               setup, what)
+    pair[first.foot] = first
+    return pair
+
+
 __all__ = ["STAND_HALF_WIDTH_RANGE", "TOE_ROOM", "PlanSetup", "check_size", "foot_shape",
-           "standing_footprints"]
+           "standing_footprints", "standing_with"]

@@ -95,6 +95,35 @@ def test_moving_one_footprint_rebakes_only_its_span(fp, turns):
     assert bpy.data.actions[doc2["action"]]["footstep_planted_frames"]
 
 
+def test_a_character_baked_from_a_start_elsewhere_is_replanned_from_its_plans_first_footprint(fp, empty_scene):
+    """A character standing off every floor (as an import at the origin does), baked from
+    the scene's Start: Re-plan leaves from the plan's first footprint, not from where the
+    object stands, and keeps the plan's start exactly."""
+    import bpy
+
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
+    directing = import_module(fp.__name__ + ".blender.ui.directing")
+    mannequin = import_module(fp.__name__ + ".blender.sample.mannequin")
+    sample = import_module(fp.__name__ + ".blender.sample.sample_scenes")
+    planning = import_module(fp.__name__ + ".blender.planning")
+    scene = sample.build("turns")
+    scene.render.fps, scene.render.fps_base = 30, 1.0
+    off = bpy.data.objects.new("Off", None)
+    off.location = (60.0, 60.0, 0.0)
+    scene.collection.objects.link(off)
+    ob, _ = mannequin.add_to_scene(scene, "Off")
+    goal, heading = planning.goal_of(scene, "Goal")
+    planned = planning.plan_and_synthesize(scene, ob, goal, heading, scene.objects["Start"])
+    planning.run(scene, ob, goal, heading, scene.objects["Start"], name="turns", frame_start=1)
+    handles.make_handles(scene, ob, planned.result.footprints, planned.setup.forward, goal, planned.goal_heading)
+    k, target = _move_middle_footprint(fp, ob, 0.12)
+    doc, route, _ = directing.rebake_handles(scene, ob)
+    fps = route.edited.result.footprints
+    assert np.array_equal(fps[0].position, planned.result.footprints[0].position)
+    assert sum(np.allclose(f.position, target, atol=1e-6) for f in fps) == 1
+    assert doc["quality"]["goal"]["distance_m"] < 0.05
+
+
 def test_an_edited_plan_that_turns_in_place_rebakes_with_its_turn(fp, empty_scene):
     """Turns with the Start turned round: the bake turns in place at the start. Move a
     footprint of the walk after it in the viewport and re-bake from the handles: the
