@@ -3,7 +3,8 @@
 On each sample scene, with the sample character or the CMU subject-16 library, the path
 is baked with its footprint handles; the two footprints nearest 5 m before and after the
 path's middle are locked (a span of about 10 m between them) and the middle footprint is
-dragged: moved 4 cm sideways again and again, each move followed by the update the timer
+dragged: moved 4 and 8 cm sideways in turn (the middle footprint nearest the path's
+middle that is no jump's take-off or landing), each move followed by the update the timer
 runs once the hand rests (``blender.ui.live.update``: the span's search, its synthesis and
 the overlay). Prints each scene's median and worst update (wall clock, ms), the search's and
 the synthesis's share, and how many updates were refused; writes nothing.
@@ -33,7 +34,9 @@ def _span_locks(fps) -> tuple[int, int, int]:
     """(lock before, the middle footprint, lock after): about SPAN m of path between the locks."""
     pos = np.array([f.position[:2] for f in fps])
     along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))]
-    mid = int(np.argmin(np.abs(along - along[-1] / 2)))
+    jumpy = np.array([f.jump for f in fps]) | np.r_[np.array([f.jump for f in fps])[1:], False]
+    order = np.argsort(np.abs(along - along[-1] / 2))  # (the middle: not a jump's take-off or landing)
+    mid = int(next(i for i in order if not (jumpy[max(i - 1, 0):i + 2].any())))
     a = int(np.argmin(np.abs(along - (along[mid] - SPAN / 2))))
     b = int(np.argmin(np.abs(along - (along[mid] + SPAN / 2))))
     return max(a, 1), mid, min(b, len(fps) - 2)
@@ -83,10 +86,11 @@ def run(name: str, library: str, drags: int, mocap: str) -> dict:
     navgraph.Planner.plan = timed("search", plan0)
     planning.perform_plan = timed("synthesis", perf0)
     times, searches, synths, refused = [], [], [], 0
+    home = np.array(hs[mid].location, float)
     try:
-        for k in range(drags):
+        for k in range(drags):  # (4 and 8 cm aside in turn: never back where it was planned)
             hs = handles.handles(ob)
-            hs[mid].location.y += 0.04 if k % 2 == 0 else -0.04
+            hs[mid].location = home + [0.0, 0.04 if k % 2 == 0 else 0.08, 0.0]
             spent["search"] = spent["synthesis"] = 0.0
             got = live.update(scene, ob)
             if "problem" in got:
