@@ -232,7 +232,8 @@ class FOOTSTEP_OT_bake_together(_Stepped, bpy.types.Operator):
                 if order.get("moved_ahead") else ""))
             if fs.character is not None and job.fields["character"] == fs.character.name:
                 fs.plan_json = panel_doc(doc)
-            _handles(context.scene, job)
+            if fs.edit_footprints:
+                _handles(context.scene, job)
         fs.last_report = f"{baked} of {len(self._jobs)} characters baked together. " + "; ".join(lines)
         self.report({"INFO"} if baked == len(self._jobs) else {"WARNING"}, fs.last_report)
         return {"FINISHED"} if baked else {"CANCELLED"}

@@ -367,7 +367,8 @@ def _give_way(scene, ob, doc: dict, settings, yielding: list, frame_range: bool,
         except FootstepError as ex:
             row["error"] = str(ex)
         else:
-            mine = next((f for f in sub["quality"].get("others") or [] if f["character"] == ob.name), None)
+            theirs = [o for o, _ in planning.other_characters(scene, other)]  # (its figures, in this order)
+            mine = next((f for o, f in zip(theirs, sub["quality"].get("others") or []) if o == ob), None)
             row["replanned"] = sub.get("replanned", [])
             if mine is not None:
                 row["now_m"], row["now_frame"] = mine["least_distance_m"], mine["least_distance_frame"]
