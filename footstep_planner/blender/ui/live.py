@@ -11,8 +11,10 @@ shows. An edit that can't be honoured rings its footprint in the warning colour 
 the reason in the panel; the last good result stays drawn. (Moving a waypoint, the Start
 or the Goal is not followed live: Re-plan or Bake again.)
 
-The first update of a drag reads the scene's surfaces and the character's clips as a plan
-does; the next ones use them again (``_SETUPS``), until anything but a handle changes.
+An update reads the scene's surfaces and the character's clips as a plan does; the next
+ones use them again (``_SETUPS``), until anything but a handle changes. Picking a handle
+updates it too (Blender tags the object picked), so that update reads them, and the
+drag's own updates after it use them; another frame reads them again.
 The handler only notes and the timer does the work: Blender calls timers from its event
 loop, never while it draws, so the viewport is never held up by a plan. In a background
 process there is no event loop: ``update`` is what the timer runs, for one character.
@@ -69,6 +71,13 @@ def on_depsgraph_update(scene, depsgraph) -> None:
         bpy.app.timers.register(_tick, first_interval=DEBOUNCE)
 
 
+@persistent
+def on_frame_change(scene, *_args) -> None:
+    """Another frame: what a setup read at the last one (an obstacle where it stood then)
+    is read again by the next update."""
+    _SETUPS.clear()
+
+
 def _is_handles_collection(idb) -> bool:
     """Whether ``idb`` is the planner's collection of a character's handles (updated with
     them as they move)."""
@@ -111,6 +120,9 @@ def update(scene, ob) -> dict:
                                                not_around=tuple(o.name for o in edit.yielding),
                                                setup=_SETUPS.get(ob.as_pointer()))
         _SETUPS[ob.as_pointer()] = planned.setup
+        # (reading the clips tags the armature: evaluated now, while busy, those updates are
+        # the update's own, not a change that would drop the setup just kept)
+        bpy.context.view_layer.update()
     except FootstepError as ex:
         fs.edit_problem = str(ex)
         i, hs = getattr(ex, "footprint", None), handles.handles(ob)
@@ -126,14 +138,20 @@ def update(scene, ob) -> dict:
             "seconds": time.perf_counter() - t0}
 
 
+_HANDLERS = ((bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+             (bpy.app.handlers.frame_change_post, on_frame_change))
+
+
 def register():
-    if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+    for handlers, fn in _HANDLERS:
+        if fn not in handlers:
+            handlers.append(fn)
 
 
 def unregister():
-    if on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
+    for handlers, fn in _HANDLERS:
+        if fn in handlers:
+            handlers.remove(fn)
     if bpy.app.timers.is_registered(_tick):
         bpy.app.timers.unregister(_tick)
     _PENDING.clear()

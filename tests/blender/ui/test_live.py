@@ -69,3 +69,28 @@ def test_a_dragged_footprint_is_replanned_live_within_its_span_only(fp, turns, m
     now = [f.position for f in overlay.path_of(scene, ob)[0]]
     assert len(now) == len(after) and all(np.array_equal(a, b) for a, b in zip(now, after))
     assert _baked(ob) == keys
+
+
+def test_picking_a_handle_makes_its_drag_ready_and_playing_does_not(fp, turns, monkeypatch):  # noqa: F811
+    """With Live re-plan on, picking a handle (it becomes the active object, selected, as a
+    click does before a drag) is an update of it: the timer's update then reads the
+    surfaces and clips, and the drag's first update uses them. A frame change with a
+    handle active (playing, scrubbing) notes nothing."""
+    import bpy
+
+    scene, ob, _ = turns
+    live = import_module(fp.__name__ + ".blender.ui.live")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
+    scene.footstep.live_replan = True
+    live._SETUPS.clear()
+    h = handles.handles(ob)[5]
+    bpy.context.view_layer.objects.active = h
+    h.select_set(True)
+    _drag(live, monkeypatch)
+    made = live._SETUPS[ob.as_pointer()]
+    h.location.y += 0.05
+    _drag(live, monkeypatch)
+    assert live._SETUPS[ob.as_pointer()] is made  # (the drag's update used it)
+
+    scene.frame_set(scene.frame_current + 1)  # (as playing does)
+    assert not live._PENDING and ob.as_pointer() not in live._SETUPS
