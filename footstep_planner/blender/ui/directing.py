@@ -280,7 +280,7 @@ def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str
     fps = route.edited.result.footprints
     locked = _carried_locks(plan, route.edited, len(fps))
     handles.make_handles(scene, ob, fps, plan.forward, plan.goal, plan.goal_heading, locked)
-    _show_replanned(scene, route.edited)
+    show_replanned(scene, route.edited)
     edit_report(doc, route, splice)
     if baked is not None:
         baked.append(ob)
@@ -402,7 +402,7 @@ def edit_report(doc: dict, route: EditedRoute, splice: "Splice | None") -> None:
                                 f"(a planted foot slid {splice.slid_mm:.1f} mm there): the whole path was re-baked")
 
 
-def _show_replanned(scene, edited: Edited) -> None:
+def show_replanned(scene, edited: Edited) -> None:
     """Ring the footprints the re-plan made in the overlay."""
     from . import overlay
 

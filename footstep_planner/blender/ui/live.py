@@ -86,10 +86,11 @@ def _is_handles_collection(idb) -> bool:
     return isinstance(idb, bpy.types.Collection) and idb.get(handles.OWNED) is not None
 
 
-def _tick():
-    """The timer: re-plan each character whose hand has rested ``DEBOUNCE`` s; again later
-    for those still moving."""
-    now = time.monotonic()
+def _tick(now: float | None = None):
+    """The timer: re-plan each character whose hand has rested ``DEBOUNCE`` s by ``now``
+    (``time.monotonic``'s clock; Blender calls it without, the clock's now); again later for
+    those still moving."""
+    now = time.monotonic() if now is None else now
     for key, (at, scene_name, name) in list(_PENDING.items()):
         if now - at < DEBOUNCE:
             continue
@@ -132,7 +133,7 @@ def update(scene, ob) -> dict:
     finally:
         _BUSY.remove(ob)
     fs.edit_problem = ""
-    directing._show_replanned(scene, edit.route.edited)
+    directing.show_replanned(scene, edit.route.edited)
     overlay.mark(scene, refused=np.zeros((0, 3)))
     return {"footprints": edit.route.edited.result.footprints, "spans": list(edit.route.edited.spans),
             "seconds": time.perf_counter() - t0}

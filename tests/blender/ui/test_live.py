@@ -17,18 +17,19 @@ def _baked(ob) -> list:
     return [_action(st.action) for tr in ob.animation_data.nla_tracks for st in tr.strips]
 
 
-def _drag(live, monkeypatch):
+def _drag(live):
     """The depsgraph update a drag makes, then the timer once the hand has rested (no event
-    loop runs timers in a background process: it is called as Blender would call it)."""
+    loop runs timers in a background process: it is called as Blender would call it, at a
+    moment long after the last move)."""
     import bpy
 
     bpy.context.view_layer.update()  # (the handler runs on the update the move tagged)
     assert live._PENDING, "the moved handle was not noted"
-    monkeypatch.setattr(live, "DEBOUNCE", 0.0)
-    assert live._tick() is None and not live._PENDING
+    rested = max(at for at, _, _ in live._PENDING.values()) + 2 * live.DEBOUNCE
+    assert live._tick(now=rested) is None and not live._PENDING
 
 
-def test_a_dragged_footprint_is_replanned_live_within_its_span_only(fp, turns, monkeypatch):  # noqa: F811
+def test_a_dragged_footprint_is_replanned_live_within_its_span_only(fp, turns):  # noqa: F811
     import bpy
 
     scene, ob, _ = turns
@@ -48,7 +49,7 @@ def test_a_dragged_footprint_is_replanned_live_within_its_span_only(fp, turns, m
 
     scene.footstep.live_replan = True
     k, put = _move_middle_footprint(fp, ob, 0.12)
-    _drag(live, monkeypatch)
+    _drag(live)
     after = [f.position for f in overlay.path_of(scene, ob)[0]]
     assert scene.footstep.edit_problem == ""
     assert any(np.allclose(p, put, atol=1e-6) for p in after)  # (the moved footprint where the hand left it)
@@ -64,14 +65,14 @@ def test_a_dragged_footprint_is_replanned_live_within_its_span_only(fp, turns, m
     # a drag that can't be honoured: the last good result stays, and the panel says why
     hs = handles.handles(ob)
     hs[k].location.z -= 3.0
-    _drag(live, monkeypatch)
+    _drag(live)
     assert "off surface" in scene.footstep.edit_problem
     now = [f.position for f in overlay.path_of(scene, ob)[0]]
     assert len(now) == len(after) and all(np.array_equal(a, b) for a, b in zip(now, after))
     assert _baked(ob) == keys
 
 
-def test_picking_a_handle_makes_its_drag_ready_and_playing_does_not(fp, turns, monkeypatch):  # noqa: F811
+def test_picking_a_handle_makes_its_drag_ready_and_playing_does_not(fp, turns):  # noqa: F811
     """With Live re-plan on, picking a handle (it becomes the active object, selected, as a
     click does before a drag) is an update of it: the timer's update then reads the
     surfaces and clips, and the drag's first update uses them. A frame change with a
@@ -86,10 +87,10 @@ def test_picking_a_handle_makes_its_drag_ready_and_playing_does_not(fp, turns, m
     h = handles.handles(ob)[5]
     bpy.context.view_layer.objects.active = h
     h.select_set(True)
-    _drag(live, monkeypatch)
+    _drag(live)
     made = live._SETUPS[ob.as_pointer()]
     h.location.y += 0.05
-    _drag(live, monkeypatch)
+    _drag(live)
     assert live._SETUPS[ob.as_pointer()] is made  # (the drag's update used it)
 
     scene.frame_set(scene.frame_current + 1)  # (as playing does)
