@@ -100,6 +100,50 @@ class Library:
         names = [c.clip for g in self.turn_groups.values() for c in g.clips]
         return names + [sp.clip for sp in self.specials]
 
+    def label_tau(self, label: str) -> float | None:
+        """The curvature tau (1/m) a plan step's label turns: a "<group name>@<tau>"'s tau,
+        a turning group clip's own; None for any other label (a special clip, a start)."""
+        if "@" in label:
+            try:
+                return float(label.rsplit("@", 1)[1])
+            except ValueError:
+                return None
+        for g in self.turn_groups.values():
+            for c in g.clips:
+                if c.clip == label:
+                    return c.tau
+        return None
+
+    def run_reach(self, bend_curvature: float) -> tuple[float, float] | None:
+        """(least, most) tau (1/m) the library's running steps turn: the run group's clips'
+        range, out to +-``bend_curvature`` on a side where its steps are bent that far
+        (no clip of the library turns that tightly there: ``steps.bend_curvatures``).
+        None without both a walk and a run group (no walk to slow a run's turn into)."""
+        if self.speed_group is None:
+            return None
+        lo, hi = self.turn_groups["run"].tau_range()
+        every = [c.tau for g in self.turn_groups.values() for c in g.clips]
+        if bend_curvature > 0 and max(every) < bend_curvature - 1e-3:
+            hi = max(hi, bend_curvature)
+        if bend_curvature > 0 and min(every) > -bend_curvature + 1e-3:
+            lo = min(lo, -bend_curvature)
+        return lo, hi
+
+    def corners(self, labels, gaits, bend_curvature: float) -> np.ndarray:
+        """(N,) bool: which plan steps (their ``labels`` and ``gaits`` (N,)) are a walk's
+        turn tighter than any running step of the library turns (``run_reach``, beyond it
+        by more than a label's precision): where a run slows into a walk to turn, and the
+        blend follows (``synth.passes.speed_pins``; the search's ``CORNER_STEPS``)."""
+        out = np.zeros(len(labels), bool)
+        reach = self.run_reach(bend_curvature)
+        if reach is None:
+            return out
+        lo, hi = reach
+        for i, (label, gait) in enumerate(zip(labels, gaits)):
+            tau = self.label_tau(str(label)) if gait == "walk" else None
+            out[i] = tau is not None and (tau > hi + 1e-3 or tau < lo - 1e-3)
+        return out
+
     def bend_of(self, label: str) -> float:
         """The bend (1/m, ``TurnGroup.bend``) of a plan step's label: non-zero only for a
         "<group name>@<tau>" beyond that group's clips, a step the planner bent."""

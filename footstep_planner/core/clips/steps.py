@@ -56,10 +56,15 @@ class StepSet:
     jump: np.ndarray  # (N,) bool
     label: np.ndarray  # (N,) object: clip name, or "group@param" for a blend
     stride: np.ndarray | None = None  # (N,) the clip's forward length scaled by (1: its own)
+    #: (N,) bool: a walk's turn tighter than any of the library's running steps turns
+    #: (``Library.corners``): a run slows into a walk before it (``navgraph.CORNER_STEPS``)
+    corner: np.ndarray | None = None
 
     def __post_init__(self):
         if self.stride is None:
             object.__setattr__(self, "stride", np.ones(len(self.fwd)))
+        if self.corner is None:
+            object.__setattr__(self, "corner", np.zeros(len(self.fwd), bool))
 
     def time_cost(self, stride_penalty: float) -> np.ndarray:
         """(N,) s: each step's duration (its cycle's mean, ``cycle_mean``), an adapted
@@ -148,7 +153,7 @@ class StepSet:
 
 
 #: StepSet's array fields, in order.
-FIELDS = ("fwd", "left", "turn", "duration", "foot", "gait", "jump", "label", "stride")
+FIELDS = ("fwd", "left", "turn", "duration", "foot", "gait", "jump", "label", "stride", "corner")
 
 
 def relative(a: Footprint, b: Footprint, forward: np.ndarray) -> tuple[float, float, float]:
@@ -300,7 +305,8 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
     way that is not straight, ``Settings.straightens``: without it nothing prefers them,
     and they only move paths), each group's straightest clip straightened too
     (``_straight_rows``). ``scale``: the body's (``Settings.body_scale``): bent steps'
-    curvatures are spaced BEND_SPACING over it."""
+    curvatures are spaced BEND_SPACING over it. Each walking step that turns tighter than
+    any running one is marked a corner (``StepSet.corner``, ``Library.corners``)."""
     by = {a.name: a for a in analyses}
     groups = _group_steps(library, by)
     taus = [tau for *_, per_clip in groups for _, tau, _ in per_clip]
@@ -322,6 +328,7 @@ def library_steps(library: Library, analyses: list[ClipAnalysis], blends_per_int
                   turn=np.array(cols[3], float), duration=np.array(cols[4], float),
                   foot=np.array(cols[0], int), gait=np.array(cols[5], object),
                   jump=np.array(cols[6], bool), label=np.array(cols[7], object))
+    own = replace(own, corner=library.corners(own.label, np.where(own.jump, "jump", own.gait), bend_curvature))
     walks = "walk" in own.gait[~own.jump].tolist()
     cyclic = (own.gait == ("walk" if walks else "run")) & ~own.jump
     return StepSet.concat([own, stride_steps(own.take(cyclic), *stride)])

@@ -108,6 +108,11 @@ STALL_RAISE = 0.0625
 #: Plain A* waits until nothing open is cheaper at all.
 ARRIVE_SLACK = 0.02
 
+#: Steps a run and a corner (a walk's turn tighter than any run turns: ``StepSet.corner``)
+#: keep apart (``Planner._corner_history``): a run walks this many steps before it turns a
+#: corner and after it, slowing into the walk's turn and speeding up after it.
+CORNER_STEPS = 2
+
 #: m: a stalled search's heuristic drops the jumps this close to where it is stuck.
 REROUTE_RADIUS = 3.0
 
@@ -712,7 +717,7 @@ class Planner(StepRules, Refusals):
         jump follows a jump, a jump is entered running, and the first step from a start
         (standing: ``_start_gaits``) keeps its gait and does not jump."""
         st = self.steps
-        sel = self._steps_from(node)
+        sel = self._steps_from(node, *self._corner_history(search, node))
         ang = node.heading + np.arctan2(self.forward[1], self.forward[0])
         c, s_ = np.cos(ang), np.sin(ang)
         fwd, left = st.fwd[sel], st.left[sel]
@@ -739,13 +744,41 @@ class Planner(StepRules, Refusals):
             return sel, nxt, npsi, keys, tread
         return sel[todo], nxt[todo], npsi[todo], [keys[j] for j in todo], tread[todo]
 
-    def _steps_from(self, node: SearchNode) -> np.ndarray:
+    def _corner_history(self, search: _Search, node: SearchNode) -> tuple[bool, bool]:
+        """(whether a run or a jump, whether a corner (``StepSet.corner``: a walk's turn
+        tighter than any run turns)) is among the CORNER_STEPS steps that reached ``node``:
+        a corner is taken only that many walking steps after a run, and a run only that
+        many steps after a corner, so a run slows into a walk to turn tighter than it can
+        and speeds up after it, never one walking step in a run (the blend plays a single
+        walk step among runs as a run)."""
+        st = self.steps
+        has = self.__dict__.get("_has_corners")
+        if has is None or has[0] != st.n:
+            has = self.__dict__["_has_corners"] = (st.n, bool(st.corner.any()))
+        if not has[1]:
+            return False, False
+        ran = cornered = False
+        i = node.step
+        at = node
+        for _ in range(CORNER_STEPS):
+            if i < 0:
+                break
+            ran |= bool(st.gait[i] == "run")
+            cornered |= bool(st.corner[i])
+            if at.parent < 0:
+                break
+            at = search.nodes[at.parent]
+            i = at.step
+        return ran, cornered
+
+    def _steps_from(self, node: SearchNode, ran: bool = False, cornered: bool = False) -> np.ndarray:
         """(K,) the indices of the steps that may follow ``node`` (``_successors``' rules),
-        kept per kind of node: its foot, whether a jump reached it, whether it is a start
-        and its gait."""
+        kept per kind of node: its foot, whether a jump reached it, whether it is a start,
+        its gait, and whether a run (then no corner follows) or a corner (then no run
+        follows) is among the steps that reached it (``_corner_history``)."""
         st = self.steps
         jumped = bool(node.step >= 0 and st.jump[node.step])
-        kind = (st.n, node.foot, jumped, node.parent < 0, node.gait)
+        kind = (st.n, node.foot, jumped, node.parent < 0, node.gait, ran, cornered)
         table = self.__dict__.setdefault("_steps_from_cache", {})
         sel = table.get(kind)
         if sel is None:
@@ -756,6 +789,10 @@ class Planner(StepRules, Refusals):
                 sel = sel[~st.jump[sel] & (st.gait[sel] == node.gait)]
             elif node.gait == "walk":
                 sel = sel[~st.jump[sel]]
+            if ran:
+                sel = sel[~st.corner[sel]]
+            if cornered:
+                sel = sel[st.gait[sel] != "run"]
             table[kind] = sel
         return sel
 

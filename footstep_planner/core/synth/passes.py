@@ -55,11 +55,15 @@ class Pass:
     body_heading: np.ndarray  # (F,) Q^D
 
 
-def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack], gaits=None) -> list[tuple[float, float]]:
+def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack], gaits=None,
+               corners=None) -> list[tuple[float, float]]:
     """(u, s) where the walk/run parameter is known: walking at the start and the end,
-    each special clip's entry and exit gait at its take-off and landing, and running in
+    each special clip's entry and exit gait at its take-off and landing, running in
     the middle of each step the plan runs (``gaits`` (len(steps),), the gait of the step
-    to each footprint: a run the planner chose, not only a jump's run-up)."""
+    to each footprint: a run the planner chose, not only a jump's run-up), and walking in
+    the middle of each corner (``corners`` (len(steps),) bool, ``Library.corners``: a
+    walk's turn tighter than any run turns, where the run slows into the walk; without
+    that pin a few walking steps between runs play as a run)."""
     val = {"walk": 0.0, "run": 1.0, "stand": 0.0}
     pins = [(0.0, 0.0)]
     for j, s in enumerate(steps):
@@ -69,6 +73,8 @@ def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack], gaits=None) 
             pins.append((float(j + 1), val.get(tr.exit_gait, 0.0)))
         elif gaits is not None and gaits[j] == "run" and 0 < j < len(steps) - 1:
             pins.append((j + 0.5, 1.0))
+        elif corners is not None and corners[j]:
+            pins.append((j + 0.5, 0.0))
     pins.append((float(len(steps)), 0.0))
     return sorted(pins, key=lambda p: p[0])
 

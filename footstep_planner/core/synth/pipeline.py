@@ -331,7 +331,9 @@ def _blend_groups(path, steps: list[PlanStep], library: Library, ctx: PassContex
     is the steps' pace; the schedule's frame rate is ``sch1``'s."""
     tracks, settings, stand = ctx.tracks, ctx.settings, ctx.stand
     curves = _tau_curves(library, cyc, sch1, first, settings)
-    pins = speed_pins(steps, tracks, [f.gait for f in path[1:]])
+    gaits = [f.gait for f in path[1:]]
+    pins = speed_pins(steps, tracks, gaits, library.corners([f.label for f in path[1:]], gaits,
+                                                            settings.bend_curvature))
     loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
     if stand is not None and (stand.start or stand.stop):
         steps = end_stretch(steps, first, stand)

@@ -323,3 +323,47 @@ def test_from_standing_the_first_step_walks():
     assert fs[1].gait == "walk" and any(f.gait == "run" for f in fs[2:])  # (then runs: it is free)
     running = [replace(f, label="run+0", gait="run") for f in start(0, 0)][:1]
     assert pl.plan(running, goal).footprints[1].gait == "run"
+
+
+def _cornering_steps():
+    """Walks and runs straight or turning 15 degrees a step either way, and a walk turning
+    45 degrees a step either way, marked as a corner (``StepSet.corner``: tighter than any
+    run of the set turns)."""
+    rows = []
+    for gait, fwd, dt, turns in (("walk", 0.6, 0.6, [-15, 0, 15]), ("run", 1.1, 0.38, [-15, 0, 15]),
+                                 ("walk", 0.5, 0.6, [-45, 45])):
+        for turn in np.radians(turns):
+            for foot, side in ((0, -0.15), (1, 0.15)):
+                rows.append((foot, fwd, side, turn, dt, gait, False, f"{gait}{np.degrees(turn):+.0f}"))
+    c = list(zip(*rows))
+    labels = np.array(c[7], object)
+    return StepSet(np.array(c[1]), np.array(c[2]), np.array(c[3]), np.array(c[4]), np.array(c[0]),
+                   np.array(c[5], object), np.array(c[6], bool), labels,
+                   corner=np.isin(labels, ["walk-45", "walk+45"]))
+
+
+@pytest.mark.parametrize("marked", [True, False])
+def test_a_run_walks_into_a_corner_tighter_than_it_turns_and_out_of_it(marked):
+    """Running free along an L-shaped corridor 0.9 m wide: the way turns its corner with
+    the sharp walk (the runs turn 15 degrees a step at most). With the sharp steps marked
+    as corners, no run comes within ``CORNER_STEPS`` steps of one (a run slows into a walk
+    before the corner and speeds up after it), and it runs before and after the corner;
+    unmarked, the search runs straight into the sharp step (what the blend played as a
+    run taking the corner at full speed)."""
+    from footstep_planner.core.plan.navgraph import CORNER_STEPS
+    from footstep_planner.core.plan.surface import TriMesh
+
+    g = MeshGround(TriMesh.concat([plane(-1, 8.9, -0.45, 0.45), plane(8.0, 8.9, -0.45, 8.0, name="up")]))
+    st = _cornering_steps()
+    if not marked:
+        st = replace(st, corner=np.zeros(st.n, bool))
+    goal = np.array([8.45, 7.0, 0.0])
+    pl = Planner(g, None, st, FWD, settings=FASTEST)
+    result = pl.plan(start(0, 0), goal)
+    check_path(pl, result, goal)
+    fs = result.footprints[1:]
+    gaits = [f.gait for f in fs]
+    sharp = [i for i, f in enumerate(fs) if f.label in ("walk-45", "walk+45")]
+    assert sharp and "run" in gaits[:min(sharp)] and "run" in gaits[max(sharp):]
+    near = [gaits[j] for i in sharp for j in range(max(0, i - CORNER_STEPS), min(len(fs), i + CORNER_STEPS + 1))]
+    assert ("run" not in near) == marked, (gaits, sharp)

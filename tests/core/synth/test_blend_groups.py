@@ -398,3 +398,52 @@ def test_degenerate_inputs_stay_finite():
 def test_bad_input_raises_value_error(call):
     with pytest.raises(ValueError):
         call()
+
+
+def _walk_and_run(walk_taus, run_taus):
+    from footstep_planner.core.clips.library import Library
+
+    groups = {"walk": TurnGroup("walk_turn", "walk", [GroupClip(f"w{i}", t, 1.2) for i, t in enumerate(walk_taus)]),
+              "run": TurnGroup("run_turn", "run", [GroupClip(f"r{i}", t, 3.0) for i, t in enumerate(run_taus)])}
+    return Library(groups)
+
+
+@settings(max_examples=60, deadline=None)
+@given(run_hi=st.floats(0.05, 1.5), run_lo=st.floats(-1.5, -0.05), tau=st.floats(-3.0, 3.0),
+       bend=st.sampled_from([0.0, 0.8]))
+def test_a_corner_is_a_walks_turn_beyond_every_run_turn(run_hi, run_lo, tau, bend):
+    """``Library.corners``: a walking step whose label turns beyond the run group's range
+    (out to the bend limit where the runs are bent: no clip of the library turns that far)
+    is a corner; a run's step, a walk inside the runs' range, and a label with no tau are
+    never one; a library without runs has none."""
+    lib = _walk_and_run([-2.0, 0.0, 2.0], sorted([run_lo, 0.0, run_hi]))
+    assume(abs(tau - run_hi) > 2e-3 and abs(tau - run_lo) > 2e-3)
+    labels = [f"walk_turn@{tau:+.3f}", f"run_turn@{tau:+.3f}", "leap", f"walk_turn@{tau:+.3f}"]
+    got = lib.corners(labels, ["walk", "run", "run", "run"], bend)
+    assert got.tolist() == [bool(tau > run_hi or tau < run_lo), False, False, False]
+    assert lib.run_reach(bend) == (run_lo, run_hi)  # (the walk turns past the bend: no run is bent)
+    walk_only = _walk_and_run([-2.0, 0.0, 2.0], [])
+    walk_only.turn_groups.pop("run")
+    assert not walk_only.corners(labels, ["walk"] * 4, bend).any()
+    straight_run = _walk_and_run([-0.3, 0.0, 0.3], [0.0])  # (runs bent out to 0.8 where no clip turns)
+    assert straight_run.run_reach(0.8) == (-0.8, 0.8) and straight_run.run_reach(0.0) == (0.0, 0.0)
+
+
+def test_a_corner_among_runs_is_pinned_walking():
+    """``speed_pins``: a corner between runs pins s = 0 in its middle, so the blend slows
+    the run into the walk's turn there and speeds up after it (without the pin the few
+    walking steps between the runs play as a run: sigma 3 keeps s = 1 between run pins
+    under 12 steps apart)."""
+    from footstep_planner.core.synth.passes import speed_pins
+    from footstep_planner.core.synth.schedule import PlanStep
+
+    steps = [PlanStep(j % 2, None, np.array([1.0])) for j in range(16)]
+    gaits = ["walk"] * 2 + ["run"] * 5 + ["walk"] * 3 + ["run"] * 5 + ["walk"]
+    corners = np.zeros(16, bool)
+    corners[8] = True
+    u = np.linspace(0, 16, 1601)
+    s_with = speed_parameter(u, *zip(*speed_pins(steps, {}, gaits, corners)), sigma=3.0)
+    s_without = speed_parameter(u, *zip(*speed_pins(steps, {}, gaits)), sigma=3.0)
+    assert s_with[np.argmin(abs(u - 8.5))] == 0.0 and s_without[np.argmin(abs(u - 8.5))] == 1.0
+    assert s_with[np.argmin(abs(u - 5.5))] == 1.0 and s_with[np.argmin(abs(u - 11.5))] == 1.0
+    assert np.all(np.diff(s_with[(u > 6.5) & (u < 8.5)]) <= 0) and np.all(np.diff(s_with[(u > 8.5) & (u < 10.5)]) >= 0)
