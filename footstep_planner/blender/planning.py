@@ -147,8 +147,14 @@ def goal_of(scene, name: str | None):
         ob = scene.objects.get(name)
         if ob is None:
             raise PlanError(f"no object named {name!r} in scene {scene.name!r} to walk to")
-        return np.array(ob.matrix_world.translation), (facing_rotation(ob) if ob.type == "EMPTY" else None)
+        return object_goal(ob)
     return np.array(scene.cursor.location), None
+
+
+def object_goal(ob) -> tuple:
+    """(position (3,), Z rotation or None) of an object to walk to: its location and, for
+    an empty, the way it faces (``goal_of``)."""
+    return np.array(ob.matrix_world.translation), (facing_rotation(ob) if ob.type == "EMPTY" else None)
 
 
 def plan(scene, ob, goal, goal_heading=None, start_marker=None, settings=None,

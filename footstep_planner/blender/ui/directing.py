@@ -18,7 +18,7 @@ from ...core.base.errors import FootstepError
 from ...core.base.settings import Settings
 from ...core.footprint import PIVOT
 from ...core.jobs import MAX_FRAME
-from ...core.plan.plan_edit import Edited, edited_path, in_frame
+from ...core.plan.plan_edit import Edited, edited_path, first_footprint, in_frame
 from ...core.plan.plan_file import PlanFile
 from ...core.solve import splice as splicing
 from ...core.perform.waypoints import Waypoint, plan_via
@@ -32,22 +32,56 @@ class DirectingError(FootstepError):
 
 @dataclass
 class EditedRoute:
-    """``run_steps``'s route for an edited plan; keeps what the edit made (``edited``)."""
+    """``run_steps``'s route for an edited plan; keeps what the edit made (``edited``).
+    ``goal``: (position (3,), Z rotation or None) where the character's Goal object is now,
+    ``start``: its Start object; where either moved since the plan, the way from the last
+    lock to the goal, or from the start to the first lock, is searched again
+    (``core.plan.plan_edit.edited_path``). None: the plan's own."""
 
     plan: PlanFile
     edited: Edited | None = None
+    goal: tuple | None = None
+    start: object = None
 
     def __call__(self, setup, start, heading):
-        self.edited = edited_path(setup.planner, self.plan)
+        from ..read.scene import rotation_heading
+
+        goal = heading = None
+        if self.goal is not None:
+            goal = np.asarray(self.goal[0], float)
+            heading = None if self.goal[1] is None else rotation_heading(self.goal[1], setup.forward)
+        self.edited = edited_path(setup.planner, self.plan, goal, heading, self._first(setup))
         return self.edited.result
 
+    def goal_of_plan(self) -> tuple:
+        """(goal (3,) or None, heading from the plan's forward or None) the re-plan went to:
+        the Goal object's where one was given, else the plan's (the handles remade keep it,
+        so the next re-plan sees the goal where it is)."""
+        from ..read.scene import rotation_heading
+
+        if self.goal is None:
+            return self.plan.goal, self.plan.goal_heading
+        rot = self.goal[1]
+        return np.asarray(self.goal[0], float), None if rot is None else rotation_heading(rot, self.plan.forward)
+
+    def _first(self, setup):
+        """The foot of the plan's first footprint standing at the Start object (None
+        without one)."""
+        from .. import planning
+
+        if self.start is None:
+            return None
+        foot = self.plan.footprints[0].foot
+        return planning.marker_footprints(self.start, setup)[foot]
+
     def standing(self, setup) -> list:
-        """The feet the plan starts standing on: its first footprint and the other beside it
-        (``core.plan.setup.standing_with``), wherever the character's object stands now."""
+        """The feet the plan starts standing on: its first footprint (at the Start object
+        where that moved) and the other beside it (``core.plan.setup.standing_with``),
+        wherever the character's object stands now."""
         from ...core.plan.setup import standing_with
 
-        return standing_with(in_frame(self.plan, setup.forward)[0], setup,
-                             f"the first footprint of {self.plan.character!r}'s plan")
+        first = first_footprint(in_frame(self.plan, setup.forward)[0], self._first(setup))
+        return standing_with(first, setup, f"the first footprint of {self.plan.character!r}'s plan")
 
 
 @dataclass
@@ -279,7 +313,7 @@ def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str
                                         route=route, splice=splice, not_around=tuple(o.name for o in yielding))
     fps = route.edited.result.footprints
     locked = _carried_locks(plan, route.edited, len(fps))
-    handles.make_handles(scene, ob, fps, plan.forward, plan.goal, plan.goal_heading, locked)
+    handles.make_handles(scene, ob, fps, plan.forward, *route.goal_of_plan(), locked)
     show_replanned(scene, route.edited)
     edit_report(doc, route, splice)
     if baked is not None:
@@ -306,6 +340,7 @@ class Edit:
 def edit_of(scene, ob, settings=None, others_too: bool = True) -> Edit:
     """The re-plan of ``ob``'s handles as Re-plan makes it (``rebake_steps``) and the live
     update shows it (``live``): DirectingError when it has none."""
+    from .. import planning
     from ..write.bake import owned_tracks
     from . import handles
 
@@ -317,9 +352,24 @@ def edit_of(scene, ob, settings=None, others_too: bool = True) -> Edit:
     if not settings.avoid_characters and any(st.action.get(ROUND_OTHERS_PROP) for tr in tracks for st in tr.strips):
         settings = settings.replace(avoid_characters=True)  # (baked round the others: re-planned round them)
     yielding = _can_give_way(scene, ob) if settings.avoid_characters and others_too else []
-    goal = plan.goal if plan.goal is not None else plan.footprints[-1].position
-    return Edit(plan, settings, yielding, EditedRoute(plan), np.asarray(goal, float),
+    goal_ob, start_ob = directed_by(scene, ob)
+    route = EditedRoute(plan, goal=None if goal_ob is None else planning.object_goal(goal_ob), start=start_ob)
+    goal = route.goal[0] if route.goal is not None else plan.goal if plan.goal is not None \
+        else plan.footprints[-1].position
+    return Edit(plan, settings, yielding, route, np.asarray(goal, float),
                 int(tracks[0].strips[0].frame_start) if tracks else None)
+
+
+def directed_by(scene, ob) -> tuple:
+    """(Goal object, Start object) the panel sets for ``ob`` (as its character, or in its
+    list of characters), either None where it sets none (the 3D cursor, where it stands)."""
+    fs = scene.footstep
+    if fs.character == ob:
+        return fs.goal, fs.start
+    for entry in fs.cast:
+        if entry.character == ob:
+            return entry.goal, entry.start
+    return None, None
 
 
 def _can_give_way(scene, ob) -> list:

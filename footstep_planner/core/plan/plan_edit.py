@@ -95,12 +95,20 @@ def _problems(planner: Planner, fps: list[PathFootprint]) -> tuple[list[str], li
     return stand, reach
 
 
-def _spans(bad: np.ndarray, locked: np.ndarray, moved: np.ndarray) -> list[tuple[int, int | None]]:
+def _spans(bad: np.ndarray, locked: np.ndarray, moved: np.ndarray, start_moved: bool = False,
+           goal_moved: bool = False) -> list[tuple[int, int | None]]:
     """Index ranges (a, b) to re-plan, in order: for each bad footprint, the nearest lock
     before it and the nearest after it (None: to the goal); for each moved one (a lock
-    itself), the ranges from the lock before it to it and from it to the lock after."""
+    itself), the ranges from the lock before it to it and from it to the lock after; with
+    ``start_moved``, from the first footprint to the lock after it; with ``goal_moved``,
+    from the last lock to the goal."""
     lock_idx = np.flatnonzero(locked)
     spans = set()
+    if start_moved:
+        after = lock_idx[lock_idx > 0]
+        spans.add((0, int(after.min()) if len(after) else None))
+    if goal_moved:
+        spans.add((int(lock_idx.max()), None))
     for i in np.flatnonzero(bad | moved):
         before = int(lock_idx[lock_idx < i].max())
         after = lock_idx[lock_idx > i]
@@ -159,12 +167,46 @@ def _search(planner: Planner, origin: PathFootprint, goal, heading, end_foot: in
     return res
 
 
-def edited_path(planner: Planner, plan: PlanFile, goal=None, goal_heading=None) -> Edited:
+#: m and rad: a goal (or a start) moved less than this, and turned less, stays where the
+#: plan went (a re-plan reads them from their objects: a float's round trip is no move)
+GOAL_MOVED, GOAL_TURNED = 0.01, np.radians(1.0)
+
+
+def _moved(a, b, ha, hb) -> bool:
+    """Whether a goal (a footprint) at ``b`` facing ``hb`` is not the one at ``a`` facing
+    ``ha`` (positions (3,) or None, headings rad or None)."""
+    if a is None or b is None:
+        return (a is None) != (b is None)
+    if np.linalg.norm(np.asarray(a, float)[:2] - np.asarray(b, float)[:2]) > GOAL_MOVED:
+        return True
+    if (ha is None) != (hb is None):
+        return True
+    return ha is not None and abs((ha - hb + np.pi) % (2 * np.pi) - np.pi) > GOAL_TURNED
+
+
+def first_footprint(first: PathFootprint, start: PathFootprint | None) -> PathFootprint:
+    """The footprint an edited plan leaves from: its first, ``first``, or where ``start`` (a
+    footprint of the same foot: the Start's) moved or turned from it (``GOAL_MOVED``,
+    ``GOAL_TURNED``), that one, at ``first``'s time and with its label."""
+    if start is None or not _moved(first.position, start.position, first.heading, start.heading):
+        return first
+    return PathFootprint(first.foot, np.asarray(start.position, float), float(start.heading), first.time,
+                         first.label, first.gait)
+
+
+def edited_path(planner: Planner, plan: PlanFile, goal=None, goal_heading=None,
+                start: PathFootprint | None = None) -> Edited:
     """The plan made whole (see the module's doc). ``goal``/``goal_heading`` (heading from
-    the planner's forward) override the plan's for a span that runs to the goal. Raises
-    PlanError naming a locked footprint that can't be stepped on."""
+    the planner's forward) override the plan's: where they differ from it (the user moved
+    or turned the goal), the way from the last lock to the goal is searched again.
+    ``start`` (a footprint of the plan's first foot, heading from the planner's forward)
+    overrides its first footprint: where it moved, the way from it to the first lock is
+    searched again. Raises PlanError naming a locked footprint that can't be stepped on."""
     t0 = time.perf_counter()
     fps = in_frame(plan, planner.forward)
+    first = first_footprint(fps[0], start)
+    start_moved = first is not fps[0]
+    fps[0] = first
     moved = np.asarray(plan.moved, bool).copy()
     moved[0] = False
     locked = np.asarray(plan.locked, bool) | moved
@@ -182,10 +224,12 @@ def edited_path(planner: Planner, plan: PlanFile, goal=None, goal_heading=None) 
             problems[i], again[i] = "", True
     _in_time(planner, fps, locked, problems)
     bad = np.array([bool(p) for p in problems])
+    planned = None if plan.goal_heading is None else plan.goal_heading + yaw(plan.forward) - yaw(planner.forward)
+    goal_moved = goal is not None and _moved(plan.goal, goal, planned, goal_heading)
     if goal is None and plan.goal is not None:
-        goal = plan.goal
-        goal_heading = None if plan.goal_heading is None else plan.goal_heading + yaw(plan.forward) - yaw(planner.forward)
-    return _rebuild(planner, fps, _spans(bad, locked, again), goal, goal_heading, problems, t0)
+        goal, goal_heading = plan.goal, planned
+    return _rebuild(planner, fps, _spans(bad, locked, again, start_moved, goal_moved), goal, goal_heading, problems,
+                    t0)
 
 
 #: Why a footprint must go when the step onto it meets another character in time.
@@ -228,4 +272,4 @@ def _rebuild(planner: Planner, fps: list[PathFootprint], spans, goal, goal_headi
                   problems, bool(spans) and spans[-1][1] is None)
 
 
-__all__ = ["MEETS", "Edited", "edited_path", "in_frame", "nearest_steps", "problems_of", "relabel", "step_offsets"]
+__all__ = ["GOAL_MOVED", "GOAL_TURNED", "MEETS", "Edited", "edited_path", "first_footprint", "in_frame", "nearest_steps", "problems_of", "relabel", "step_offsets"]

@@ -289,3 +289,58 @@ def test_footprints_that_meet_another_character_in_time_are_replanned_between_th
         assert np.array_equal(out[-i].position, res.footprints[-i].position)
     assert round_it.clear_in_time(out)[a + 1:b].all()
     assert edited_path(planner, _plan_file(res, goal, locks)).spans == []
+
+
+def _same(a, b):
+    return np.array_equal(a.position, b.position) and a.heading == b.heading
+
+
+@pytest.mark.parametrize("shift", [(0.0, 0.0), (0.004, -0.003), (0.0, 1.0), (-1.5, -0.6)])
+def test_a_moved_goal_replans_from_the_last_lock_and_keeps_the_rest(planner, planned, shift):
+    """The goal given again (a re-plan reads it from its object): where it has not moved
+    (within GOAL_MOVED) nothing is searched; moved, only the way past the last lock is,
+    every footprint up to that lock kept exactly, and the new way ends at the new goal."""
+    res, goal = planned
+    k = len(res.footprints) // 2
+    plan = _plan_file(res, goal, (k,))
+    new_goal = goal + np.array([*shift, 0.0])
+    ed = edited_path(planner, plan, new_goal, None)
+    out = ed.result.footprints
+    if np.hypot(*shift) < 0.01:
+        assert ed.spans == [] and all(_same(a, b) for a, b in zip(out, res.footprints))
+        return
+    assert ed.spans == [(k, len(out) - 1)] and ed.to_goal
+    assert all(_same(a, b) for a, b in zip(out[:k + 1], res.footprints[:k + 1]))
+    assert np.linalg.norm(out[-1].position[:2] - new_goal[:2]) <= planner.settings.goal_radius
+    _valid(planner, out)
+
+
+def test_a_turned_goal_replans_the_way_to_it(planner, planned):
+    """A goal turned (its heading given) re-plans the tail to arrive facing it."""
+    res, goal = planned
+    plan = _plan_file(res, goal)
+    ed = edited_path(planner, plan, goal, np.pi / 2)
+    assert ed.spans and ed.spans[-1][1] == len(ed.result.footprints) - 1
+    last = ed.result.footprints[-1]
+    assert abs((last.heading - np.pi / 2 + np.pi) % (2 * np.pi) - np.pi) <= planner.settings.goal_heading_tolerance
+
+
+def test_a_moved_start_replans_to_the_first_lock_and_keeps_the_rest(planner, planned):
+    """The first footprint given anew (the Start moved): the way from it to the first lock
+    is searched again, every footprint from that lock on kept exactly."""
+    res, goal = planned
+    k = len(res.footprints) // 2
+    plan = _plan_file(res, goal, (k,))
+    first = res.footprints[0]
+    moved = PathFootprint(first.foot, first.position + np.array([0.0, -1.5, 0.0]), first.heading, 0.0,
+                          first.label, first.gait)
+    ed = edited_path(planner, plan, start=moved)
+    out = ed.result.footprints
+    assert ed.spans[0][0] == 0 and len(ed.spans) == 1 and not ed.to_goal
+    assert np.array_equal(out[0].position, moved.position)
+    j = ed.spans[0][1]
+    assert _same(out[j], res.footprints[k])
+    assert all(_same(a, b) for a, b in zip(out[j:], res.footprints[k:]))
+    _valid(planner, out)
+    same = edited_path(planner, plan, start=first)
+    assert same.spans == []
