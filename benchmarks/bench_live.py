@@ -5,9 +5,10 @@ is baked with its footprint handles; the two footprints nearest 5 m before and a
 path's middle are locked (a span of about 10 m between them) and the middle footprint is
 dragged: moved 4 and 8 cm sideways in turn (the middle footprint nearest the path's
 middle that is no jump's take-off or landing), each move followed by the update the timer
-runs once the hand rests (``blender.ui.live.update``: the span's search, its synthesis and
-the overlay). Prints each scene's median and worst update (wall clock, ms), the search's and
-the synthesis's share, and how many updates were refused; writes nothing.
+runs once the hand rests (``blender.ui.live.update``: the span's search, its synthesis, the
+IK and pose of the preview at the current frame, the dragged footprint's, and the overlay).
+Prints each scene's median and worst update (wall clock, ms), the search's, the synthesis's
+and the preview's share, and how many updates were refused; writes nothing.
 
     .venv/bin/python benchmarks/bench_live.py [--scenes jumps,turns,obstacles,stairs]
         [--library sample|cmu] [--drags 12]
@@ -64,14 +65,15 @@ def run(name: str, library: str, drags: int, mocap: str) -> dict:
         ob, _ = mannequin.add_to_scene(scene, "Start")
     goal = np.array(scene.objects["Goal"].location)
     planned = planning.plan_and_synthesize(scene, ob, goal, None, scene.objects["Start"])
-    planning.run(scene, ob, goal, start_marker=scene.objects["Start"], name=name, frame_start=1)
+    doc = planning.run(scene, ob, goal, start_marker=scene.objects["Start"], name=name, frame_start=1)
     fps = planned.result.footprints
     handles.make_handles(scene, ob, fps, planned.setup.forward, goal, planned.goal_heading)
     a, mid, b = _span_locks(fps)
     hs = handles.handles(ob)
     handles.set_locked([hs[a], hs[b]], True)
+    scene.frame_set(int(doc["footprints"][mid]["frame"]))  # (the preview: the dragged footprint's frame)
 
-    spent = {"search": 0.0, "synthesis": 0.0}
+    spent = {"search": 0.0, "synthesis": 0.0, "preview": 0.0}
     plan0, perf0 = navgraph.Planner.plan, perform.perform_plan
 
     def timed(key, fn):
@@ -85,13 +87,15 @@ def run(name: str, library: str, drags: int, mocap: str) -> dict:
 
     navgraph.Planner.plan = timed("search", plan0)
     planning.perform_plan = timed("synthesis", perf0)
-    times, searches, synths, refused = [], [], [], 0
+    preview0 = live.preview
+    live.preview = timed("preview", preview0)
+    times, searches, synths, previews, refused = [], [], [], [], 0
     home = np.array(hs[mid].location, float)
     try:
         for k in range(drags):  # (4 and 8 cm aside in turn: never back where it was planned)
             hs = handles.handles(ob)
             hs[mid].location = home + [0.0, 0.04 if k % 2 == 0 else 0.08, 0.0]
-            spent["search"] = spent["synthesis"] = 0.0
+            spent["search"] = spent["synthesis"] = spent["preview"] = 0.0
             got = live.update(scene, ob)
             if "problem" in got:
                 refused += 1
@@ -99,15 +103,18 @@ def run(name: str, library: str, drags: int, mocap: str) -> dict:
             times.append(got["seconds"])
             searches.append(spent["search"])
             synths.append(spent["synthesis"])
+            previews.append(spent["preview"])
     finally:
         navgraph.Planner.plan = plan0
         planning.perform_plan = perf0
+        live.preview = preview0
     span = float(np.sum(np.linalg.norm(np.diff([f.position[:2] for f in fps[a:b + 1]], axis=0), axis=1)))
     return {"scene": name, "span": span, "n": len(times), "refused": refused,
             "median": 1e3 * statistics.median(times) if times else float("nan"),
             "worst": 1e3 * max(times) if times else float("nan"),
             "search": 1e3 * statistics.median(searches) if searches else float("nan"),
-            "synthesis": 1e3 * statistics.median(synths) if synths else float("nan")}
+            "synthesis": 1e3 * statistics.median(synths) if synths else float("nan"),
+            "preview": 1e3 * statistics.median(previews) if previews else float("nan")}
 
 
 def main():
@@ -124,10 +131,10 @@ def main():
     print(f"\nLive re-plan, {args.library} character: one update while a footprint is dragged (a {SPAN:g} m span "
           f"between two locks; wall clock; load {os.getloadavg()[0]:.1f})")
     print(f"{'scene':12s} {'span m':>7s} {'updates':>8s} {'median ms':>10s} {'worst ms':>9s} {'search ms':>10s} "
-          f"{'synthesis ms':>13s} {'refused':>8s}")
+          f"{'synthesis ms':>13s} {'preview ms':>11s} {'refused':>8s}")
     for r in rows:
         print(f"{r['scene']:12s} {r['span']:7.1f} {r['n']:8d} {r['median']:10.0f} {r['worst']:9.0f} "
-              f"{r['search']:10.0f} {r['synthesis']:13.0f} {r['refused']:8d}")
+              f"{r['search']:10.0f} {r['synthesis']:13.0f} {r['preview']:11.0f} {r['refused']:8d}")
 
 
 if __name__ == "__main__":

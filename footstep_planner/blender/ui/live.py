@@ -5,11 +5,15 @@ character whose footprint handles were moved or turned (a transform update of on
 timer, ``DEBOUNCE`` s after the last such update,
 re-plans each one as Re-plan would (``directing.edit_of``: the spans round what changed,
 round the others where its bake was) and performs it, so the overlay shows the new
-footprints and body path at once, the re-planned footprints ringed. Nothing is baked and
-no handle is remade while the hand is on one: **Re-plan** (or Bake) bakes what the overlay
-shows. An edit that can't be honoured rings its footprint in the warning colour and puts
-the reason in the panel; the last good result stays drawn. (Moving a waypoint, the Start
-or the Goal is not followed live: Re-plan or Bake again.)
+footprints and body path at once, the re-planned footprints ringed, and the character
+at the current frame takes the pose the re-plan would bake there (``preview``: unkeyed,
+until the frame changes and the bake plays again). Moving (or turning)
+the character's Goal or Start (the panel's, or its list of characters') re-plans the way
+from the last lock to the goal, or from the start to the first lock, the same way. Nothing
+is baked and no handle is remade while the hand is on one: **Re-plan** (or Bake) bakes
+what the overlay shows. An edit that can't be honoured rings its footprint in the warning
+colour and puts the reason in the panel; the last good result stays drawn. (Moving a
+waypoint is not followed live: Re-plan or Bake again.)
 
 An update reads the scene's surfaces and the character's clips as a plan does; the next
 ones use them again (``_SETUPS``), until anything but a handle changes. Picking a handle
@@ -60,13 +64,16 @@ def on_depsgraph_update(scene, depsgraph) -> None:
         return
     now = time.monotonic()
     for u in depsgraph.updates:
-        char = _moved_character(scene, u.id.original) if isinstance(u.id, bpy.types.Object) else None
-        if char is None:  # (something else changed: what the next update reads is read again)
+        obj = u.id.original if isinstance(u.id, bpy.types.Object) else None
+        char = _moved_character(scene, obj) if obj is not None else None
+        directs = _directed(scene, obj) if obj is not None and char is None else []
+        if char is None and not (directs and obj.type == "EMPTY"):  # (else: what the next update reads is read again)
             if not _is_handles_collection(u.id.original):
                 _SETUPS.clear()
+        if not u.is_updated_transform:
             continue
-        if u.is_updated_transform:
-            _PENDING[char.as_pointer()] = (now, scene.name, char.name)
+        for c in [char] if char is not None else directs:
+            _PENDING[c.as_pointer()] = (now, scene.name, c.name)
     if _PENDING and not bpy.app.timers.is_registered(_tick):
         bpy.app.timers.register(_tick, first_interval=DEBOUNCE)
 
@@ -76,6 +83,20 @@ def on_frame_change(scene, *_args) -> None:
     """Another frame: what a setup read at the last one (an obstacle where it stood then)
     is read again by the next update."""
     _SETUPS.clear()
+
+
+def _directed(scene, obj) -> list:
+    """The characters with footprint handles whose Goal or Start (``directing.directed_by``:
+    the panel's, or its list of characters') ``obj`` is."""
+    from . import handles
+
+    fs = scene.footstep
+    entries = [(fs.character, fs.goal, fs.start)] + [(e.character, e.goal, e.start) for e in fs.cast]
+    out = []
+    for char, goal, start in entries:
+        if char is not None and obj in (goal, start) and char not in out and handles.owned_collection(char) is not None:
+            out.append(char)
+    return out
 
 
 def _is_handles_collection(idb) -> bool:
@@ -121,8 +142,9 @@ def update(scene, ob) -> dict:
                                                not_around=tuple(o.name for o in edit.yielding),
                                                setup=_SETUPS.get(ob.as_pointer()))
         _SETUPS[ob.as_pointer()] = planned.setup
-        # (reading the clips tags the armature: evaluated now, while busy, those updates are
-        # the update's own, not a change that would drop the setup just kept)
+        shown = preview(scene, ob, planned, edit)
+        # (reading the clips tags the armature, and the preview poses it: evaluated now, while
+        # busy, those updates are the update's own, not a change that would drop the setup)
         bpy.context.view_layer.update()
     except FootstepError as ex:
         fs.edit_problem = str(ex)
@@ -136,7 +158,31 @@ def update(scene, ob) -> dict:
     directing.show_replanned(scene, edit.route.edited)
     overlay.mark(scene, refused=np.zeros((0, 3)))
     return {"footprints": edit.route.edited.result.footprints, "spans": list(edit.route.edited.spans),
-            "seconds": time.perf_counter() - t0}
+            "preview": shown, "seconds": time.perf_counter() - t0}
+
+
+def preview(scene, ob, planned, edit) -> int | None:
+    """Pose ``ob`` at the current frame as the re-plan ``planned`` would bake it (its IK
+    solved, the frame's pose set unkeyed: ``write.bake.pose_frame``); the scene frame posed,
+    or None where nothing is: the frame outside the character's bake (its keys would not
+    put the pose back when the frame changes) or the new path's frames, or a Rigify rig
+    (its controls drive the bones). The next frame change plays the bake again."""
+    from ...core.solve.frames import solve
+    from .. import rigify
+    from ..write.bake import pose_frame
+    from ..write.owned import BODY_PROP, owned_tracks, track_frames
+
+    if edit.frame_start is None or rigify.is_rigify(ob):
+        return None
+    now = scene.frame_current
+    tracks = [tr for tr in owned_tracks(ob) if not tr.mute and track_frames(tr)[0] <= now <= track_frames(tr)[1]]
+    solved = planned.solved or solve(planned.synthesis, planned.setup, edit.settings)
+    k = now - int(edit.frame_start)
+    if not tracks or not 0 <= k < solved.ik.frames:
+        return None
+    body_on = str(tracks[0].strips[0].action.get(BODY_PROP, "OBJECT"))
+    pose_frame(ob, planned.setup.rig, solved.ik, solved.spin, k, body_on)
+    return now
 
 
 _HANDLERS = ((bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),

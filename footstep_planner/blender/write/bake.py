@@ -302,6 +302,29 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, opts: BakeOptions, pat
     return act, track
 
 
+def pose_frame(ob, rig: Rig, res: IKResult, spin: float, frame: int, body_on: str = "OBJECT") -> None:
+    """Set on ``ob`` unkeyed the pose ``bake`` would key at ``frame`` (an index into
+    ``res``): every bone's basis and, with the body on the object, its location and yaw. A
+    preview: Blender shows it until the frame changes, when the keys play again, so call it
+    only where the planner's bake keys every one of those channels (a Rigify rig's DEF
+    bones follow its controls: not posed here)."""
+    from mathutils import Euler, Matrix
+
+    one = replace(res, body_pos=res.body_pos[frame:frame + 1], body_heading=res.body_heading[frame:frame + 1],
+                  basis=res.basis[frame:frame + 1])
+    s = object_scale(ob)
+    if s != 1.0:  # (as ``bake``: planned in world units, posed in the armature's)
+        rig, one = scaled_rig(rig, 1.0 / s), replace(one, basis=scaled_bases(one.basis, 1.0 / s))
+    basis = _root_carries_body(ob, rig, one, spin) if body_on == "ROOT" else one.basis
+    for pb, m in zip(ob.pose.bones, armature_basis(rig, basis)[0]):
+        pb.matrix_basis = Matrix(m.tolist())
+    if body_on == "OBJECT":
+        base = ob.matrix_basis.to_euler("XYZ")
+        ob.matrix_basis = Matrix.LocRotScale(one.body_pos[0].tolist(),
+                                             Euler((base.x, base.y, float(spin + one.body_heading[0])), "XYZ"),
+                                             ob.matrix_basis.to_scale())
+
+
 def _set_aside(ob, scene, old: list, replaced: list | None) -> dict:
     """The earlier bake of this name (its tracks ``old``) set aside for a new one: removed,
     or with ``replaced`` (a list) muted and put in the list (``bake``). Returns the records

@@ -95,3 +95,108 @@ def test_picking_a_handle_makes_its_drag_ready_and_playing_does_not(fp, turns): 
 
     scene.frame_set(scene.frame_current + 1)  # (as playing does)
     assert not live._PENDING and ob.as_pointer() not in live._SETUPS
+
+
+def _directed(scene, ob):
+    """The panel directs ``ob`` to the scene's Goal from its Start, with Live re-plan on."""
+    fs = scene.footstep
+    fs.character, fs.goal, fs.start = ob, scene.objects["Goal"], scene.objects["Start"]
+    fs.live_replan = True
+
+
+def test_a_moved_goal_is_followed_live_past_the_last_lock_and_replan_bakes_it(fp, turns):  # noqa: F811
+    """Moving the Goal (a transform update of it, as a drag makes) re-plans the way from the
+    last lock to it: every footprint up to the lock exactly where it was, the last one at the
+    new goal, nothing baked. Re-plan then bakes the character there, and the handles it
+    remakes keep the new goal: a second re-plan searches nothing."""
+    scene, ob, _ = turns
+    live = import_module(fp.__name__ + ".blender.ui.live")
+    overlay = import_module(fp.__name__ + ".blender.ui.overlay")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
+    directing = import_module(fp.__name__ + ".blender.ui.directing")
+    _directed(scene, ob)
+    before = [f.position.copy() for f in overlay.path_of(scene, ob)[0]]
+    hs = handles.handles(ob)
+    k = len(hs) // 2
+    handles.set_locked([hs[k]], True)
+    keys = _baked(ob)
+    goal = scene.objects["Goal"]
+    centre = np.array([17.0, 14.0])  # (the Turns scene's ring: the goal half a metre further out on it)
+    out = np.array(goal.location)[:2] - centre
+    goal.location.x, goal.location.y = centre + out * (4.5 / np.linalg.norm(out))
+    _drag(live)
+    assert scene.footstep.edit_problem == ""
+    after = [f.position for f in overlay.path_of(scene, ob)[0]]
+    assert all(np.array_equal(a, b) for a, b in zip(after[:k + 1], before[:k + 1]))
+    assert np.linalg.norm(after[-1][:2] - np.array(goal.location)[:2]) < 0.5
+    assert not np.allclose(after[-1], before[-1])
+    assert _baked(ob) == keys
+
+    doc, route, _ = directing.rebake_handles(scene, ob)
+    assert route.edited.spans and route.edited.spans[-1][0] == k and route.edited.to_goal
+    body = np.array(doc["synthesis"]["body"]["position"])[-1]
+    assert np.linalg.norm(body[:2] - np.array(goal.location)[:2]) < 0.06
+    again = directing.edit_of(scene, ob).route
+    again(import_module(fp.__name__ + ".blender.planning").plan_setup(scene, ob), None, None)
+    assert again.edited.spans == []
+
+
+def test_a_moved_start_is_followed_live_up_to_the_first_lock(fp, turns):  # noqa: F811
+    """Moving the Start re-plans the way from it to the first lock: the first footprint at
+    the Start (the plan's first foot), every footprint from the lock on exactly where it
+    was."""
+    scene, ob, _ = turns
+    live = import_module(fp.__name__ + ".blender.ui.live")
+    overlay = import_module(fp.__name__ + ".blender.ui.overlay")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
+    _directed(scene, ob)
+    before = [f.position.copy() for f in overlay.path_of(scene, ob)[0]]
+    hs = handles.handles(ob)
+    k = 6
+    handles.set_locked([hs[k]], True)
+    start = scene.objects["Start"]
+    start.location.y += 0.4
+    _drag(live)
+    assert scene.footstep.edit_problem == ""
+    after = [f.position for f in overlay.path_of(scene, ob)[0]]
+    assert abs(after[0][1] - before[0][1] - 0.4) < 0.02
+    tail = len(before) - k
+    assert all(np.array_equal(a, b) for a, b in zip(after[-tail:], before[-tail:]))
+
+
+def _shown(ob) -> np.ndarray:
+    """(B, 3) the character's bone heads in the world as the viewport shows it now (the
+    depsgraph evaluated, no frame set)."""
+    import bpy
+
+    bpy.context.view_layer.update()
+    ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    m = np.array(ev.matrix_world)
+    return np.array([(m @ np.array(pb.matrix))[:3, 3] for pb in ev.pose.bones])
+
+
+def test_the_pose_at_the_current_frame_follows_the_drag_and_the_bake_plays_after(fp, turns):  # noqa: F811
+    """At the frame the dragged footprint stands on, the character shows at once what
+    Re-plan will bake there (the live update solves the IK and poses it, unkeyed); another
+    frame plays the bake again, exactly as it was."""
+    scene, ob, doc = turns
+    live = import_module(fp.__name__ + ".blender.ui.live")
+    directing = import_module(fp.__name__ + ".blender.ui.directing")
+    scene.footstep.live_replan = True
+    k = len(doc["footprints"]) // 2
+    frame = int(doc["footprints"][k]["frame"])
+    scene.frame_set(frame)
+    baked = _shown(ob)
+    keys = _baked(ob)
+    assert _move_middle_footprint(fp, ob, 0.12)[0] == k
+    _drag(live)
+    shown = _shown(ob)
+    assert np.abs(shown - baked).max() > 0.05  # (the pose followed the drag)
+    assert _baked(ob) == keys  # (unkeyed)
+    scene.frame_set(frame + 1)
+    scene.frame_set(frame)
+    assert np.abs(_shown(ob) - baked).max() < 1e-6  # (another frame: the bake plays again)
+
+    directing.rebake_handles(scene, ob)
+    scene.frame_set(frame)
+    assert np.abs(_shown(ob) - shown).max() < 0.005  # (Re-plan baked what the preview showed)
