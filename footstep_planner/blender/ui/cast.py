@@ -257,15 +257,15 @@ def _handles(scene, job) -> None:
     goal, heading = planning.goal_of(scene, job.fields.get("goal"))
     heading = None if heading is None else rotation_heading(heading, forward)
     pos = np.array([f.position for f in path], float)
-    locked = np.zeros(len(path), bool)
+    reached = {}
     after = 0
     for name in job.fields.get("via") or []:  # (in order along the path: the nearest after the last)
         wp = scene.objects.get(name)
         if wp is None or after >= len(path):
             continue
         i = after + int(np.argmin(np.linalg.norm(pos[after:, :2] - np.array(wp.matrix_world.translation)[:2], axis=1)))
-        locked[i], after = True, i + 1
-    handles.make_handles(scene, ob, path, forward, goal, heading, locked)
+        reached[i], after = wp, i + 1
+    handles.make_handles(scene, ob, path, forward, goal, heading, waypoints=reached)
 
 
 CLASSES = (FOOTSTEP_OT_cast_add, FOOTSTEP_OT_cast_remove, FOOTSTEP_OT_cast_move, FOOTSTEP_OT_bake_together)

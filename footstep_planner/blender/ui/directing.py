@@ -146,6 +146,19 @@ class ViaRoute:
             return True
         return False
 
+    def reached(self, scene) -> dict:
+        """{footprint index: the waypoint object} of the planned route's waypoints (not the
+        goal) that are objects of ``scene``: the footprints their handles lock and move
+        with them (``handles.make_handles``)."""
+        if self.route is None:
+            return {}
+        out = {}
+        for (name, _, _), i in zip(self.waypoints[:-1], self.route.arrivals[:-1]):
+            ob = scene.objects.get(name)
+            if ob is not None:
+                out[int(i)] = ob
+        return out
+
     @property
     def directed(self) -> bool:
         """Whether the path stops on the way or has frames to meet."""
@@ -302,6 +315,7 @@ def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str
 
     edit = edit_of(scene, ob, settings, others_too)
     plan, settings, yielding, route = edit.plan, edit.settings, edit.yielding, edit.route
+    reached = handles.waypoints_reached(ob)
     tracks = owned_tracks(ob)
     splice = Splice.of(ob, route)
     if name is None and tracks:
@@ -313,7 +327,8 @@ def rebake_steps(scene, ob, settings=None, name: str | None = None, body_on: str
                                         route=route, splice=splice, not_around=tuple(o.name for o in yielding))
     fps = route.edited.result.footprints
     locked = _carried_locks(plan, route.edited, len(fps))
-    handles.make_handles(scene, ob, fps, plan.forward, *route.goal_of_plan(), locked)
+    handles.make_handles(scene, ob, fps, plan.forward, *route.goal_of_plan(), locked,
+                         _carried_waypoints(reached, fps))
     show_replanned(scene, route.edited)
     edit_report(doc, route, splice)
     if baked is not None:
@@ -458,6 +473,19 @@ def show_replanned(scene, edited: Edited) -> None:
 
     made = [f.position for a, b in edited.spans for f in edited.result.footprints[a + 1:b]]
     overlay.mark(scene, replanned=np.array(made, float).reshape(-1, 3), refused=np.zeros((0, 3)))
+
+
+def _carried_waypoints(reached: list, fps: list) -> dict:
+    """{new index: waypoint} of the footprints that reached a waypoint (``reached``:
+    (position, waypoint), as ``handles.waypoints_reached`` read them: locked, so kept
+    exactly) in the new path ``fps``."""
+    at = {tuple(np.round(f.position, 9)): i for i, f in enumerate(fps)}
+    out = {}
+    for pos, w in reached:
+        i = at.get(tuple(np.round(np.asarray(pos, float), 9)))
+        if i is not None:
+            out[i] = w
+    return out
 
 
 def _carried_locks(plan: PlanFile, edited: Edited, n: int) -> np.ndarray:

@@ -25,6 +25,9 @@ INDEX, FOOT, LOCKED = "footstep_index", "footstep_foot", "footstep_locked"
 PLANNED = "footstep_planned"  # [x, y, z, heading, time] as planned (doubles)
 STEP = "footstep_step"  # [label, gait, "1" if jump]
 META = "footstep_plan"  # on the collection: [forward x, y, z, goal x, y, z, goal heading] (nan: none)
+#: on the handle of a footprint that reaches a waypoint: the waypoint (the object itself,
+#: an ID property: found by identity), and where it stood when the footprint was planned
+WAYPOINT, WAYPOINT_AT = "footstep_waypoint", "footstep_waypoint_at"
 #: m and rad a handle may differ from its planned pose and still count as untouched
 TOUCH = 1e-4
 SIZE = 0.08
@@ -57,9 +60,11 @@ def clear_handles(ob) -> int:
 
 
 def make_handles(scene, ob, footprints: list[PathFootprint], forward, goal=None, goal_heading=None,
-                 locked=None) -> list:
+                 locked=None, waypoints: dict | None = None) -> list:
     """A handle per footprint (replacing the character's earlier ones), locked as
-    ``locked`` (N,) says (default: none)."""
+    ``locked`` (N,) says (default: none); ``waypoints`` (footprint index -> the waypoint
+    object it reaches): those handles are locked too and follow their waypoint when it
+    moves (``read_plan``)."""
     clear_handles(ob)
     coll = bpy.data.collections.new(collection_name(ob))
     coll[OWNED] = ob.name
@@ -68,8 +73,14 @@ def make_handles(scene, ob, footprints: list[PathFootprint], forward, goal=None,
     f3 = [float(forward[0]), float(forward[1]), 0.0]  # (the planner's forward is (x, y))
     coll[META] = [*f3, *map(float, g), nan if goal_heading is None else float(goal_heading)]
     scene.collection.children.link(coll)
-    locked = np.zeros(len(footprints), bool) if locked is None else np.asarray(locked, bool)
-    return [_handle(coll, ob, i, f, forward, bool(lk)) for i, (f, lk) in enumerate(zip(footprints, locked))]
+    locked = np.zeros(len(footprints), bool) if locked is None else np.array(locked, bool)
+    waypoints = {int(i): w for i, w in (waypoints or {}).items() if 0 < int(i) < len(footprints) and w is not None}
+    locked[list(waypoints)] = True
+    out = [_handle(coll, ob, i, f, forward, bool(lk)) for i, (f, lk) in enumerate(zip(footprints, locked))]
+    for i, w in waypoints.items():
+        out[i][WAYPOINT] = w
+        out[i][WAYPOINT_AT] = [float(v) for v in w.matrix_world.translation]
+    return out
 
 
 def _handle(coll, ob, i: int, f: PathFootprint, forward, locked: bool):
@@ -116,6 +127,9 @@ def read_plan(ob) -> tuple[PlanFile, np.ndarray]:
     fps, locked, touched = [], [], []
     for h in hs:
         pos, heading, moved = _pose(h, forward)
+        shift = waypoint_shift(h)
+        if shift is not None:  # (its waypoint moved: it goes with it)
+            pos, moved = pos + shift, True
         label, gait, jump = list(h[STEP])
         fps.append(PathFootprint("LR".index(h[FOOT]), pos, heading, float(h[PLANNED][4]), label, gait, bool(jump)))
         locked.append(bool(h[LOCKED]) or moved)
@@ -124,6 +138,42 @@ def read_plan(ob) -> tuple[PlanFile, np.ndarray]:
     gh = float(meta[6]) if meta and np.isfinite(meta[6]) else None
     touched = np.array(touched, bool)
     return PlanFile(ob.name, forward, fps, np.array(locked, bool), goal, gh, touched), touched
+
+
+def waypoint_shift(h) -> np.ndarray | None:
+    """(3,) how far the waypoint a handle reaches (``WAYPOINT``) moved since its footprint
+    was planned; None where it has none, it is gone from every scene, or it moved less
+    than TOUCH."""
+    w, at = h.get(WAYPOINT), h.get(WAYPOINT_AT)
+    if not isinstance(w, bpy.types.Object) or at is None or not w.users_scene:
+        return None
+    d = np.array(w.matrix_world.translation, float) - np.array(list(at), float)
+    return d if np.abs(d).max() > TOUCH else None
+
+
+def waypoints_reached(ob) -> list:
+    """[(the footprint's position now (3,), its waypoint)] of the character's handles that
+    reach a waypoint (``WAYPOINT``), the footprint moved with it (``read_plan``)."""
+    out = []
+    for h in handles(ob):
+        w = h.get(WAYPOINT)
+        if isinstance(w, bpy.types.Object):
+            pos, _, _ = _pose(h, np.array(list(owned_collection(ob)[META])[:3], float))
+            shift = waypoint_shift(h)
+            out.append((pos + (shift if shift is not None else 0.0), w))
+    return out
+
+
+def characters_reaching(obj) -> list:
+    """The names of the characters one of whose handles reaches the waypoint ``obj``."""
+    out = []
+    for c in bpy.data.collections:
+        owner = c.get(OWNED)
+        if owner is None or c.get(META) is None or owner in out:
+            continue
+        if any(h.get(WAYPOINT) == obj for h in c.objects if h.get(INDEX) is not None):
+            out.append(owner)
+    return out
 
 
 def set_locked(objs, state: bool) -> int:

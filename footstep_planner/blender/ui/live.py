@@ -12,8 +12,9 @@ the character's Goal or Start (the panel's, or its list of characters') re-plans
 from the last lock to the goal, or from the start to the first lock, the same way. Nothing
 is baked and no handle is remade while the hand is on one: **Re-plan** (or Bake) bakes
 what the overlay shows. An edit that can't be honoured rings its footprint in the warning
-colour and puts the reason in the panel; the last good result stays drawn. (Moving a
-waypoint is not followed live: Re-plan or Bake again.)
+colour and puts the reason in the panel; the last good result stays drawn. A moved
+waypoint takes the footprint that reaches it along (its handle locked and following it:
+``handles.WAYPOINT``), and the spans either side are re-planned.
 
 An update reads the scene's surfaces and the character's clips as a plan does; the next
 ones use them again (``_SETUPS``), until anything but a handle changes. Picking a handle
@@ -87,7 +88,8 @@ def on_frame_change(scene, *_args) -> None:
 
 def _directed(scene, obj) -> list:
     """The characters with footprint handles whose Goal or Start (``directing.directed_by``:
-    the panel's, or its list of characters') ``obj`` is."""
+    the panel's, or its list of characters') ``obj`` is, or one of whose handles reaches
+    the waypoint ``obj`` (``handles.WAYPOINT``)."""
     from . import handles
 
     fs = scene.footstep
@@ -96,6 +98,11 @@ def _directed(scene, obj) -> list:
     for char, goal, start in entries:
         if char is not None and obj in (goal, start) and char not in out and handles.owned_collection(char) is not None:
             out.append(char)
+    if obj.type == "EMPTY":
+        for name in handles.characters_reaching(obj):
+            char = scene.objects.get(name)
+            if char is not None and char not in out:
+                out.append(char)
     return out
 
 

@@ -326,8 +326,9 @@ class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
         ob = character(context)
         try:
             goal, heading = _goal(context)
+            route = _via(context, goal, heading)
             planned = planning.plan_and_synthesize(context.scene, ob, goal, heading, fs.start, _settings(context),
-                                                   route=_via(context, goal, heading))
+                                                   route=route)
         except FootstepError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
@@ -336,7 +337,8 @@ class FOOTSTEP_OT_plan(_OnCharacter, bpy.types.Operator):
             from . import handles
 
             handles.make_handles(context.scene, ob, result.footprints, planned.setup.forward, goal,
-                                 planned.goal_heading)
+                                 planned.goal_heading,
+                                 waypoints=route.reached(context.scene) if route is not None else None)
         fs.edit_problem = ""
         doc = plan_report(result, syn, ob.name, goal, context.scene.frame_current, synthesis=False)
         if planned.performance is not None:
@@ -455,15 +457,17 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
     _before: set = set()
     _range = (1, 250)
     _written = False
+    _route = None
 
     def _start(self, context):
         from .. import planning
 
         fs = context.scene.footstep
         goal, heading = _goal(context)
+        self._route = _via(context, goal, heading)
         return planning.run_steps(context.scene, character(context), goal, heading, fs.start,
                                   _settings(context), markers=self.markers, body_on=fs.body_on,
-                                  frame_range=fs.grow_frame_range, route=_via(context, goal, heading),
+                                  frame_range=fs.grow_frame_range, route=self._route,
                                   force=self.force, new_track=self.new_track)
 
     def _finish(self, context, doc):
@@ -480,7 +484,7 @@ class FOOTSTEP_OT_bake(_OnCharacter, _Stepped, bpy.types.Operator):
 
             overlay.label_waypoints(context.scene, doc["waypoints"])
         if fs.edit_footprints:
-            _handles_of_last_plan(context)
+            _handles_of_last_plan(context, self._route)
         stashed = doc.get("stashed_action")
         if stashed:
             self.report({"INFO"}, f"the character's active action {stashed!r} is stashed in a muted NLA track "
@@ -568,8 +572,10 @@ def _refused(op, ex) -> None:
                   "or give the bake another name; Replace Edits bakes over them")
 
 
-def _handles_of_last_plan(context) -> None:
-    """Footprint handles for the path the last plan or bake of this scene made."""
+def _handles_of_last_plan(context, route=None) -> None:
+    """Footprint handles for the path the last plan or bake of this scene made (through
+    ``route``'s waypoints, a ``directing.ViaRoute``, when it had one: their footprints
+    locked, following them)."""
     from . import handles
     from .overlay import LAST
 
@@ -579,7 +585,8 @@ def _handles_of_last_plan(context) -> None:
     if last and last.get("path"):
         goal, heading = _goal(context)
         heading = None if heading is None else rotation_heading(heading, last["forward"])
-        handles.make_handles(context.scene, character(context), last["path"], last["forward"], goal, heading)
+        handles.make_handles(context.scene, character(context), last["path"], last["forward"], goal, heading,
+                             waypoints=route.reached(context.scene) if route is not None else None)
 
 
 def _show_refused(context, ex) -> None:

@@ -8,7 +8,7 @@ from importlib import import_module
 
 import numpy as np
 
-from test_directing import _move_middle_footprint, turns  # noqa: F401  (the fixture)
+from test_directing import CHAR, _move_middle_footprint, shot, shot_file, turns  # noqa: F401  (the fixtures)
 
 
 def _baked(ob) -> list:
@@ -200,3 +200,52 @@ def test_the_pose_at_the_current_frame_follows_the_drag_and_the_bake_plays_after
     directing.rebake_handles(scene, ob)
     scene.frame_set(frame)
     assert np.abs(_shown(ob) - shown).max() < 0.005  # (Re-plan baked what the preview showed)
+
+
+def test_a_moved_waypoint_takes_its_footprint_along_live_and_replan_bakes_it(fp, shot):  # noqa: F811
+    """Baked through waypoints A and B from the panel, the footprints reaching them are
+    locked and follow them: moving A re-plans the spans either side of its footprint live
+    (from the start to it and from it to B's), every footprint from B's on exactly where it
+    was; Re-plan bakes it, and the handles remade still follow A."""
+    import bpy
+
+    _, path = shot
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    live = import_module(fp.__name__ + ".blender.ui.live")
+    overlay = import_module(fp.__name__ + ".blender.ui.overlay")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
+    directing = import_module(fp.__name__ + ".blender.ui.directing")
+    coll = bpy.data.collections.new("Way")
+    scene.collection.children.link(coll)
+    a, b = bpy.data.objects["A"], bpy.data.objects["B"]
+    coll.objects.link(a)
+    coll.objects.link(b)
+    ob = bpy.data.objects[CHAR]
+    fs = scene.footstep
+    fs.character, fs.goal, fs.start, fs.waypoints = ob, scene.objects["Goal"], scene.objects["Start"], coll
+    assert bpy.ops.footstep.bake() == {"FINISHED"}
+    hs = handles.handles(ob)
+    ia, ib = (next(i for i, h in enumerate(hs) if h.get(handles.WAYPOINT) == w) for w in (a, b))
+    assert ia < ib and hs[ia][handles.LOCKED] and hs[ib][handles.LOCKED]
+    before = [f.position.copy() for f in overlay.path_of(scene, ob)[0]]
+    keys = _baked(ob)
+
+    fs.live_replan = True
+    a.location.y += 0.3
+    _drag(live)
+    assert fs.edit_problem == ""
+    after = [f.position for f in overlay.path_of(scene, ob)[0]]
+    tail = len(before) - ib
+    assert all(np.array_equal(p, q) for p, q in zip(after[-tail:], before[-tail:]))
+    assert any(np.allclose(p, before[ia] + [0.0, 0.3, 0.0], atol=1e-6) for p in after)  # (it went with A)
+    assert _baked(ob) == keys
+
+    directing.rebake_handles(scene, ob)
+    hs = handles.handles(ob)
+    moved = [h for h in hs if h.get(handles.WAYPOINT) == a]
+    assert len(moved) == 1 and np.allclose(np.array(moved[0].location), before[ia] + [0.0, 0.3, 0.0], atol=1e-5)
+    assert handles.waypoint_shift(moved[0]) is None  # (where A now is)
+    again = directing.edit_of(scene, ob).route
+    again(import_module(fp.__name__ + ".blender.planning").plan_setup(scene, ob), None, None)
+    assert again.edited.spans == []
