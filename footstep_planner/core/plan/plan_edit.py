@@ -272,4 +272,5 @@ def _rebuild(planner: Planner, fps: list[PathFootprint], spans, goal, goal_headi
                   problems, bool(spans) and spans[-1][1] is None)
 
 
-__all__ = ["GOAL_MOVED", "GOAL_TURNED", "MEETS", "Edited", "edited_path", "first_footprint", "in_frame", "nearest_steps", "problems_of", "relabel", "step_offsets"]
+__all__ = ["GOAL_MOVED", "GOAL_TURNED", "MEETS", "Edited", "edited_path", "first_footprint", "in_frame",
+           "nearest_steps", "problems_of", "relabel", "step_offsets"]
