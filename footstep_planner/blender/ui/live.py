@@ -10,9 +10,11 @@ at the current frame takes the pose the re-plan would bake there (``preview``: u
 until the frame changes and the bake plays again). Moving (or turning)
 the character's Goal or Start (the panel's, or its list of characters') re-plans the way
 from the last lock to the goal, or from the start to the first lock, the same way. Nothing
-is baked and no handle is remade while the hand is on one: **Re-plan** (or Bake) bakes
-what the overlay shows. An edit that can't be honoured rings its footprint in the warning
-colour and puts the reason in the panel; the last good result stays drawn. A moved
+is baked and no handle is remade while the hand is on one: on release, or with **Re-plan**
+(or Bake), what the overlay shows is baked. An edit that can't be honoured rings its footprint in the warning
+colour and puts the reason in the panel; the last good result stays drawn. When the hand
+lets go (no transform runs in any window any more) the timer bakes it as Re-plan would
+(``bake_released``). A moved
 waypoint takes the footprint that reaches it along (its handle locked and following it:
 ``handles.WAYPOINT``), and the spans either side are re-planned.
 
@@ -43,6 +45,9 @@ DEBOUNCE = 0.15
 _PENDING: dict[int, tuple[float, str, str]] = {}
 #: set while a live re-plan runs (its own depsgraph updates are not the hand's)
 _BUSY: list = []
+#: character (object pointer) -> (scene name, its name): updated while the hand was on a
+#: handle (a transform running in a window), baked when it lets go (``bake_released``)
+_RELEASE: dict[int, tuple[str, str]] = {}
 #: character (object pointer) -> its last live re-plan's ``PlanSetup`` (surfaces read, clips
 #: analysed, steps, clip tracks), used again by the next update of the same drag; every
 #: entry dropped on any change in the scene but a handle's move (the surfaces, the clips,
@@ -125,9 +130,67 @@ def _tick(now: float | None = None):
         del _PENDING[key]
         scene = bpy.data.scenes.get(scene_name)
         ob = scene.objects.get(name) if scene is not None else None
-        if ob is not None:
-            update(scene, ob)
-    return DEBOUNCE if _PENDING else None
+        if ob is None:
+            continue
+        if "problem" in update(scene, ob) or _dragging() is None:  # (refused, or no window: nothing to bake)
+            _RELEASE.pop(key, None)
+        else:
+            _RELEASE[key] = (scene_name, name)
+    if _RELEASE and _dragging() is False:
+        for key, (scene_name, name) in list(_RELEASE.items()):
+            if key in _PENDING:  # (moved again since: its update comes first)
+                continue
+            del _RELEASE[key]
+            scene = bpy.data.scenes.get(scene_name)
+            ob = scene.objects.get(name) if scene is not None else None
+            if ob is not None:
+                bake_released(scene, ob)
+    return DEBOUNCE if _PENDING or _RELEASE else None
+
+
+def _dragging() -> bool | None:
+    """Whether a transform (a drag with G, R or the gizmo) runs in a window now; None in a
+    background process (no hand: the live re-plan bakes nothing itself)."""
+    wm = bpy.context.window_manager
+    windows = list(wm.windows) if wm is not None and not bpy.app.background else []
+    if not windows:
+        return None
+    return any(op.bl_idname.startswith("TRANSFORM_OT") for w in windows for op in w.modal_operators)
+
+
+def bake_released(scene, ob) -> dict | None:
+    """The hand let go: Re-plan bakes what the live re-plan showed (``directing.rebake_handles``,
+    the span re-keyed, the handles remade and the one that was active active again), with
+    an undo step pushed where Blender lets a timer push one. Returns the report, or None
+    where it is refused (the reason in the panel)."""
+    from . import directing, handles
+    from .operators import _settings, replan_summary
+
+    fs = scene.footstep
+    vl = bpy.context.view_layer
+    active = vl.objects.active
+    index = active.get(handles.INDEX) if active is not None and active.get(handles.OWNED) == ob.name else None
+    _BUSY.append(ob)
+    try:
+        doc, route, _ = directing.rebake_handles(scene, ob, _settings(bpy.context), body_on=fs.body_on,
+                                                 frame_range=fs.grow_frame_range)
+        vl.update()  # (the bake's own updates, while busy: not the hand's)
+    except FootstepError as ex:  # (its update was good: a bake whose measure fails, say)
+        fs.edit_problem = fs.last_report = f"on release, not baked: {ex}"
+        return None
+    finally:
+        _BUSY.remove(ob)
+    fs.edit_problem = ""
+    fs.last_report = "on release: " + replan_summary(doc, route)
+    hs = handles.handles(ob)
+    if index is not None and index < len(hs):
+        hs[index].select_set(True)
+        vl.objects.active = hs[index]
+    try:
+        bpy.ops.ed.undo_push(message="Footstep: re-plan on release")
+    except RuntimeError:  # (no window to push it in)
+        pass
+    return doc
 
 
 def update(scene, ob) -> dict:
@@ -209,4 +272,5 @@ def unregister():
     if bpy.app.timers.is_registered(_tick):
         bpy.app.timers.unregister(_tick)
     _PENDING.clear()
+    _RELEASE.clear()
     _SETUPS.clear()

@@ -687,15 +687,20 @@ class FOOTSTEP_OT_replan(_OnCharacter, _Stepped, bpy.types.Operator):
     def _finish(self, context, doc, route, splice):
         fs = context.scene.footstep
         fs.edit_problem = ""
-        span = doc.get("rebaked_frames")
-        fs.last_report = (f"re-planned {len(route.edited.spans)} span(s); "
-                          + (f"re-keyed frames {span[0]}-{span[1]} only; " if span
-                             else f"{doc['rebaked_whole']}; " if doc.get("rebaked_whole") else "baked the whole path; ")
-                          + f"skate {doc['quality']['foot_skate']['max_mm']:.1f} mm max"
-                          + "".join(f"; {_gave_way(row)}" for row in doc.get("others_replanned") or []))
+        fs.last_report = replan_summary(doc, route)
         self.report({"WARNING"} if any("error" in r for r in doc.get("others_replanned") or []) else {"INFO"},
                     fs.last_report)
         return {"FINISHED"}
+
+
+def replan_summary(doc: dict, route) -> str:
+    """The panel's line for a re-plan's bake (``directing.rebake_steps``' report and route)."""
+    span = doc.get("rebaked_frames")
+    return (f"re-planned {len(route.edited.spans)} span(s); "
+            + (f"re-keyed frames {span[0]}-{span[1]} only; " if span
+               else f"{doc['rebaked_whole']}; " if doc.get("rebaked_whole") else "baked the whole path; ")
+            + f"skate {doc['quality']['foot_skate']['max_mm']:.1f} mm max"
+            + "".join(f"; {_gave_way(row)}" for row in doc.get("others_replanned") or []))
 
 
 def _gave_way(row: dict) -> str:

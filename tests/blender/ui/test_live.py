@@ -249,3 +249,33 @@ def test_a_moved_waypoint_takes_its_footprint_along_live_and_replan_bakes_it(fp,
     again = directing.edit_of(scene, ob).route
     again(import_module(fp.__name__ + ".blender.planning").plan_setup(scene, ob), None, None)
     assert again.edited.spans == []
+
+
+def test_letting_go_of_the_handle_bakes_what_the_drag_showed(fp, turns, monkeypatch):  # noqa: F811
+    """While a transform runs (the hand on the handle) the update only shows the re-plan;
+    once none runs, the timer bakes it as Re-plan would: the keys change, the handles are
+    remade (the moved one where the hand left it, and active again), and the panel says so.
+    Without a window (a background process) nothing is ever baked by the timer."""
+    import bpy
+
+    scene, ob, _ = turns
+    live = import_module(fp.__name__ + ".blender.ui.live")
+    handles = import_module(fp.__name__ + ".blender.ui.handles")
+    scene.footstep.live_replan = True
+    keys = _baked(ob)
+    assert live._dragging() is None  # (no window here)
+    hand = {"on": True}
+    monkeypatch.setattr(live, "_dragging", lambda: hand["on"])
+    k, put = _move_middle_footprint(fp, ob, 0.12)
+    bpy.context.view_layer.objects.active = handles.handles(ob)[k]
+    bpy.context.view_layer.update()
+    rested = max(at for at, _, _ in live._PENDING.values()) + 2 * live.DEBOUNCE
+    assert live._tick(now=rested) == live.DEBOUNCE  # (the hand still on it: polled again)
+    assert _baked(ob) == keys and live._RELEASE
+    hand["on"] = False
+    assert live._tick(now=rested + live.DEBOUNCE) is None and not live._RELEASE
+    assert _baked(ob) != keys
+    hs = handles.handles(ob)
+    assert np.allclose(np.array(hs[k].location), put, atol=1e-6)
+    assert bpy.context.view_layer.objects.active == hs[k]
+    assert scene.footstep.last_report.startswith("on release: re-planned")
