@@ -121,8 +121,9 @@ def _is_handles_collection(idb) -> bool:
 
 def _tick(now: float | None = None):
     """The timer: re-plan each character whose hand has rested ``DEBOUNCE`` s by ``now``
-    (``time.monotonic``'s clock; Blender calls it without, the clock's now); again later for
-    those still moving."""
+    (``time.monotonic``'s clock; Blender calls it without, the clock's now), and bake those
+    re-planned once the hand has let go (``_dragging``: ``bake_released``); again later for
+    those still moving or held."""
     now = time.monotonic() if now is None else now
     for key, (at, scene_name, name) in list(_PENDING.items()):
         if now - at < DEBOUNCE:
