@@ -133,8 +133,9 @@ def _tick(now: float | None = None):
         ob = scene.objects.get(name) if scene is not None else None
         if ob is None:
             continue
-        if "problem" in update(scene, ob) or _dragging() is None:  # (refused, or no window: nothing to bake)
-            _RELEASE.pop(key, None)
+        got = update(scene, ob)
+        if "problem" in got or not got["spans"] or _dragging() is None:
+            _RELEASE.pop(key, None)  # (refused, nothing re-planned (a pick, a move undone), or no window: no bake)
         else:
             _RELEASE[key] = (scene_name, name)
     if _RELEASE and _dragging() is False:

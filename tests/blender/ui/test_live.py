@@ -255,7 +255,8 @@ def test_letting_go_of_the_handle_bakes_what_the_drag_showed(fp, turns, monkeypa
     """While a transform runs (the hand on the handle) the update only shows the re-plan;
     once none runs, the timer bakes it as Re-plan would: the keys change, the handles are
     remade (the moved one where the hand left it, and active again), and the panel says so.
-    Without a window (a background process) nothing is ever baked by the timer."""
+    A pick that moves nothing bakes nothing; without a window (a background process)
+    nothing is ever baked by the timer."""
     import bpy
 
     scene, ob, _ = turns
@@ -264,8 +265,14 @@ def test_letting_go_of_the_handle_bakes_what_the_drag_showed(fp, turns, monkeypa
     scene.footstep.live_replan = True
     keys = _baked(ob)
     assert live._dragging() is None  # (no window here)
-    hand = {"on": True}
+    hand = {"on": False}
     monkeypatch.setattr(live, "_dragging", lambda: hand["on"])
+    h = handles.handles(ob)[5]  # (a pick alone, as a click makes: an update, nothing re-planned, nothing baked)
+    bpy.context.view_layer.objects.active = h
+    h.select_set(True)
+    _drag(live)
+    assert _baked(ob) == keys and not live._RELEASE
+    hand["on"] = True
     k, put = _move_middle_footprint(fp, ob, 0.12)
     bpy.context.view_layer.objects.active = handles.handles(ob)[k]
     bpy.context.view_layer.update()
