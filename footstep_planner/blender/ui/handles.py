@@ -154,14 +154,9 @@ def waypoint_shift(h) -> np.ndarray | None:
 def waypoints_reached(ob) -> list:
     """[(the footprint's position now (3,), its waypoint)] of the character's handles that
     reach a waypoint (``WAYPOINT``), the footprint moved with it (``read_plan``)."""
-    out = []
-    for h in handles(ob):
-        w = h.get(WAYPOINT)
-        if isinstance(w, bpy.types.Object):
-            pos, _, _ = _pose(h, np.array(list(owned_collection(ob)[META])[:3], float))
-            shift = waypoint_shift(h)
-            out.append((pos + (shift if shift is not None else 0.0), w))
-    return out
+    plan, _ = read_plan(ob)
+    return [(f.position, h[WAYPOINT]) for h, f in zip(handles(ob), plan.footprints)
+            if isinstance(h.get(WAYPOINT), bpy.types.Object)]
 
 
 def characters_reaching(obj) -> list:

@@ -96,12 +96,13 @@ def _directed(scene, obj) -> list:
     the panel's, or its list of characters') ``obj`` is, or one of whose handles reaches
     the waypoint ``obj`` (``handles.WAYPOINT``)."""
     from . import handles
+    from .directing import directed_by
 
     fs = scene.footstep
-    entries = [(fs.character, fs.goal, fs.start)] + [(e.character, e.goal, e.start) for e in fs.cast]
     out = []
-    for char, goal, start in entries:
-        if char is not None and obj in (goal, start) and char not in out and handles.owned_collection(char) is not None:
+    for char in [fs.character] + [e.character for e in fs.cast]:
+        if (char is not None and char not in out and obj in directed_by(scene, char)
+                and handles.owned_collection(char) is not None):
             out.append(char)
     if obj.type == "EMPTY":
         for name in handles.characters_reaching(obj):

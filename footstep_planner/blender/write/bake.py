@@ -277,9 +277,7 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, opts: BakeOptions, pat
     old = owned_tracks(ob, opts.name)
     if not opts.force:
         check_unedited(ob, old, opts.name)
-    s = object_scale(ob)
-    if s != 1.0:  # (planned in world units: keyed in the armature's)
-        rig, res = scaled_rig(rig, 1.0 / s), replace(res, basis=scaled_bases(res.basis, 1.0 / s))
+    rig, res = _in_armature_units(ob, rig, res)
     on_controls = rigify.is_rigify(ob)
     basis = _root_carries_body(ob, rig, res, spin) if opts.body_on == "ROOT" and not on_controls else res.basis
     carried = _set_aside(ob, scene, old, replaced)
@@ -302,6 +300,15 @@ def bake(ob, scene, rig: Rig, res: IKResult, spin: float, opts: BakeOptions, pat
     return act, track
 
 
+def _in_armature_units(ob, rig: Rig, res: IKResult) -> tuple[Rig, IKResult]:
+    """The rig and the IK's bases in the armature's units: planned in world units, keyed
+    (or posed) under the object's even scale."""
+    s = object_scale(ob)
+    if s == 1.0:
+        return rig, res
+    return scaled_rig(rig, 1.0 / s), replace(res, basis=scaled_bases(res.basis, 1.0 / s))
+
+
 def pose_frame(ob, rig: Rig, res: IKResult, spin: float, frame: int, body_on: str = "OBJECT") -> None:
     """Set on ``ob`` unkeyed the pose ``bake`` would key at ``frame`` (an index into
     ``res``): every bone's basis and, with the body on the object, its location and yaw. A
@@ -312,9 +319,7 @@ def pose_frame(ob, rig: Rig, res: IKResult, spin: float, frame: int, body_on: st
 
     one = replace(res, body_pos=res.body_pos[frame:frame + 1], body_heading=res.body_heading[frame:frame + 1],
                   basis=res.basis[frame:frame + 1])
-    s = object_scale(ob)
-    if s != 1.0:  # (as ``bake``: planned in world units, posed in the armature's)
-        rig, one = scaled_rig(rig, 1.0 / s), replace(one, basis=scaled_bases(one.basis, 1.0 / s))
+    rig, one = _in_armature_units(ob, rig, one)
     basis = _root_carries_body(ob, rig, one, spin) if body_on == "ROOT" else one.basis
     for pb, m in zip(ob.pose.bones, armature_basis(rig, basis)[0]):
         pb.matrix_basis = Matrix(m.tolist())

@@ -54,11 +54,8 @@ def _clip_gait(library: Library, clip: str) -> str:
 
 
 def _clip_tau(library: Library, clip: str) -> float:
-    for g in library.turn_groups.values():
-        for c in g.clips:
-            if c.clip == clip:
-                return c.tau
-    return 0.0
+    tau = library.label_tau(clip)
+    return 0.0 if tau is None else tau
 
 
 def plan_steps(path, library: Library, cyclic: list[str]) -> list[PlanStep]:
