@@ -22,7 +22,7 @@ LTS_TESTS ?= tests/blender/test_blender_versions.py tests/blender/command/test_e
   tests/blender/bake/test_bake.py tests/blender/rigify/test_rigify.py tests/blender/rigify/test_rigify_character.py tests/blender/read/test_clip_import.py \
   tests/blender/read/test_import_formats.py tests/blender/read/test_fbx_import.py tests/blender/command/test_cli.py tests/blender/sample/test_mannequin.py tests/core/report/test_overlay.py \
   tests/blender/bake/test_shared_shot.py tests/blender/ui/test_bake_together.py tests/blender/ui/test_give_way.py \
-  tests/blender/ui/test_live.py tests/blender/bake/test_corners.py
+  tests/blender/ui/test_live.py tests/blender/bake/test_corners.py tests/blender/bake/test_jog.py
 
 PYTEST_ARGS ?=
 # test processes (pytest-xdist): one per core; TEST_JOBS=0 runs them in this process

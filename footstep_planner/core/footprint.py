@@ -39,6 +39,8 @@ class PathFootprint:
     jump: bool = False
     # set square and whole on a stair's tread, or whole on a stepping stone, by the search: kept where planned
     tread: bool = False
+    # the walk/run blend (0 walk, 1 run) the step to it is played at, where a jog laid it (``perform.stride``)
+    speed: float | None = None
 
 
 def beside_position(fp, foot: int, forward, width: float, stand=None, at: float = 0.0):

@@ -146,6 +146,11 @@ class ViaRoute:
             return True
         return False
 
+    def laid(self, marks: list) -> None:
+        """The footprint reaching each waypoint, as performed (``core.perform.run.MarkedRoute``)."""
+        if self.route is not None:
+            self.route = replace(self.route, arrivals=[int(m.index) for m in marks])
+
     def reached(self, scene) -> dict:
         """{footprint index: the waypoint object} of the planned route's waypoints (not the
         goal) that are objects of ``scene``: the footprints their handles lock and move

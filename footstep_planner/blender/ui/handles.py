@@ -23,7 +23,7 @@ from ...core.base.angles import yaw
 OWNED = "footstep_handles"  # on the collection and each handle: the character's name
 INDEX, FOOT, LOCKED = "footstep_index", "footstep_foot", "footstep_locked"
 PLANNED = "footstep_planned"  # [x, y, z, heading, time] as planned (doubles)
-STEP = "footstep_step"  # [label, gait, "1" if jump]
+STEP = "footstep_step"  # [label, gait, "1" if jump, "1" if on a tread, a jog's walk/run blend or ""]
 META = "footstep_plan"  # on the collection: [forward x, y, z, goal x, y, z, goal heading] (nan: none)
 #: on the handle of a footprint that reaches a waypoint: the waypoint (the object itself,
 #: an ID property: found by identity), and where it stood when the footprint was planned
@@ -92,7 +92,7 @@ def _handle(coll, ob, i: int, f: PathFootprint, forward, locked: bool):
     h.rotation_euler = (0.0, 0.0, float(f.heading + yaw(forward) + np.pi / 2))
     h[OWNED], h[INDEX], h[FOOT], h[LOCKED] = ob.name, i, "LR"[f.foot], locked
     h[PLANNED] = [*map(float, f.position), float(f.heading), float(f.time)]
-    h[STEP] = [f.label, f.gait, "1" if f.jump else ""]
+    h[STEP] = [f.label, f.gait, "1" if f.jump else "", "1" if f.tread else "", "" if f.speed is None else repr(f.speed)]
     h.lock_rotation = (True, True, False)  # footprints turn about Z only
     coll.objects.link(h)
     return h
@@ -130,8 +130,9 @@ def read_plan(ob) -> tuple[PlanFile, np.ndarray]:
         shift = waypoint_shift(h)
         if shift is not None:  # (its waypoint moved: it goes with it)
             pos, moved = pos + shift, True
-        label, gait, jump = list(h[STEP])
-        fps.append(PathFootprint("LR".index(h[FOOT]), pos, heading, float(h[PLANNED][4]), label, gait, bool(jump)))
+        label, gait, jump, tread, blend = (list(h[STEP]) + ["", ""])[:5]  # (handles made before the tread and blend)
+        fps.append(PathFootprint("LR".index(h[FOOT]), pos, heading, float(h[PLANNED][4]), label, gait, bool(jump),
+                                 bool(tread), float(blend) if blend else None))
         locked.append(bool(h[LOCKED]) or moved)
         touched.append(moved)
     goal = np.array(meta[3:6], float) if meta and np.isfinite(meta[3]) else None

@@ -123,7 +123,8 @@ def mark(scene, **points) -> None:
 
 def label_waypoints(scene, rows: list[dict]) -> None:
     """Name each waypoint (and the goal) in the overlay with its frame (played, else
-    planned) and the frame asked for: ``rows`` as the report's ``waypoints``."""
+    planned), the frame asked for and how it was met where the walk alone could not (a
+    jog, a run, a wait): ``rows`` as the report's ``waypoints``."""
     labels = []
     for r in rows:
         ob = scene.objects.get(r["name"])
@@ -133,6 +134,9 @@ def label_waypoints(scene, rows: list[dict]) -> None:
         text = f"{r['name']}: frame {got:.0f}" + ("" if r.get("arrive") is None else f" (asked {r['arrive']:.0f})")
         if r.get("pause"):
             text += f", stands {r['pause']:g} s"
+        if r.get("met_by") in ("jog", "run", "wait"):  # (how its frame was met, where the walk alone could not)
+            text += {"jog": f", jogs ({r.get('blend') or 0:.0%} run)", "run": ", runs",
+                     "wait": f", waits {r.get('waited') or 0:.1f} s"}[r["met_by"]]
         labels.append((np.array(ob.matrix_world.translation, float), text))
     LAST.setdefault(scene.name, {})["labels"] = labels
     _redraw()

@@ -191,7 +191,14 @@ class Settings:
         that is still early the character waits, standing, at the last stop before.""")
     pace_max: float = setting(1.25, "1", 1.0, 2.0, """To arrive at a waypoint on its frame, the walk
         may be played this much faster than its clips (1.25: a step lasts 0.8 times as long); a
-        frame even this pace can't meet is refused, naming the earliest frame it can.""")
+        frame even this pace can't meet is met jogging (``jog_to_arrive``), then running, or
+        refused, naming the earliest frame it can.""")
+    jog_to_arrive: bool = setting(True, "", doc="""Meet an arrival frame too soon for the walk's
+        fastest pace by a jog, before running: the walk and the run blended at the speed the
+        frame needs, the way's walking footprints laid again at the stride the clips take at
+        that speed (fewer, longer steps; a stretch that climbs, jumps, crosses a gap or turns in
+        place is kept as planned). Needs a walk and a quicker run in the library. Off: the way
+        is planned again, running where that is quicker.""")
 
     # --- blend groups (3.7) ---------------------------------------------------------
     tau_dt: float = setting(0.5, "s", 0.0, 10.0, """Half-width of the three-point circumradius

@@ -7,9 +7,12 @@ one stood on; the legs are joined into one ``Synthesis`` (``join``) that the IK 
 bake take as they take any other.
 
 Arrival frames are met by the pace of the walking steps before them (the clips' time
-warped between ``Settings.pace_min`` and ``pace_max``) and, when even the slowest pace is
-early, by standing longer at the last stop before (the start, or a pause); a frame even
-the fastest pace can't meet is refused naming the earliest frame it can.
+warped between ``Settings.pace_min`` and ``pace_max``); when even the fastest pace is
+late, by a jog (``_jog``: the walk and the run blended at the speed needed, the walking
+stretches of the way laid again at that blend's stride, ``stride``); when even the
+slowest pace is early, by standing longer at the last stop before (the start, or a
+pause). A frame even the fastest jog can't meet is refused naming the earliest frame
+it can (the caller may then plan the way again, running).
 
 When is a waypoint reached (``arrival_times``): where the path stops there, on the frame
 the body comes within ARRIVE_BAND of where it then stands; where it passes through, on
@@ -84,8 +87,8 @@ SynthFn = Callable[..., Synthesis]
 @dataclass
 class Performance:
     """The joined synthesis, and per mark: when it is reached (s), the pace of the steps
-    before it, the seconds waited at the stop before it, and the frames (from the first)
-    of the window its arrival is looked for in."""
+    before it, the seconds waited at the stop before it, the frames (from the first) of
+    the window its arrival is looked for in, and the jog the way to it was laid at."""
 
     synthesis: Synthesis
     marks: list[Mark]
@@ -93,6 +96,8 @@ class Performance:
     pace: np.ndarray  # (M,) the pace of the steps leading to each mark
     waited: np.ndarray  # (M,) s stood at the stop before it beyond its pause
     windows: list[tuple[int, int]]  # frames, per mark
+    jogged: np.ndarray | None = None  # (M,) m/s of the jog the way to it was laid at (0: none)
+    blend: np.ndarray | None = None  # (M,) that jog's walk/run blend (0 the walk, 1 the run)
 
 
 # ----------------------------------------------------------------------------- the legs
@@ -119,20 +124,74 @@ def _stand_times(pause: float) -> tuple[float, float]:
 
 @dataclass
 class _Plan:
-    """What the legs are synthesized from: the path, its marks and legs, the step paces
-    and the seconds waited before each leg."""
+    """What the legs are synthesized from: the path, its marks and legs, the step paces,
+    the seconds waited before each leg, and the stretches between marks a jog laid again.
+
+    The path as planned is kept (``planned``); a stretch between two marks (``way``) is
+    walked as planned at its pace, or laid again at a jog's speed (``jog``): the marks'
+    footprints stay, the footprints between are new, and each mark's ``index`` follows
+    (``_lay_out``)."""
 
     path: list
     marks: list[Mark]
     goal: np.ndarray
     goal_heading: float | None
     hold: float | None  # at the goal (None: the settings')
+    jogger: object = None  # ``stride.Jog``, or None: no jog (the library has no walk and run to blend)
 
     def __post_init__(self):
-        self.legs = _legs(self.marks, len(self.path))
-        self.pace = np.ones(len(self.path) - 1)
-        self.wait = np.zeros(len(self.legs))
+        self.planned = list(self.path)
+        self.bounds = [0] + [m.index for m in self.marks]  # (stretch j: planned footprints bounds[j] to bounds[j + 1])
+        self.stretch_pace = np.ones(len(self.marks))
+        self.speed: list = [None] * len(self.marks)  # per stretch: the jog's speed m/s, or None
+        self._laid: dict = {}
+        self.wait = np.zeros(len(_legs(self.marks, len(self.path))))
         self._cache: dict = {}
+        self._lay_out()
+
+    def way(self, anchor: Mark | None, m: Mark) -> list[int]:
+        """The stretches from ``anchor`` (None: the start) to ``m``."""
+        at = {id(x): k for k, x in enumerate(self.marks)}
+        return list(range(0 if anchor is None else at[id(anchor)] + 1, at[id(m)] + 1))
+
+    def stretch(self, j: int) -> list:
+        return self.planned[self.bounds[j]:self.bounds[j + 1] + 1]
+
+    def laid(self, j: int, v: float):
+        """The stretch ``j`` laid at speed ``v`` (``stride.Jog.lay``: (footprints, pace) or None)."""
+        key = (j, round(float(v), 6))
+        if key not in self._laid:
+            fps = self.stretch(j)
+            ease_in = j == 0 or self.marks[j - 1].stop  # (leaves from standing)
+            ease_out = self.marks[j].stop or j + 1 == len(self.marks)  # (stops to standing)
+            self._laid[key] = self.jogger.lay(fps, v, ease_in, ease_out) if self.jogger.can_lay(fps) else None
+        return self._laid[key]
+
+    def set_pace(self, way: list[int], pace: float) -> None:
+        self.stretch_pace[way] = pace
+        self._lay_out()
+
+    def set_jog(self, way: list[int], v: float | None, q: float = 1.0, lo: float = 0.0, hi: float = np.inf) -> None:
+        """Jog the stretches ``way`` at ``v`` m/s (None: walk them as planned), their steps'
+        pace the jog's times ``q`` (within ``lo`` and ``hi``)."""
+        for j in way:
+            got = None if v is None else self.laid(j, v)
+            self.speed[j] = None if got is None else float(v)
+            if got is not None:
+                self.stretch_pace[j] = float(np.clip(got[1] * q, lo, hi))
+        self._lay_out()
+
+    def _lay_out(self) -> None:
+        path, pace = [self.planned[0]], []
+        for j in range(len(self.marks)):
+            fps = self.stretch(j) if self.speed[j] is None else self.laid(j, self.speed[j])[0]
+            path += fps[1:]
+            pace += [self.stretch_pace[j]] * (len(fps) - 1)
+            self.marks[j].index = len(path) - 1
+        path += self.planned[self.bounds[-1] + 1:]
+        self.path = path
+        self.pace = np.r_[np.asarray(pace, float), np.ones(len(path) - 1 - len(pace))]
+        self.legs = _legs(self.marks, len(self.path))
 
     def leg_of(self, index: int) -> int:
         return next(k for k, (a, b) in enumerate(self.legs) if a <= index <= b)
@@ -154,7 +213,7 @@ class _Plan:
                 other = replace(before.plan[-2], position=pos[-2].copy(), heading=float(head[-2]))
             goal = self.goal if last else stop.position
             heading = self.goal_heading if last else stop.heading
-            key = (k, np.round(self.pace[a:b], 9).tobytes(), lead, hold,
+            key = (k, a, b, tuple(self.speed), np.round(self.pace[a:b], 9).tobytes(), lead, hold,
                    None if before is None else np.round(before.footprints[0][-2:], 9).tobytes())
             part = self._cache.get(key)
             if part is None:
@@ -169,7 +228,7 @@ class _Plan:
 
 def perform(path, marks: list[Mark], synth: SynthFn, goal, goal_heading=None, hold: float | None = None,
             pace_range: tuple[float, float] = (0.8, 1.25), frame_start: float = 1.0, body=None,
-            wait: float = 0.0) -> Performance:
+            wait: float = 0.0, jog=None) -> Performance:
     """The performance of ``path`` through its ``marks`` (in order, the last the goal):
     stopping where a mark stops, each arrival frame met (``Mark.arrive``). ``synth`` makes
     one leg (see ``SynthFn``); ``hold`` s of standing at the goal. Raises TimingError for
@@ -178,9 +237,14 @@ def perform(path, marks: list[Mark], synth: SynthFn, goal, goal_heading=None, ho
     frame (``frame_start`` is the first frame's number). ``body(synthesis)`` gives the body
     positions (F, 3) the arrivals are read on (default the synthesis's; the bake's, after
     the IK, is what the scene plays). ``wait`` s more are stood at the start before the
-    first step (a stand the search made there, to let another character pass)."""
+    first step (a stand the search made there, to let another character pass).
+
+    A frame too soon for the walk's fastest pace is met by a jog where ``jog`` (a
+    ``stride.Jog``) can lay one: the walk and the run blended, the stride following the
+    speed (``_jog``); the marks' ``index`` then follow the footprints laid again. The
+    caller runs (a ``TimingError`` "soon") only where even the fastest jog is late."""
     body = body or (lambda s: s.body_position)
-    plan = _Plan(list(path), marks, np.asarray(goal, float), goal_heading, hold)
+    plan = _Plan(list(path), marks, np.asarray(goal, float), goal_heading, hold, jog)
     plan.wait[0] = max(float(wait), 0.0)
     syn, parts = plan.synthesize(synth)
     fps = syn.final.schedule.fps
@@ -198,7 +262,25 @@ def perform(path, marks: list[Mark], synth: SynthFn, goal, goal_heading=None, ho
     times, windows = arrival_times(syn, parts, marks, body(syn))
     pace = np.array([plan.pace[max(m.index - 1, 0)] if m.index > 0 else 1.0 for m in marks])
     waited = np.array([plan.wait[plan.leg_of(m.index)] for m in marks])
-    return Performance(syn, marks, times, pace, waited, windows)
+    jogged = np.array([_way_jog(plan, m, anchor) for m, anchor in zip(marks, _anchors(marks))])
+    blend = np.array([jog.strides.blend_for(v) if v else 0.0 for v in jogged])
+    return Performance(syn, marks, times, pace, waited, windows, jogged, blend)
+
+
+def _anchors(marks: list[Mark]) -> list[Mark | None]:
+    """Per mark, the mark before it with an arrival frame of its own (None: the start)."""
+    out, last = [], None
+    for m in marks:
+        out.append(last)
+        last = m if m.arrive is not None else last
+    return out
+
+
+def _way_jog(plan: _Plan, m: Mark, anchor: Mark | None) -> float:
+    """m/s of the fastest jog on the way to ``m`` (from ``anchor`` where ``m`` has a frame
+    to meet, else its own stretch), 0 where it walks as planned."""
+    way = plan.way(anchor, m) if m.arrive is not None else plan.way(None, m)[-1:]
+    return max([plan.speed[j] for j in way if plan.speed[j] is not None] or [0.0])
 
 
 #: rounds over the arrival frames (each met in turn) until none moves
@@ -208,17 +290,23 @@ ROUNDS = 3
 def _meet(plan: _Plan, synth: SynthFn, body, marks: list[Mark], m: Mark, anchor: Mark | None, fps: float,
           pace_range: tuple[float, float], frame_start: float):
     """Meet ``m``'s arrival frame by the pace of the steps since ``anchor`` (the mark
-    before with a frame of its own, or the start) and the wait at its leg's start:
-    (synthesis, legs) when they changed, None when it was met already."""
+    before with a frame of its own, or the start), then a jog there (``_jog``), and the
+    wait at its leg's start: (synthesis, legs) when they changed, None when it was met
+    already."""
     lo, hi = pace_range
-    steps = slice(0 if anchor is None else anchor.index, m.index)
+    way = plan.way(anchor, m)
     t_anchor = 0.0 if anchor is None else float(anchor.arrive)
     k = _wait_leg(plan, m, anchor)
+    if any(plan.speed[j] is not None for j in way):  # (jogging there already: the jog's speed first)
+        got = _jog(plan, synth, body, marks, m, anchor, fps, pace_range)
+        if not isinstance(got, float):
+            return None if got == "met" else got
+        plan.set_jog(way, None)
     tried = []  # (pace, arrival)
-    pace = float(plan.pace[steps][0]) if m.index > steps.start else 1.0
+    pace = float(plan.stretch_pace[way[0]]) if m.index > (0 if anchor is None else anchor.index) else 1.0
     got, best = None, (np.inf, pace, 0.0)
     for _ in range(MAX_TRIES):
-        plan.pace[steps] = pace
+        plan.set_pace(way, pace)
         s, p = plan.synthesize(synth)
         t = float(arrival_times(s, p, marks, body(s))[0][marks.index(m)])
         tried.append((pace, t))
@@ -233,22 +321,15 @@ def _meet(plan: _Plan, synth: SynthFn, body, marks: list[Mark], m: Mark, anchor:
             plan.wait[k] = max(plan.wait[k] - err, 0.0)
             tried = []
             continue
-        if pace >= hi - 1e-9 and err > 0:
-            earliest = int(np.ceil(frame_start + t * fps - 1e-6))
-            raise TimingError(f"waypoint {m.name!r} can't be reached by frame {_frame(m.arrive, fps, frame_start)}:"
-                              f" the earliest is frame {earliest} (at the fastest pace, {hi:g} times the clips')",
-                              "soon", m.name, None if anchor is None else anchor.name, earliest)
-        if pace <= lo + 1e-9 and err < 0:
-            if k is None:
-                raise TimingError(f"waypoint {m.name!r} is reached at frame {_frame(t, fps, frame_start)} at the "
-                                  f"slowest pace ({lo:g}), before frame {_frame(m.arrive, fps, frame_start)}, and "
-                                  f"the path does not stop between {anchor.name!r} and it to wait: give "
-                                  f"{anchor.name!r} a pause", "early", m.name, anchor.name)
-            plan.wait[k] += -err
-            if plan.wait[k] > MAX_STAND:
-                raise TimingError(f"waypoint {m.name!r} on frame {_frame(m.arrive, fps, frame_start)}: the character "
-                                  f"would wait {plan.wait[k]:.0f} s for it, more than {MAX_STAND:.0f} s: give an "
-                                  "earlier frame", "far", m.name)
+        if pace >= hi - 1e-9 and err > 0:  # (too soon for the walk: a jog, or refused naming the earliest)
+            jogged = _jog(plan, synth, body, marks, m, anchor, fps, pace_range, (pace, err))
+            if not isinstance(jogged, float):
+                return None if jogged == "met" else jogged
+            plan.set_jog(way, None)
+            plan.set_pace(way, pace)
+            raise _too_soon(m, anchor, min(t, jogged), jogged < t, fps, frame_start, hi)
+        if pace <= lo + 1e-9 and err < 0:  # (early at the slowest pace: wait longer at the stop before)
+            _wait_longer(plan, k, m, anchor, err, t, fps, frame_start, lo)
             tried = []
             continue
         pace = _next_pace(tried, m.arrive, t_anchor, lo, hi)
@@ -257,10 +338,126 @@ def _meet(plan: _Plan, synth: SynthFn, body, marks: list[Mark], m: Mark, anchor:
             raise TimingError(f"waypoint {m.name!r}: no pace found to arrive on frame "
                               f"{_frame(m.arrive, fps, frame_start)} within a frame (the nearest, "
                               f"{best[0] * fps:.1f} frames off)")
-        plan.pace[steps] = best[1]
+        plan.set_pace(way, best[1])
         if k is not None:
             plan.wait[k] = best[2]
     return None if got is None else plan.synthesize(synth)
+
+
+def _wait_longer(plan: _Plan, k: int | None, m: Mark, anchor: Mark | None, err: float, t: float, fps: float,
+                 frame_start: float, lo: float) -> None:
+    """Stand ``-err`` s longer at the start of leg ``k`` to arrive at ``m`` (early at the
+    slowest pace ``lo``, at ``t`` s), or the TimingError where there is no stop to wait
+    at (``k`` None) or the wait would be longer than MAX_STAND."""
+    if k is None:
+        raise TimingError(f"waypoint {m.name!r} is reached at frame {_frame(t, fps, frame_start)} at the "
+                          f"slowest pace ({lo:g}), before frame {_frame(m.arrive, fps, frame_start)}, and "
+                          f"the path does not stop between {anchor.name!r} and it to wait: give "
+                          f"{anchor.name!r} a pause", "early", m.name, anchor.name)
+    plan.wait[k] += -err
+    if plan.wait[k] > MAX_STAND:
+        raise TimingError(f"waypoint {m.name!r} on frame {_frame(m.arrive, fps, frame_start)}: the character "
+                          f"would wait {plan.wait[k]:.0f} s for it, more than {MAX_STAND:.0f} s: give an "
+                          "earlier frame", "far", m.name)
+
+
+def _too_soon(m: Mark, anchor: Mark | None, t: float, jogging: bool, fps: float, frame_start: float,
+              hi: float) -> TimingError:
+    """The refusal of ``m``'s frame, too soon for the walk's fastest pace ``hi`` and for
+    any jog: the earliest frame, reached at ``t`` s (by the fastest jog where ``jogging``)."""
+    how = "jogging as fast as the way can be laid" if jogging else f"at the fastest pace, {hi:g} times the clips'"
+    earliest = int(np.ceil(frame_start + t * fps - 1e-6))
+    return TimingError(f"waypoint {m.name!r} can't be reached by frame {_frame(m.arrive, fps, frame_start)}:"
+                       f" the earliest is frame {earliest} ({how})",
+                       "soon", m.name, None if anchor is None else anchor.name, earliest)
+
+
+def _jog(plan: _Plan, synth: SynthFn, body, marks: list[Mark], m: Mark, anchor: Mark | None, fps: float,
+         pace_range: tuple[float, float], walked: tuple[float, float] | None = None):
+    """Meet ``m``'s arrival frame, too soon for the walk's fastest pace (``walked``: that
+    pace and how late it arrived, s), by a jog on the way from ``anchor``: each stretch
+    that can be laid again (``stride.Jog``) at the stride of a speed between the walk's
+    and the fastest the way can be laid for, its steps the walk and the run blended at
+    that speed (``_jog_speed``), then, where the arrival jumps past the frame as a
+    stretch takes a step fewer, the jog's pace within ``pace_range`` (``_jog_pace``).
+    (synthesis, legs) when met, "met" when it was already, or where no jog meets it the
+    soonest it arrives jogging (s; inf where nothing on the way can be laid again)."""
+    jog = plan.jogger
+    if jog is None:
+        return np.inf
+    lo, hi = pace_range
+    way = plan.way(anchor, m)
+    v_walk = jog.strides.speed(0.0)
+    # the fastest jog the way can be laid for (a quicker one's longer steps may turn too sharply or miss the ground)
+    v_top = next((v for v in v_walk + (jog.strides.speed(1.0) - v_walk) * np.linspace(1.0, 0.2, 9)
+                  if any(plan.laid(j, v) is not None for j in way)), None)
+    if v_top is None:
+        return np.inf
+    at = {id(x): n for n, x in enumerate(marks)}[id(m)]
+
+    def arrive(v: float, q: float = 1.0):
+        plan.set_jog(way, v, q, lo, hi)
+        s, p = plan.synthesize(synth)
+        return (s, p), float(arrival_times(s, p, marks, body(s))[0][at]) - m.arrive
+
+    now = next((plan.speed[j] for j in way if plan.speed[j] is not None), None)
+    if now is not None and abs(arrive(now)[1]) * fps <= ARRIVE_TOLERANCE:
+        return "met"
+    got, e_top = arrive(v_top)
+    if e_top * fps > MET:
+        return float(m.arrive + e_top)  # (late even at the fastest jog: run)
+    if abs(e_top) * fps <= ARRIVE_TOLERANCE:
+        return got
+    low = (walked[0] * v_walk, walked[1]) if walked is not None else (v_walk, np.inf)
+    got, v = _jog_speed(arrive, low, (v_top, e_top), fps)
+    if got is None:
+        got = _jog_pace(arrive, v, fps, m.arrive)
+    return got if got is not None else float(m.arrive + e_top)
+
+
+def _jog_speed(arrive, low: tuple[float, float], high: tuple[float, float], fps: float):
+    """(synthesis and legs, speed) of the jog whose arrival (``arrive(v)``: (result, s
+    late)) is within ARRIVE_TOLERANCE, found between ``low`` (speed, s late: the walk at
+    its fastest) and ``high`` (the fastest jog, early) by regula falsi (Illinois); or
+    (None, the nearest speed tried) where the arrival jumps past the frame."""
+    (a, ea), (b, eb) = low, high
+    best, side = (abs(eb), b), 0
+    for _ in range(MAX_TRIES):
+        v = 0.5 * (a + b) if not np.isfinite(ea) else b - eb * (b - a) / (eb - ea)
+        v = float(np.clip(v, a + 0.02 * (b - a), b - 0.02 * (b - a)))
+        got, err = arrive(v)
+        if abs(err) < best[0]:
+            best = (abs(err), v)
+        if abs(err) * fps <= ARRIVE_TOLERANCE:
+            return got, v
+        if err > 0:
+            a, ea, eb = v, err, eb * (0.5 if side == 1 else 1.0)
+            side = 1
+        else:
+            b, eb, ea = v, err, ea * (0.5 if side == -1 else 1.0)
+            side = -1
+        if b - a < 1e-3 * high[0]:
+            break
+    return None, best[1]
+
+
+def _jog_pace(arrive, v: float, fps: float, target: float):
+    """The jog at speed ``v`` (its footprints kept) with its pace tuned by the secant
+    (within 0.85 to 1.15 of the jog's) until it arrives within ARRIVE_TOLERANCE: its
+    synthesis and legs, the last try's within MET, or None."""
+    tried, q = [], 1.0
+    for _ in range(MAX_TRIES):
+        got, err = arrive(v, q)
+        if abs(err) * fps <= ARRIVE_TOLERANCE:
+            return got
+        tried.append((q, err))
+        if len(tried) >= 2 and abs(tried[-1][1] - tried[-2][1]) > 1e-9:
+            (q0, e0), (q1, e1) = tried[-2:]
+            q = q1 - e1 * (q1 - q0) / (e1 - e0)
+        else:
+            q *= 1.0 + 0.5 * err / max(target, 1e-3)
+        q = float(np.clip(q, 0.85, 1.15))
+    return got if abs(err) * fps <= MET else None
 
 
 def _frame(t: float, fps: float, frame_start: float) -> str:

@@ -22,11 +22,13 @@ from ..base.timing import collection_paused
 from ..footprint import PIVOT, Leg
 from ..plan.navgraph import PlanResult
 from ..plan.setup import PlanSetup
+from ..plan.surface import footprint_support
 from ..solve.frames import Solved, solve
 from ..synth.labels import clip_tracks
 from ..synth.pipeline import Synthesis, standing_body, surface_snap
 from ..synth.pipeline import synthesize as synthesize_leg
 from . import turn_in_place
+from .stride import Jog, Strides
 from .directed import Mark, Performance, SynthFn, TimingError, arrival_frames, arrival_times, perform
 
 
@@ -44,7 +46,8 @@ class MarkedRoute(Protocol):
     """A route through waypoints (``blender/ui/directing.ViaRoute``): called as
     ``route(setup, start, heading)`` for its path; ``marks(fps, first frame)`` its waypoints'
     marks; ``directed`` when some stop or have arrival frames; ``retime(error, can_run)``
-    changes it after a ``TimingError`` (False: it can't)."""
+    changes it after a ``TimingError`` (False: it can't); ``laid(marks)`` tells it the
+    footprint reaching each waypoint once performed (a jog lays the way again)."""
 
     directed: bool
 
@@ -53,6 +56,8 @@ class MarkedRoute(Protocol):
     def marks(self, fps: float, first: float) -> list: ...
 
     def retime(self, error: TimingError, can_run: bool) -> bool: ...
+
+    def laid(self, marks: list) -> None: ...
 
 
 def legs(setup: PlanSetup, settings: Settings, fps: float) -> SynthFn:
@@ -115,22 +120,28 @@ def perform_plan(result: PlanResult, setup: PlanSetup, settings: Settings, fps: 
                  route=None, first: float = 0.0) -> Planned:
     """The plan synthesized: along its path, or with a route through waypoints that
     stops at some or has arrival frames (scene frames from ``first``), leg by leg
-    (``directed.perform``); a frame too soon runs on the way to it, or the route is
-    retimed and planned again."""
+    (``directed.perform``: the pace, a jog, a wait); a frame too soon even for a jog runs
+    on the way to it, or the route is retimed and planned again (a frame no way meets is
+    refused naming the earliest any way tried reaches it)."""
     performance, ik = None, LastSolve(setup, heading, settings)
     if isinstance(route, MarkedRoute):
         marks = route.marks(fps, first)
         if route.directed:
             can_run = bool(setup.library.turn_groups.get("run"))
+            soonest: dict = {}  # mark -> the "soon" error naming its earliest frame of any way tried
             while True:  # (a frame too soon: run on the way to it; early with nowhere to wait: stop before)
                 try:
                     performance = _perform(result, setup, settings, fps, marks, goal, heading, first, ik.body)
                     break
                 except TimingError as ex:
+                    if ex.kind == "soon":
+                        was = soonest.get(ex.mark)
+                        soonest[ex.mark] = ex if was is None or ex.earliest < was.earliest else was
                     if not route.retime(ex, can_run):
-                        raise
+                        raise soonest.get(ex.mark, ex) if ex.kind == "soon" else ex
                     result = route(setup, setup.start, heading)
                     marks = route.marks(fps, first)
+            route.laid(performance.marks)
             syn = performance.synthesis
         else:
             syn = synthesize_plan(result, setup, settings, fps, goal, heading)
@@ -183,25 +194,64 @@ def _perform(result: PlanResult, setup: PlanSetup, settings: Settings, fps: floa
     (read on ``body(synthesis)``: the body the bake will have, after the IK), ``wait`` s
     stood at the start."""
     return perform(result.footprints, marks, legs(setup, settings, fps), goal, heading,
-                   pace_range=(settings.pace_min, settings.pace_max), frame_start=frame_start, body=body, wait=wait)
+                   pace_range=(settings.pace_min, settings.pace_max), frame_start=frame_start, body=body, wait=wait,
+                   jog=jog_of(setup) if settings.jog_to_arrive else None)
+
+
+def jog_of(setup: PlanSetup) -> Jog | None:
+    """What a jog is laid with on this plan's surfaces (``stride.Jog``): None where the
+    library has no walk and quicker run to blend."""
+    pl = setup.planner
+    strides = Strides.of(pl.steps)
+    if strides is None:
+        return None
+
+    def stands(pos, heading):
+        sup = footprint_support(pl.ground, pl.obstacles, pos, heading, pl.forward, pl.foot, pl.support_limits)
+        return sup.ok, sup.z
+
+    return Jog(strides, np.asarray(pl.forward, float), stands, frozenset(sp.clip for sp in setup.library.specials),
+               pl.settings.body_scale)
 
 
 def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=None) -> list[dict]:
     """Per waypoint (the goal last): the frame asked for, the frame the plan reaches it on
     and, with the played body positions (F, 3), the frame the played scene does; the
-    pause, the pace of the walk to it, the seconds waited before."""
+    pause, the pace of the walk to it, the jog's speed and walk/run blend where the way
+    to it was laid again for one, the seconds waited before, and what met its frame
+    (``met_by``)."""
     perf = planned.performance
     if perf is None:
         return []
     played = None if played_body is None else arrival_frames(played_body, perf.marks, perf.windows)
-    rows = []
+    gaits = [f.gait for f in planned.synthesis.plan[1:]]  # (the synthesis's path begins with the other standing foot)
+    rows, since = [], 0
     for k, m in enumerate(perf.marks):
+        jogged = 0.0 if perf.jogged is None else float(perf.jogged[k])
+        ran = "run" in gaits[since + 1:m.index + 1]  # (on its way: since the mark before with a frame of its own)
         rows.append({"name": m.name, "arrive": None if m.arrive is None else round(frame_start + m.arrive * fps, 2),
                      "planned": round(float(frame_start + perf.times[k] * fps), 2),
                      "achieved": None if played is None else round(float(frame_start + played[k]), 2),
                      "stops": bool(m.stop), "pause": round(float(m.pause), 3), "pace": round(float(perf.pace[k]), 4),
-                     "waited": round(float(perf.waited[k]), 3)})
+                     "jog_speed": round(jogged, 3) if jogged else None,
+                     "blend": round(float(perf.blend[k]), 3) if jogged else None,
+                     "waited": round(float(perf.waited[k]), 3),
+                     "met_by": None if m.arrive is None else _met_by(perf.waited[k], jogged, ran, perf.pace[k])})
+        since = m.index if m.arrive is not None else since
     return rows
+
+
+def _met_by(waited: float, jogged: float, ran: bool, pace: float) -> str:
+    """What met an arrival frame: "wait" (stood longer before), "jog" (the walk and the run
+    blended, the way laid again at its stride), "run" (the way planned again, running),
+    "pace" (the walk's time warped) or "clips" (the clips' own pace met it)."""
+    if waited > 1e-6:
+        return "wait"
+    if jogged:
+        return "jog"
+    if ran:
+        return "run"
+    return "pace" if abs(pace - 1.0) > 1e-3 else "clips"
 
 
 __all__ = ["LastSolve", "MarkedRoute", "Planned", "StartedRoute", "legs", "perform_plan", "stand_marks", "synthesize_plan",

@@ -167,7 +167,9 @@ class PlanResult:
         return {
             "footprints": [{"foot": "LR"[f.foot], "position": [round(float(v), 4) for v in f.position],
                             "heading": round(float(f.heading), 4), "time": round(f.time, 4),
-                            "clip": f.label, "gait": f.gait, "jump": f.jump} for f in self.footprints],
+                            "clip": f.label, "gait": f.gait, "jump": f.jump,
+                            **({} if f.speed is None else {"blend": round(float(f.speed), 4)})}
+                           for f in self.footprints],
             "search": {"expanded": self.expanded, "generated": self.generated,
                        "seconds": round(self.seconds, 4), "field_seconds": round(self.field_seconds, 4),
                        "cost": round(self.cost, 4)},

@@ -11,7 +11,7 @@ goal is searched again. Everything outside those spans stays exactly as it was.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -43,8 +43,8 @@ def in_frame(plan: PlanFile, forward) -> list[PathFootprint]:
     """The plan's footprints with headings measured from ``forward`` instead of the
     plan's own."""
     delta = yaw(plan.forward) - yaw(forward)
-    return [PathFootprint(f.foot, np.asarray(f.position, float), float(f.heading + delta), f.time, f.label,
-                          f.gait, f.jump) for f in plan.footprints]
+    return [replace(f, position=np.asarray(f.position, float), heading=float(f.heading + delta))
+            for f in plan.footprints]
 
 
 def step_offsets(fps: list[PathFootprint], forward) -> np.ndarray:
@@ -149,10 +149,12 @@ def relabel(planner: Planner, fps: list[PathFootprint], which, retime_from: int 
     out = list(fps[:1])
     for i in range(1, len(fps)):
         f = fps[i]
-        label = str(st.label[rows[i - 1]]) if i in which else f.label
         t = out[-1].time + float(st.duration[rows[i - 1]]) if i >= start else f.time
-        out.append(PathFootprint(f.foot, f.position, f.heading, t, label, f.gait if i not in which
-                                 else str(st.gait[rows[i - 1]]), f.jump))
+        if i in which:  # (carried by a library step: its clip, its gait, played as it is)
+            out.append(replace(f, time=t, label=str(st.label[rows[i - 1]]), gait=str(st.gait[rows[i - 1]]),
+                               speed=None))
+        else:
+            out.append(replace(f, time=t))
     return out
 
 

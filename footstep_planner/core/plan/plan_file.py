@@ -15,7 +15,8 @@ written. ``planned`` is the pose the planner gave the footprint: a footprint who
 position or heading an edit changed from it counts as moved (and so locked: whoever
 moved it wants it there); without ``planned`` a footprint counts as unmoved. ``tread``:
 the planner set the footprint square and whole on a stair's tread, and the synthesis keeps
-it where it is (absent: false).
+it where it is (absent: false). ``blend`` (only where a jog laid the step to it): the
+walk/run blend it is played at, 0 the walk to 1 the run (``core.perform.stride``).
 Pure Python and numpy.
 """
 
@@ -64,7 +65,8 @@ class PlanFile:
                 "goal_heading": None if self.goal_heading is None else float(self.goal_heading),
                 "footprints": [{"foot": "LR"[f.foot], "position": fl(f.position), "heading": float(f.heading),
                                 "time": float(f.time), "clip": f.label, "gait": f.gait, "jump": bool(f.jump),
-                                "tread": bool(f.tread), "locked": bool(lk), "planned": [*fl(f.position), float(f.heading)]}
+                                "tread": bool(f.tread), "locked": bool(lk), "planned": [*fl(f.position), float(f.heading)],
+                                **({} if f.speed is None else {"blend": float(f.speed)})}
                                for f, lk in zip(self.footprints, self.locked)]}
 
 
@@ -115,8 +117,12 @@ def _footprint(i: int, d, where: str) -> tuple[PathFootprint, bool, bool]:
     for field in ("jump", "tread", "locked"):
         if not isinstance(d.get(field, False), bool):
             raise bad(field, "true or false")
+    blend = d.get("blend")
+    if blend is not None and (_number(blend) is None or not 0.0 <= blend <= 1.0):
+        raise bad("blend", "a number from 0 (the walk) to 1 (the run)")
     fp = PathFootprint("LR".index(d["foot"]), pos, heading, time, d.get("clip") or "",
-                       d.get("gait") or "walk", bool(d.get("jump", False)), bool(d.get("tread", False)))
+                       d.get("gait") or "walk", bool(d.get("jump", False)), bool(d.get("tread", False)),
+                       None if blend is None else float(blend))
     return fp, bool(d.get("locked", False)), _moved(d, pos, heading, bad)
 
 

@@ -131,17 +131,18 @@ def format_turns(turns: list[dict]) -> list[str]:
 def format_waypoints(rows: list[dict]) -> str:
     """The waypoints' timing: per waypoint (the goal last) the frame asked for, the frame
     the plan reaches it on and the frame the played scene does, the pause where it stops
-    there (0 where it stops only to wait), the walk's pace to it and the seconds waited
-    before."""
+    there (0 where it stops only to wait), the walk's pace to it, the jog's walk/run blend
+    where it jogged, the seconds waited before and what met the frame."""
     f = lambda v, spec: "-" if v is None else format(v, spec)  # noqa: E731
     lines = ["waypoints (frames; 'played' as Blender plays the saved scene):",
              f"{'waypoint':<16s} {'asked':>7s} {'planned':>8s} {'played':>8s} {'pause s':>8s} {'pace':>6s} "
-             f"{'waited s':>8s}"]
+             f"{'jog':>5s} {'waited s':>8s} {'met by':>6s}"]
     for k, r in enumerate(rows):
         pause = r["pause"] if r.get("stops") and k + 1 < len(rows) else None  # (the goal: its hold is the settings')
         lines.append(f"{r['name'][:16]:<16s} {f(r['arrive'], '.0f'):>7s} {f(r['planned'], '.1f'):>8s} "
                      f"{f(r.get('achieved'), '.1f'):>8s} {f(pause, '.2f'):>8s} {r['pace']:>6.2f} "
-                     f"{f(r['waited'] or None, '.2f'):>8s}")
+                     f"{f(r.get('blend'), '.2f'):>5s} {f(r['waited'] or None, '.2f'):>8s} "
+                     f"{r.get('met_by') or '-':>6s}")
     return "\n".join(lines)
 
 

@@ -56,14 +56,18 @@ class Pass:
 
 
 def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack], gaits=None,
-               corners=None) -> list[tuple[float, float]]:
+               corners=None, blends=None) -> list[tuple[float, float]]:
     """(u, s) where the walk/run parameter is known: walking at the start and the end,
     each special clip's entry and exit gait at its take-off and landing, running in
     the middle of each step the plan runs (``gaits`` (len(steps),), the gait of the step
     to each footprint: a run the planner chose, not only a jump's run-up), and walking in
     the middle of each corner (``corners`` (len(steps),) bool, ``Library.corners``: a
     walk's turn tighter than any run turns, where the run slows into the walk; without
-    that pin a few walking steps between runs play as a run)."""
+    that pin a few walking steps between runs play as a run), and at its blend in the
+    middle of each step a jog laid (``blends`` (len(steps),) s or None,
+    ``PathFootprint.speed``: ``perform.stride``; a jog's pin is kept through its corners,
+    which its laying turns no tighter than the plan did: a corner's walking pin on every
+    other step of a jog would blend the run in and out at each step)."""
     val = {"walk": 0.0, "run": 1.0, "stand": 0.0}
     pins = [(0.0, 0.0)]
     for j, s in enumerate(steps):
@@ -73,6 +77,8 @@ def speed_pins(steps: list[PlanStep], tracks: dict[str, ClipTrack], gaits=None,
             pins.append((float(j + 1), val.get(tr.exit_gait, 0.0)))
         elif gaits is not None and gaits[j] == "run" and 0 < j < len(steps) - 1:
             pins.append((j + 0.5, 1.0))
+        elif blends is not None and blends[j] is not None and 0 < j < len(steps) - 1:
+            pins.append((j + 0.5, float(blends[j])))
         elif corners is not None and corners[j]:
             pins.append((j + 0.5, 0.0))
     pins.append((float(len(steps)), 0.0))

@@ -333,7 +333,8 @@ def _blend_groups(path, steps: list[PlanStep], library: Library, ctx: PassContex
     curves = _tau_curves(library, cyc, sch1, first, settings)
     gaits = [f.gait for f in path[1:]]
     pins = speed_pins(steps, tracks, gaits, library.corners([f.label for f in path[1:]], gaits,
-                                                            settings.bend_curvature))
+                                                            settings.bend_curvature),
+                      [f.speed for f in path[1:]])
     loco = _LocoWeights(library.turn_groups, cyc, sch1.u, curves.tau, pins, settings.speed_sigma)
     if stand is not None and (stand.start or stand.stop):
         steps = end_stretch(steps, first, stand)

@@ -388,19 +388,22 @@ def test_a_frame_too_soon_is_refused_with_the_earliest_which_is_then_met(fp, sho
     earliest = int(m.group(1))
     assert cli(["bake", *common, "--arrive", f"B={earliest}", "--report", str(folder / "e.json")]) == 0
     row = json.loads((folder / "e.json").read_text())["waypoints"][1]
-    assert abs(row["achieved"] - earliest) <= 1.0 and row["pace"] > 1.2
+    assert abs(row["achieved"] - earliest) <= 1.0
+    # (the earliest is the soonest way tried: a jog at about the run's blend here, or the fastest pace)
+    assert (row["met_by"] == "jog" and row["blend"] > 0.95) or row["pace"] > 1.2
 
 
 def test_a_frame_too_soon_for_walking_is_met_running(fp, shot, capsys):
-    """B on a frame the walk can't make at its fastest pace: the way to it is planned
-    again, running where that is quicker (the library's run), and the frame is met."""
+    """B on a frame the walk can't make at its fastest pace, with the jog off: the way to
+    it is planned again, running where that is quicker (the library's run), and the
+    frame is met."""
     cli = import_module(fp.__name__ + ".blender.command.cli").cli_main
     folder, path = shot
     assert cli(["bake", path, "--character", CHAR, "--start", "Start", "--goal", "Goal", "--via", "A,B",
-                "--arrive", "B=380", "--report", str(folder / "run.json")]) == 0
+                "--arrive", "B=380", "--set", "jog_to_arrive=false", "--report", str(folder / "run.json")]) == 0
     doc = json.loads((folder / "run.json").read_text())
     row = doc["waypoints"][1]
-    assert abs(row["achieved"] - 380) <= 1.0
+    assert abs(row["achieved"] - 380) <= 1.0 and row["met_by"] == "run" and row["jog_speed"] is None
     gaits = [f["gait"] for f in doc["footprints"][:row["footprint"]]]
     assert gaits.count("run") >= 5
     assert max(doc["synthesis"]["curves"]["s"]) > 0.99  # (the blend groups run there too)

@@ -10,7 +10,7 @@ from hypothesis import given, settings as hsettings, strategies as st
 
 from footstep_planner.core.footprint import PathFootprint
 from footstep_planner.core.plan.navgraph import PlanError, Planner
-from footstep_planner.core.plan.plan_edit import edited_path, problems_of
+from footstep_planner.core.plan.plan_edit import edited_path, in_frame, problems_of
 from footstep_planner.core.plan.plan_file import PlanFile, PlanFileError, plan_from_dict, read_plan
 from footstep_planner.core.base.settings import Settings
 from footstep_planner.core.plan.surface import MeshGround, TriMesh, footprint_support
@@ -23,16 +23,20 @@ finite = st.floats(-1e6, 1e6, allow_nan=False)
 
 @hsettings(max_examples=60, deadline=None)
 @given(st.lists(st.tuples(st.lists(finite, min_size=3, max_size=3), st.floats(-10, 10), st.floats(0, 100),
-                          st.booleans(), st.booleans()), min_size=2, max_size=12),
+                          st.booleans(), st.booleans(), st.none() | st.floats(0, 1), st.booleans()),
+                min_size=2, max_size=12),
        st.sampled_from([0, 1]))
 def test_a_plan_read_back_is_the_plan_written(rows, first_foot):
-    fps = [PathFootprint((first_foot + i) % 2, np.array(p), h, t, "walk", "walk", j)
-           for i, (p, h, t, j, _) in enumerate(rows)]
+    fps = [PathFootprint((first_foot + i) % 2, np.array(p), h, t, "walk", "walk", j, tread, blend)
+           for i, (p, h, t, j, _, blend, tread) in enumerate(rows)]
     plan = PlanFile("Hero", FWD3, fps, np.array([r[4] for r in rows]), np.array([1.0, 2.0, 0.0]), 0.5)
     back = read_plan(json.dumps(plan.to_dict()), "p.json")
     assert back.to_dict() == plan.to_dict()
     for a, b in zip(fps, back.footprints):
         assert a.foot == b.foot and np.array_equal(a.position, b.position) and a.heading == b.heading
+        assert a.speed == b.speed and a.tread == b.tread  # (a jog's blend, a tread: kept)
+    for a, b in zip(fps, in_frame(back, FWD3)):  # (and through the re-plan's reading of it)
+        assert a.speed == b.speed and a.tread == b.tread
 
 
 def _doc(**change):
@@ -57,6 +61,7 @@ def _doc(**change):
     ({"fp1_position": [0, "a", 0]}, "footprint 1: 'position'"),
     ({"fp1_heading": None}, "footprint 1: 'heading'"),
     ({"fp1_locked": "yes"}, "footprint 1: 'locked'"),
+    ({"fp1_blend": 1.5}, "footprint 1: 'blend'"),
     ({"goal": [1, 2]}, "'goal'"),
 ])
 def test_a_bad_plan_names_the_footprint_and_the_field(change, words):

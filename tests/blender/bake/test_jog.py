@@ -1,0 +1,124 @@
+"""Pace through speed and stride (issue 30): an arrival frame between the fastest walk and
+the slowest run is met by a jog, the walk and the run blended, its footprints laid again
+at the stride the clips take at that speed. On the Turns sample scene with the sample
+character and with CMU subject 16 (real capture), a waypoint B two thirds along the way
+is asked for on the frame a speed halfway between the walk at its fastest pace and the
+run at its slowest would reach it. The bake is saved, opened again and played
+(``scene.frame_set``): B is reached within one frame of it, nobody waited or ran, each
+step's stride is within the library's, and within 15 % of the library's stride at that
+step's speed."""
+
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+from conftest import needs_cmu, scene_with_cmu
+from test_stride_speed import _library_strides
+
+
+def _scene(fp, who):
+    """(scene, character) on the Turns scene at 30 fps, with a waypoint B two thirds along
+    the direct path."""
+    import bpy
+
+    if who == "sample":
+        bpy.ops.wm.read_homefile(use_empty=True)
+        scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build("turns")
+        scene.render.fps, scene.render.fps_base = 30, 1.0
+        ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
+    else:
+        scene, ob = scene_with_cmu(fp, "turns")
+    planning = import_module(fp.__name__ + ".blender.planning")
+    goal, heading = planning.goal_of(scene, "Goal")
+    fps = planning.plan(scene, ob, goal, heading, scene.objects["Start"])[0].footprints
+    b = bpy.data.objects.new("B", None)
+    b.location = fps[2 * len(fps) // 3].position
+    scene.collection.objects.link(b)
+    bpy.context.view_layer.update()
+    return scene, ob
+
+
+def _played(path, name: str, first: int, last: int) -> np.ndarray:
+    """The character's positions (F, 3) as Blender plays the saved file ``path``."""
+    import bpy
+
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene, ob = bpy.context.scene, bpy.data.objects[name]
+    out = []
+    for f in range(first, last + 1):
+        scene.frame_set(f)
+        out.append(np.array(ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).matrix_world.translation))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("who", ["sample", pytest.param("cmu", marks=needs_cmu)])
+def test_a_frame_between_the_walk_and_the_run_is_met_jogging(fp, empty_scene, tmp_path, who):
+    import bpy
+
+    planning = import_module(fp.__name__ + ".blender.planning")
+    directing = import_module(fp.__name__ + ".blender.ui.directing")
+    directed = import_module(fp.__name__ + ".core.perform.directed")
+    settings = import_module(fp.__name__ + ".core.base.settings").Settings()
+    scene, ob = _scene(fp, who)
+    goal, heading = planning.goal_of(scene, "Goal")
+    start = scene.objects["Start"]
+    free = planning.run(scene, ob, goal, heading, start, name="b", frame_start=1,
+                        route=directing.via_route(scene, ["B"], "Goal", goal, heading))
+    setup = planning.plan(scene, ob, goal, heading, start)[1]
+    lib = _library_strides(setup.planner.steps)  # (speed, step length) per clip, by speed
+    walk = [v for v, g in _clip_speeds(setup.planner.steps) if g == "walk"]
+    run = [v for v, g in _clip_speeds(setup.planner.steps) if g == "run"]
+    fastest_walk = settings.pace_max * max(walk)
+    slowest_run = settings.pace_min * min(run)
+    assert fastest_walk < slowest_run
+    v = 0.5 * (fastest_walk + slowest_run)
+    t_free = free["waypoints"][0]["achieved"] - 1
+    own = float(np.median(walk))  # (the free walk goes at about its clips' own speed)
+    target = int(round(1 + t_free * own / v))
+    assert target < 1 + t_free / settings.pace_max  # (sooner than the fastest walk...)
+
+    doc = planning.run(scene, ob, goal, heading, start, name="b", frame_start=1,
+                       route=directing.via_route(scene, ["B"], "Goal", goal, heading, None, {"B": target}))
+    row = doc["waypoints"][0]
+    assert row["met_by"] == "jog" and 0.0 < row["blend"] < 1.0 and row["waited"] == 0.0, row
+    assert not any(f["gait"] == "run" for f in doc["footprints"])  # (... and not run)
+    name = ob.name
+    path = tmp_path / "jog.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    body = _played(path, name, doc["frame_start"], doc["frame_end"])
+    b = np.array(bpy.data.objects["B"].location)
+    marks = [directed.Mark("B", 0, b), directed.Mark("Goal", 0, np.asarray(goal, float), stop=True)]
+    k = int(np.argmin(np.linalg.norm(body[:, :2] - b[:2], axis=1)))  # (the body passes B about here, once:
+    windows = [(max(k - 15, 0), min(k + 15, len(body) - 1)), (0, len(body) - 1)]  # the way turns back further on)
+    got = doc["frame_start"] + directed.arrival_frames(body, marks, windows)[0]
+    assert abs(got - target) <= 1.0, (got, target)
+
+    # each step to B: within the library's strides, and as long as its clips step at its speed
+    fps = np.array([f["position"] for f in doc["footprints"]])
+    stance = np.array([np.mean(f["planted_frames"]) for f in doc["footprints"]]) / bpy.context.scene.render.fps
+    last = int(np.argmin(np.linalg.norm(fps[:, :2] - b[:2], axis=1)))  # (the footprint reaching B)
+    length = np.linalg.norm(np.diff(fps[:last + 1, :2], axis=0), axis=1)
+    speed = length / np.maximum(np.diff(stance[:last + 1]), 1e-6)
+    jogged = np.array(["blend" in f for f in doc["footprints"][1:last + 1]])  # (the steps the jog laid)
+    assert jogged.sum() >= 0.6 * len(length)
+    # (within the library's speeds: the first step from standing is the start clip's, slower than any cycle)
+    jogged &= (speed >= 0.95 * lib[0, 0]) & (speed <= 1.05 * lib[-1, 0])
+    assert jogged.sum() >= 0.5 * len(length)
+    assert length[jogged].min() >= 0.85 * lib[:, 1].min() and length[jogged].max() <= 1.15 * lib[:, 1].max()
+    off = np.abs(length / np.interp(speed, lib[:, 0], lib[:, 1]) - 1.0)[jogged]
+    assert np.mean(off <= 0.15) >= 0.9 and off.max() <= 0.35, np.round(np.sort(off)[-5:], 2)
+    q = doc["quality"]
+    assert q["foot_skate"]["max_mm"] < 5 and q["goal"]["distance_m"] < 0.05
+    assert q["pops"]["introduced"]["count"] <= max(5, free["quality"]["pops"]["introduced"]["count"])
+
+
+def _clip_speeds(steps) -> list[tuple[float, str]]:
+    """(speed m/s, gait) of each cyclic clip or blend of the library at its own stride
+    (as ``_library_strides`` reads them)."""
+    cyc = ~steps.jump & (steps.stride == 1.0)
+    out = []
+    for lab in sorted(set(steps.label[cyc].tolist())):
+        m = cyc & (steps.label == lab)
+        out.append((float(np.hypot(steps.fwd[m], steps.left[m]).mean() / steps.duration[m].mean()), str(steps.gait[m][0])))
+    return out
