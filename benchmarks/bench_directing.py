@@ -3,8 +3,9 @@
 1. a bake through three waypoints (A with a pause, B and the goal on given frames),
    saved, reopened and played through the depsgraph: the timing table (asked, planned,
    played frames per waypoint, the pace and the wait chosen) and the bake's quality;
-2. a frame too soon, refused with the earliest frame (running), which is then met; a
-   frame too soon for walking, met running;
+2. a frame too soon, refused with the earliest frame, which is then met; frames too soon
+   for walking, met jogging (the walk and the run blended, the stride following the
+   speed), and, with the jog off, running;
 3. one footprint of a baked path moved (two neighbours locked) and re-baked: review
    sheets before and after, and how many frames were re-keyed; moved further, the
    re-bake keys the whole path rather than let the kept foot slide where keys mix.
@@ -127,15 +128,24 @@ def main():
     if m:
         rc3 = cli_main(["bake", *common, "--arrive", f"B={m.group(1)}", "--report", os.path.join(out, "earliest.json")])
         r = json.load(open(os.path.join(out, "earliest.json")))["waypoints"][1]
-        print(f"   B on frame {m.group(1)}: exit {rc3}, reached on frame {r['achieved']:.1f} at pace {r['pace']:.2f}")
-    for frame in (437, 380):  # the fastest walk's frame, and one only a run makes
-        rc4 = cli_main(["bake", *common, "--arrive", f"B={frame}", "--report", os.path.join(out, "b.json")])
+        print(f"   B on frame {m.group(1)}: exit {rc3}, reached on frame {r['achieved']:.1f} at pace {r['pace']:.2f}"
+              f", met by {r.get('met_by')}" + (f" (blend {r['blend']:.2f})" if r.get("blend") else ""))
+    # the fastest walk's frame; frames between the walk and the run (a jog); one with the jog off (a run)
+    for frame, extra in ((437, []), (380, []), (300, []), (380, ["--set", "jog_to_arrive=false"])):
+        t1 = time.perf_counter()
+        rc4 = cli_main(["bake", *common, "--arrive", f"B={frame}", *extra, "--report", os.path.join(out, "b.json")])
+        took = time.perf_counter() - t1
         d = json.load(open(os.path.join(out, "b.json")))
         r = d["waypoints"][1]
         runs = sum(f["gait"] == "run" for f in d["footprints"][:r["footprint"]])
-        print(f"   B on frame {frame}: exit {rc4}, reached on frame {r['achieved']:.1f}, pace {r['pace']:.2f}, "
-              f"{runs} running steps on the way; skate max {d['quality']['foot_skate']['max_mm']:.2f} mm, "
-              f"planner-made pops {d['quality']['pops']['introduced']['count']}")
+        how = r.get("met_by") or "-"
+        if r.get("blend"):
+            how += f" at {r['jog_speed']:.2f} m/s, blend {r['blend']:.2f}"
+        print(f"   B on frame {frame}{' (jog off)' if extra else ''}: exit {rc4}, reached on frame "
+              f"{r['achieved']:.1f}, pace {r['pace']:.2f}, met by {how}, {r['footprint']} footprints and {runs} "
+              f"running steps on the way, waited {r['waited']:.1f} s; skate max "
+              f"{d['quality']['foot_skate']['max_mm']:.2f} mm, planner-made pops "
+              f"{d['quality']['pops']['introduced']['count']}; {took:.1f} s")
 
     # 3. an edited footprint, re-baked: review sheets before and after
     from footstep_planner.blender.ui import directing, handles

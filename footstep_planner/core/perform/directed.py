@@ -59,6 +59,8 @@ ARRIVE_TOLERANCE = 0.5
 MET = 1.0
 #: syntheses tried per arrival frame before giving up (the pace search).
 MAX_TRIES = 8
+#: speeds from the walk's to the run's a stretch that can't be laid for a jog's tries, down
+JOG_SPEEDS = 25
 #: s: the longest a character pauses or waits at one place (a bake's frames are held in
 #: memory: ten minutes at 30 fps is 18,000 frames)
 MAX_STAND = 600.0
@@ -158,13 +160,25 @@ class _Plan:
         return self.planned[self.bounds[j]:self.bounds[j + 1] + 1]
 
     def laid(self, j: int, v: float):
-        """The stretch ``j`` laid at speed ``v`` (``stride.Jog.lay``: (footprints, pace) or None)."""
+        """The stretch ``j`` jogged at speed ``v``: (its footprints, their pace, the speed m/s
+        they are laid for), or None where it can't be laid for a jog. Where its footprints
+        can't be laid for ``v`` (a bend too sharp for the blend's steps, a narrow place) it
+        jogs at the fastest speed below that they can be (of JOG_SPEEDS from the walk's to
+        the run's):
+        the bend slows it, and a way's stretches keep near one speed."""
         key = (j, round(float(v), 6))
         if key not in self._laid:
-            fps = self.stretch(j)
+            fps, got = self.stretch(j), None
             ease_in = j == 0 or self.marks[j - 1].stop  # (leaves from standing)
             ease_out = self.marks[j].stop or j + 1 == len(self.marks)  # (stops to standing)
-            self._laid[key] = self.jogger.lay(fps, v, ease_in, ease_out) if self.jogger.can_lay(fps) else None
+            if self.jogger.can_lay(fps):
+                grid = np.linspace(self.jogger.strides.speed(0.0), self.jogger.strides.speed(1.0), JOG_SPEEDS)
+                for u in [v] + [g for g in grid[:0:-1] if g < v]:
+                    got = self.jogger.lay(fps, float(u), ease_in, ease_out)
+                    if got is not None:
+                        got = (*got, float(u))
+                        break
+            self._laid[key] = got
         return self._laid[key]
 
     def set_pace(self, way: list[int], pace: float) -> None:
@@ -280,7 +294,7 @@ def _way_jog(plan: _Plan, m: Mark, anchor: Mark | None) -> float:
     """m/s of the fastest jog on the way to ``m`` (from ``anchor`` where ``m`` has a frame
     to meet, else its own stretch), 0 where it walks as planned."""
     way = plan.way(anchor, m) if m.arrive is not None else plan.way(None, m)[-1:]
-    return max([plan.speed[j] for j in way if plan.speed[j] is not None] or [0.0])
+    return max([plan.laid(j, plan.speed[j])[2] for j in way if plan.speed[j] is not None] or [0.0])
 
 
 #: rounds over the arrival frames (each met in turn) until none moves
@@ -387,11 +401,8 @@ def _jog(plan: _Plan, synth: SynthFn, body, marks: list[Mark], m: Mark, anchor: 
         return np.inf
     lo, hi = pace_range
     way = plan.way(anchor, m)
-    v_walk = jog.strides.speed(0.0)
-    # the fastest jog the way can be laid for (a quicker one's longer steps may turn too sharply or miss the ground)
-    v_top = next((v for v in v_walk + (jog.strides.speed(1.0) - v_walk) * np.linspace(1.0, 0.2, 9)
-                  if any(plan.laid(j, v) is not None for j in way)), None)
-    if v_top is None:
+    v_walk, v_top = jog.strides.speed(0.0), jog.strides.speed(1.0)
+    if not any(plan.laid(j, v_top) is not None for j in way):  # (each stretch as fast as it can be laid)
         return np.inf
     at = {id(x): n for n, x in enumerate(marks)}[id(m)]
 

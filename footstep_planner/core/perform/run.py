@@ -28,7 +28,7 @@ from ..synth.labels import clip_tracks
 from ..synth.pipeline import Synthesis, standing_body, surface_snap
 from ..synth.pipeline import synthesize as synthesize_leg
 from . import turn_in_place
-from .stride import Jog, Strides
+from .stride import Jog, Strides, blend_cap, straight_clips
 from .directed import Mark, Performance, SynthFn, TimingError, arrival_frames, arrival_times, perform
 
 
@@ -200,18 +200,21 @@ def _perform(result: PlanResult, setup: PlanSetup, settings: Settings, fps: floa
 
 def jog_of(setup: PlanSetup) -> Jog | None:
     """What a jog is laid with on this plan's surfaces (``stride.Jog``): None where the
-    library has no walk and quicker run to blend."""
-    pl = setup.planner
-    strides = Strides.of(pl.steps)
-    if strides is None:
+    library has no walk and quicker run to blend. Its turns cap its blend as the run's
+    turning clips reach (``stride.blend_cap``, ``Library.run_reach``)."""
+    pl, lib = setup.planner, setup.library
+    strides = Strides.of(pl.steps, straight_clips(lib.turn_groups))
+    reach = lib.run_reach(pl.settings.bend_curvature)
+    if strides is None or reach is None or "walk" not in lib.turn_groups:
         return None
+    caps = blend_cap(lib.label_tau, lib.turn_groups["walk"].tau_range(), reach)
 
     def stands(pos, heading):
         sup = footprint_support(pl.ground, pl.obstacles, pos, heading, pl.forward, pl.foot, pl.support_limits)
         return sup.ok, sup.z
 
-    return Jog(strides, np.asarray(pl.forward, float), stands, frozenset(sp.clip for sp in setup.library.specials),
-               pl.settings.body_scale)
+    return Jog(strides, np.asarray(pl.forward, float), stands, frozenset(sp.clip for sp in lib.specials),
+               pl.settings.body_scale, caps)
 
 
 def waypoint_rows(planned: Planned, frame_start: int, fps: float, played_body=None) -> list[dict]:

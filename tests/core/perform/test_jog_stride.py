@@ -70,38 +70,57 @@ def test_the_blend_for_a_speed_goes_at_that_speed(s, lw, dw, lr, dr):
 
 
 @hsettings(max_examples=60, deadline=None)
-@given(st.integers(8, 30), st.floats(0.7, 1.3), st.floats(-0.12, 0.12), st.sampled_from([None, 0.62]),
-       st.sampled_from([None, 0.62]))
-def test_a_stretch_laid_again_keeps_its_ends_and_steps_at_the_stride(n, length, bend, ease_in, ease_out):
+@given(st.integers(8, 30), st.floats(0.2, 1.0), st.floats(-0.12, 0.12), st.booleans(), st.booleans())
+def test_a_stretch_laid_again_keeps_its_ends_and_steps_at_the_stride(n, s, bend, ease_in, ease_out):
     fps = _walk(n, bend=bend)
-    s = 0.5
-    laid = stride.relay(fps, length, s, FORWARD, _everywhere, ease_in, ease_out)
+    strides = stride.Strides(WALK, RUN)
+    laid = stride.relay(fps, strides, s, FORWARD, _everywhere, ease_in, ease_out)
     assert laid is not None
     assert laid[0] is fps[0] and np.allclose(laid[-1].position, fps[-1].position) and laid[-1].foot == fps[-1].foot
     assert [f.foot for f in laid] == [(fps[0].foot + k) % 2 for k in range(len(laid))]  # (alternating)
-    way, _, _ = stride.way_of(laid, FORWARD)
-    step = np.linalg.norm(np.diff(way, axis=0), axis=1)
+    step = np.linalg.norm(np.diff(stride.way_of(laid, FORWARD)[0], axis=0), axis=1)
     blend = np.array([f.speed for f in laid[1:]])
-    steady = np.isclose(blend, s)
-    assert steady.sum() >= 1
-    # the steady steps within a step (over the way) of the stride asked for: their number is whole, in twos
-    assert np.all(np.abs(step[steady] - length) <= 2.2 * length / len(step) + 1e-6)
-    # eased ends grow from the walk's stride and blend: shorter, and slower, than the jog's
-    if ease_in is not None and len(step) >= 5:
-        assert step[0] < step[2] and blend[0] < blend[1] < s + 1e-9
-    if ease_out is not None and len(step) >= 5:
-        assert step[-1] < step[-3] and blend[-1] < blend[-2] < s + 1e-9
+    own = np.array([strides.at(b)[0] for b in blend])
+    # every step as long as its blend's own stride, all scaled alike to fit the way (within a step of it)
+    assert np.allclose(step / own, (step / own).mean(), rtol=0.02)  # (the way read again off a bend: 2 %)
+    assert abs((step / own).mean() - 1.0) <= 1.1 / len(step) + 1e-6
+    # the blend changes by at most a third of s a step, from the walk's leaving standing and to it stopping
+    assert np.all(np.abs(np.diff(blend)) <= s / 3 + 1e-9) and blend.max() <= s + 1e-9
+    if ease_in:
+        assert blend[0] <= s / 3 + 1e-9
+    if ease_out:
+        assert blend[-1] <= s / 3 + 1e-9
+    if not ease_in and not ease_out:
+        assert np.allclose(blend, s)
     assert all(f.gait == "walk" and f.label != "start" for f in laid[1:])
+
+
+@hsettings(max_examples=40, deadline=None)
+@given(st.integers(12, 30), st.floats(0.3, 1.0), st.integers(3, 8), st.floats(0.0, 1.0))
+def test_a_jog_slows_for_a_corner_and_picks_up_after_it(n, s, at, cap):
+    fps = _walk(n)
+    caps = np.ones(n)
+    caps[at] = cap  # (the step to footprint ``at`` turns too tightly for more than ``cap`` of the run)
+    laid = stride.relay(fps, stride.Strides(WALK, RUN), s, FORWARD, _everywhere, caps=caps)
+    blend = np.array([f.speed for f in laid[1:]])
+    way = stride.way_of(laid, FORWARD)[0]
+    land = np.cumsum(np.linalg.norm(np.diff(way, axis=0), axis=1))
+    corner = 0.6 * at  # (where the planned footprint stands along the way)
+    through = np.flatnonzero((np.r_[0.0, land[:-1]] <= corner + 1e-9) & (land >= corner - 1e-9))
+    assert blend[through].max() <= min(cap, s) + 1e-9
+    assert np.all(np.abs(np.diff(blend)) <= s / 3 + 1e-9)
+    assert blend[-1] == pytest.approx(s) or len(blend) - through.max() <= 3
 
 
 def test_a_footprint_that_would_not_stand_is_slid_until_it_does_or_the_stretch_is_kept():
     fps = _walk(12)  # (at x = 0, 0.6, ... 6.6)
     hole = lambda p: (np.abs(p[:, 0] - 2.8) < 0.15)  # noqa: E731  (a gutter across the way, between two footprints)
-    laid = stride.relay(fps, 0.9, 0.5, FORWARD, lambda p, h: (~hole(p), p[:, 2]))
+    strides = stride.Strides(WALK, RUN)
+    laid = stride.relay(fps, strides, 0.5, FORWARD, lambda p, h: (~hole(p), p[:, 2]))
     assert laid is not None and not hole(np.array([f.position for f in laid])).any()
     planned = np.array([f.position for f in fps])
     only = lambda p: np.linalg.norm(p[:, None, :2] - planned[None, :, :2], axis=2).min(axis=1) < 0.05  # noqa: E731
-    assert stride.relay(fps, 0.9, 0.5, FORWARD, lambda p, h: (only(p), p[:, 2])) is None  # (stones: kept as planned)
+    assert stride.relay(fps, strides, 0.5, FORWARD, lambda p, h: (only(p), p[:, 2])) is None  # (stones: kept as planned)
 
 
 def test_only_level_walking_stretches_are_laid_again():
@@ -135,8 +154,25 @@ def test_the_marks_follow_the_footprints_a_jog_lays_again():
     assert all(f.speed is not None for f in plan.path[a + 1:b + 1]) and all(f.speed is None for f in plan.path[b + 1:])
     # the jog's steps go at the speed asked for: their pace turns the blend's step into that speed
     length, duration = jog.strides.at(jog.strides.blend_for(v))
-    way, _, _ = stride.way_of(plan.path[a:b + 1], FORWARD)
+    way = stride.way_of(plan.path[a:b + 1], FORWARD)[0]
     laid = np.linalg.norm(np.diff(way, axis=0), axis=1).mean()
     assert laid / (duration / plan.pace[a]) == pytest.approx(v, rel=1e-6)
     plan.set_jog(plan.way(marks[0], marks[1]), None)  # (walked again: as planned)
     assert plan.path == fps and [m.index for m in marks] == [14, 26, 39]
+
+
+@hsettings(max_examples=60, deadline=None)
+@given(st.floats(-3.0, 3.0), st.floats(0.1, 0.8), st.floats(1.0, 2.0))
+def test_a_corner_caps_the_blend_as_the_run_turns(tau, run_reach, walk_reach):
+    cap = stride.blend_cap(lambda label: None if label == "start" else tau, (-walk_reach, walk_reach),
+                           (-run_reach, run_reach))
+    fps = [PathFootprint(0, np.zeros(3), 0.0, 0.0, "start", "walk"), PathFootprint(1, np.zeros(3), 0.0, 0.0, "t", "walk")]
+    c = cap(fps)
+    assert c[0] == 1.0 and 0.0 <= c[1] <= 1.0
+    if abs(tau) <= run_reach:
+        assert c[1] == 1.0  # (the run turns that tightly itself)
+    elif abs(tau) >= walk_reach:
+        assert c[1] == 0.0  # (only the walk does)
+    else:  # (the share of the run whose blend still turns that tightly)
+        s = c[1]
+        assert (1 - s) * walk_reach + s * run_reach == pytest.approx(abs(tau), abs=1e-9)
