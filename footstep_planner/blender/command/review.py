@@ -57,6 +57,7 @@ def review_sheet(scene, ob, doc, out_dir: str, name: str, foot: FootShape | None
     for f in picks:
         near = min(fps, key=lambda fp: abs(fp["frame"] - f))
         what = ("in the air over a gap" if f == airborne
+                else f"jogging ({near['blend']:.0%} run)" if near.get("blend")  # (a jog laid it: the walk and the run blended)
                 else f"{doing.get(near.get('gait'), near.get('gait'))} ({near.get('clip', '')})")
         captions.append(f"frame {f}: {what}")
     q = doc["quality"]
