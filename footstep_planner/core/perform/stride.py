@@ -173,7 +173,6 @@ def _steps_along(arc: np.ndarray, n_old: int, strides: Strides, s: float, caps: 
     (``ease_out``); each step as long as its blend's (``Strides.at``), all scaled to fit
     the way; as many as fit, nearest, with the parity of ``n_old`` (the same last foot)."""
     total, rise = float(arc[-1]), s / (EASE_STEPS + 1)
-    size = np.full(_count(total / strides.at(s)[0], n_old), strides.at(s)[0])
 
     def blends(size):  # (the steps' blends where steps of these lengths land)
         land = np.cumsum(size) * total / size.sum()
@@ -182,22 +181,27 @@ def _steps_along(arc: np.ndarray, n_old: int, strides: Strides, s: float, caps: 
         cap = _caps_between(arc, caps, start - margin, land + margin)
         return _ramped(np.minimum(s, cap), rise, ease_in, ease_out)
 
-    for _ in range(4):  # (the blends depend on where the steps land, and those on the blends)
-        size = np.array([strides.at(b)[0] for b in blends(size)])
-        m = _count(total / size.mean(), n_old)
-        if m == len(size):
-            break
-        size = np.interp((np.arange(m) + 0.5) / m, (np.arange(len(size)) + 0.5) / len(size), size)
-    blend = blends(size)
-    for _ in range(2 * len(blend)):  # (the count kept: each blend only lowered, to its cap where its step lands)
+    def laid(n):  # (n steps: their blends and lengths, settled where they land)
+        size = np.full(n, strides.at(s)[0])
+        for _ in range(3):
+            size = np.array([strides.at(b)[0] for b in blends(size)])
+        blend = blends(size)
+        for _ in range(2 * n):  # (each blend only lowered, to its cap where its step lands)
+            size = np.array([strides.at(b)[0] for b in blend])
+            land = np.cumsum(size) * total / size.sum()
+            lower = _ramped(np.minimum(blend, _caps_between(arc, caps, np.r_[0.0, land[:-1]], land)), rise,
+                            ease_in, ease_out)
+            if np.allclose(lower, blend, atol=1e-12):
+                break
+            blend = lower
         size = np.array([strides.at(b)[0] for b in blend])
-        land = np.cumsum(size) * total / size.sum()
-        lower = _ramped(np.minimum(blend, _caps_between(arc, caps, np.r_[0.0, land[:-1]], land)), rise, ease_in,
-                        ease_out)
-        if np.allclose(lower, blend, atol=1e-12):
-            break
-        blend = lower
-    size = np.array([strides.at(b)[0] for b in blend])
+        return blend, size
+
+    # the count (in twos, the same last foot) whose steps fit the way nearest their blends' own strides
+    n0 = _count(total / strides.at(s)[0], n_old)
+    least = 2 if n_old % 2 == 0 else 1
+    tries = [laid(n) for n in range(max(n0 - 4, least), n0 + 5, 2)]
+    blend, size = min(tries, key=lambda t: abs(np.log(total / t[1].sum())))
     return blend, size * total / size.sum()
 
 

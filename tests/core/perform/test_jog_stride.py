@@ -4,7 +4,7 @@ performance's marks following the footprints laid again."""
 
 import numpy as np
 import pytest
-from hypothesis import given, settings as hsettings, strategies as st
+from hypothesis import example, given, settings as hsettings, strategies as st
 
 from footstep_planner.core.clips.steps import StepSet
 from footstep_planner.core.footprint import PathFootprint
@@ -71,6 +71,7 @@ def test_the_blend_for_a_speed_goes_at_that_speed(s, lw, dw, lr, dr):
 
 @hsettings(max_examples=60, deadline=None)
 @given(st.integers(8, 30), st.floats(0.2, 1.0), st.floats(-0.12, 0.12), st.booleans(), st.booleans())
+@example(n=9, s=1.0, bend=0.0, ease_in=True, ease_out=True)  # (4 steps and 6 fit it alike badly: the nearer one is kept)
 def test_a_stretch_laid_again_keeps_its_ends_and_steps_at_the_stride(n, s, bend, ease_in, ease_out):
     fps = _walk(n, bend=bend)
     strides = stride.Strides(WALK, RUN)
