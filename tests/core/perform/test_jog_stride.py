@@ -72,6 +72,7 @@ def test_the_blend_for_a_speed_goes_at_that_speed(s, lw, dw, lr, dr):
 @hsettings(max_examples=60, deadline=None)
 @given(st.integers(8, 30), st.floats(0.2, 1.0), st.floats(-0.12, 0.12), st.booleans(), st.booleans())
 @example(n=9, s=1.0, bend=0.0, ease_in=True, ease_out=True)  # (4 steps and 6 fit it alike badly: the nearer one is kept)
+@example(n=9, s=0.84375, bend=0.0, ease_in=False, ease_out=True)
 def test_a_stretch_laid_again_keeps_its_ends_and_steps_at_the_stride(n, s, bend, ease_in, ease_out):
     fps = _walk(n, bend=bend)
     strides = stride.Strides(WALK, RUN)
@@ -84,7 +85,8 @@ def test_a_stretch_laid_again_keeps_its_ends_and_steps_at_the_stride(n, s, bend,
     own = np.array([strides.at(b)[0] for b in blend])
     # every step as long as its blend's own stride, all scaled alike to fit the way (within a step of it)
     assert np.allclose(step / own, (step / own).mean(), rtol=0.02)  # (the way read again off a bend: 2 %)
-    assert abs((step / own).mean() - 1.0) <= 1.1 / len(step) + 1e-6
+    # (the steps' own strides add up to the way within one stride: a count in twos lands within one step of it)
+    assert abs(own.sum() - step.sum()) <= 1.1 * own.max() + 1e-6
     # the blend changes by at most a third of s a step, from the walk's leaving standing and to it stopping
     assert np.all(np.abs(np.diff(blend)) <= s / 3 + 1e-9) and blend.max() <= s + 1e-9
     if ease_in:
