@@ -3,7 +3,9 @@ the slowest run is met by a jog, the walk and the run blended, its footprints la
 at the stride the clips take at that speed. With the sample character on the Obstacles
 sample scene and with CMU subject 16 (real capture) on Turns and Obstacles (on Turns the
 sample character's run turns too wide for its bends: it walks them, and such a frame is
-met running, as docs/limits.md says), a waypoint B two thirds along the way
+met running, as docs/limits.md says), and with the CC0 game character of ../shared/clips as
+downloaded (one-cycle in-place walk and run at 24 fps) on Obstacles, a waypoint B two
+thirds along the way
 is asked for on the frame a speed 30 % of the way from the walk at its fastest pace to
 the run at its slowest would reach it. The bake is saved, opened again and played
 (``scene.frame_set``): B is reached within one frame of it, nobody waited or ran, each
@@ -16,7 +18,8 @@ from importlib import import_module
 import numpy as np
 import pytest
 
-from conftest import needs_cmu, scene_with_cmu
+from conftest import needs_cmu, needs_quaternius, scene_with_cmu
+from test_feet_out_of_the_floor import _quaternius
 from test_stride_speed import _library_strides
 
 #: where between the walk's fastest speed and the run's slowest the frame asked for lies
@@ -33,6 +36,13 @@ def _scene(fp, who, name):
         scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build(name)
         scene.render.fps, scene.render.fps_base = 30, 1.0
         ob, _ = import_module(fp.__name__ + ".blender.sample.mannequin").add_to_scene(scene, "Start")
+    elif who == "quaternius":  # (the CC0 game character as downloaded: one-cycle in-place walk and run, 24 fps)
+        bpy.ops.wm.read_homefile(use_empty=True)
+        scene = import_module(fp.__name__ + ".blender.sample.sample_scenes").build(name)
+        scene.render.fps, scene.render.fps_base = 30, 1.0
+        ob = _quaternius(fp, scene)
+        start = scene.objects["Start"]
+        ob.location, ob.rotation_euler.z = start.location, start.rotation_euler.z
     else:
         scene, ob = scene_with_cmu(fp, name)
     planning = import_module(fp.__name__ + ".blender.planning")
@@ -59,7 +69,8 @@ def _played(path, name: str, first: int, last: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("who, name", [("sample", "obstacles"), pytest.param("cmu", "turns", marks=needs_cmu),
-                                       pytest.param("cmu", "obstacles", marks=needs_cmu)])
+                                       pytest.param("cmu", "obstacles", marks=needs_cmu),
+                                       pytest.param("quaternius", "obstacles", marks=needs_quaternius)])
 def test_a_frame_between_the_walk_and_the_run_is_met_jogging(fp, empty_scene, tmp_path, who, name):
     import bpy
 
