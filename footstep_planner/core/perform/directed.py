@@ -164,8 +164,7 @@ class _Plan:
         they are laid for), or None where it can't be laid for a jog. Where its footprints
         can't be laid for ``v`` (a bend too sharp for the blend's steps, a narrow place) it
         jogs at the fastest speed below that they can be (of JOG_SPEEDS from the walk's to
-        the run's):
-        the bend slows it, and a way's stretches keep near one speed."""
+        the run's): the narrow place slows it, and a way's stretches keep near one speed."""
         key = (j, round(float(v), 6))
         if key not in self._laid:
             fps, got = self.stretch(j), None
@@ -263,11 +262,11 @@ def perform(path, marks: list[Mark], synth: SynthFn, goal, goal_heading=None, ho
     syn, parts = plan.synthesize(synth)
     fps = syn.final.schedule.fps
     lo, hi = pace_range
-    paced = [m for m in marks if m.arrive is not None]
+    paced = [(m, anchor) for m, anchor in zip(marks, _anchors(marks)) if m.arrive is not None]
     for _ in range(ROUNDS):  # (a later leg's pace moves an earlier arrival a little: go round again)
         changed = False
-        for j, m in enumerate(paced):
-            got = _meet(plan, synth, body, marks, m, paced[j - 1] if j else None, fps, (lo, hi), frame_start)
+        for m, anchor in paced:
+            got = _meet(plan, synth, body, marks, m, anchor, fps, (lo, hi), frame_start)
             if got is not None:
                 syn, parts = got
                 changed = True

@@ -43,11 +43,11 @@ MIN_STEPS = 3
 class Strides:
     """The library's step (length along the way m, duration s) of its straightest walk and
     of its straightest run, at the clips' own stride, and the sharpest turn (rad, from one
-    footprint's heading to the next) a walking and a running step of the library takes."""
+    footprint's heading to the next) a walking step of the library takes."""
 
     walk: tuple[float, float]
     run: tuple[float, float]
-    turn: tuple[float, float] = (np.pi, np.pi)
+    sharpest: float = np.pi
 
     @classmethod
     def of(cls, steps: StepSet, straight: dict | None = None) -> "Strides | None":
@@ -55,7 +55,7 @@ class Strides:
         each gait (the turning group's straightest, the one a blend plays on a straight
         way: ``straight_clips``), else the one whose steps turn least; None without both
         (or where the run is no quicker than the walk: nothing to blend between)."""
-        got, sharpest = {}, {}
+        got = {}
         turn = np.abs((steps.turn + np.pi) % (2 * np.pi) - np.pi)
         for gait in ("walk", "run"):
             rows = (steps.gait == gait) & ~steps.jump & np.isclose(steps.stride, 1.0) & (steps.fwd > 0)
@@ -67,18 +67,13 @@ class Strides:
                 min(set(labels.tolist()), key=lambda lab: float(turn[rows][labels == lab].mean()))
             m = rows & (steps.label == straight_clip)
             got[gait] = (float(steps.fwd[m].mean()), float(steps.duration[m].mean()))
-            sharpest[gait] = float(turn[(steps.gait == gait) & ~steps.jump].max())
-        out = cls(got["walk"], got["run"], (sharpest["walk"], sharpest["run"]))
+        out = cls(got["walk"], got["run"], float(turn[(steps.gait == "walk") & ~steps.jump].max()))
         return out if out.speed(1.0) > out.speed(0.0) * 1.05 else None
 
     def at(self, s: float) -> tuple[float, float]:
         """(length m, duration s) of a step blended ``s`` of the way from the walk to the run."""
         (lw, dw), (lr, dr) = self.walk, self.run
         return (1.0 - s) * lw + s * lr, (1.0 - s) * dw + s * dr
-
-    def turn_at(self, s: float) -> float:
-        """rad: the sharpest turn of a step blended ``s`` of the way from the walk to the run."""
-        return (1.0 - s) * self.turn[0] + s * self.turn[1]
 
     def speed(self, s: float) -> float:
         length, duration = self.at(s)
@@ -321,7 +316,7 @@ class Jog:
         over its step length as laid, times ``v``), or None where it can't be laid."""
         s = self.strides.blend_for(v)
         caps = None if self.caps is None else self.caps(fps)
-        laid = relay(fps, self.strides, s, self.forward, self.stands, ease_in, ease_out, caps, self.strides.turn[0])
+        laid = relay(fps, self.strides, s, self.forward, self.stands, ease_in, ease_out, caps, self.strides.sharpest)
         if laid is None:
             return None
         way = way_of(laid, self.forward)[0]
